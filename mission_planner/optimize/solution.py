@@ -1,0 +1,109 @@
+"""The optimiser's result and its JSON report.
+
+Slot convention (the paper's): slot n = 1..N lasts ``delta_s[n-1]`` seconds, the UAV flies the
+straight leg ``trajectory_m[n-1] → trajectory_m[n]`` during it, and the rate of slot n is that of
+position ``trajectory_m[n]`` at power ``power_w[n-1]`` to GN ``schedule[n-1]``.
+``trajectory_m[0] == trajectory_m[N]``: the cycle is closed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from validator.channel import hover_upper_bound, spectral_efficiency
+from validator.geometry import expanded_radius, leg_clearances
+from validator.site import Site
+
+SCHEMES = ("proposed", "conventional")
+
+
+def average_rates(
+    site: Site,
+    trajectory_m: NDArray[np.float64],
+    delta_s: NDArray[np.float64],
+    power_w: NDArray[np.float64],
+    schedule: NDArray[np.int64],
+) -> NDArray[np.float64]:
+    """Exact time-averaged rate (bps/Hz) of every GN (eq. 13) for a binary schedule."""
+    rates = np.zeros(site.num_gns)
+    for k in range(site.num_gns):
+        served = schedule == k
+        se = spectral_efficiency(
+            trajectory_m[1:][served], site.gn_xy_m[k], site.altitude_m, power_w[served],
+            site.beta0, site.noise_w,
+        )
+        rates[k] = float(np.sum(delta_s[served] * se)) / site.period_s
+    return rates
+
+
+@dataclass(frozen=True)
+class Solution:
+    """A planned service cycle: trajectory, slot lengths, power and schedule (see module doc)."""
+
+    site: Site
+    scheme: str
+    trajectory_m: NDArray[np.float64]  # (N+1, 2)
+    delta_s: NDArray[np.float64]  # (N,)
+    power_w: NDArray[np.float64]  # (N,)
+    schedule: NDArray[np.int64]  # (N,) GN index per slot, -1 = nobody
+    iterations: int = 0
+    solve_seconds: float = 0.0
+    history: list[float] = field(default_factory=list)
+    notes: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def rates_bps_hz(self) -> NDArray[np.float64]:
+        return average_rates(self.site, self.trajectory_m, self.delta_s, self.power_w, self.schedule)
+
+    @property
+    def min_rate_bps_hz(self) -> float:
+        return float(np.min(self.rates_bps_hz))
+
+    @property
+    def leg_length_m(self) -> NDArray[np.float64]:
+        return np.asarray(np.linalg.norm(np.diff(self.trajectory_m, axis=0), axis=1), dtype=float)
+
+    @property
+    def nfz_clearance_m(self) -> NDArray[np.float64]:
+        """(N, M): clearance of each leg from each NFZ as published (buffer not included)."""
+        return leg_clearances(self.trajectory_m, self.site.nfz_xy_m, self.site.nfz_radius_m)
+
+    @property
+    def nfz_clearance_min_m(self) -> float:
+        c = self.nfz_clearance_m
+        return float(np.min(c)) if c.size else float("inf")
+
+    def report(self) -> dict[str, Any]:
+        """The JSON-ready report of this solution."""
+        site = self.site
+        rates = self.rates_bps_hz
+        clearance = self.nfz_clearance_min_m
+        exp_r = (
+            expanded_radius(site.planning_radius_m[None, :], (site.max_speed_mps * self.delta_s)[:, None])
+            if site.num_nfzs
+            else np.zeros((0, 0))
+        )
+        return {
+            "site": site.name,
+            "scheme": self.scheme,
+            "min_rate_bps_hz": float(np.min(rates)),
+            "rates_bps_hz": {n: float(r) for n, r in zip(site.gn_names, rates)},
+            "hover_upper_bound_bps_hz": hover_upper_bound(
+                site.num_gns, site.altitude_m, site.p_avg_w, site.beta0, site.noise_w
+            ),
+            "iterations": self.iterations,
+            "solve_seconds": self.solve_seconds,
+            "trajectory_m": self.trajectory_m.tolist(),
+            "delta_s": self.delta_s.tolist(),
+            "power_w": self.power_w.tolist(),
+            "schedule": [site.gn_names[k] if k >= 0 else None for k in self.schedule],
+            "nfz_clearance_min_m": clearance if np.isfinite(clearance) else None,
+            "buffer_m": site.buffer_m,
+            "expanded_radius_max_m": float(np.max(exp_r)) if exp_r.size else None,
+            "history": [float(h) for h in self.history],
+            **({"notes": self.notes} if self.notes else {}),
+        }

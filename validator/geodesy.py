@@ -1,0 +1,51 @@
+"""The local east/north frame of a site, and MAVLink's int32 coordinate rounding.
+
+Positions are metres east (x) and north (y) of the site origin on the WGS84 ellipsoid's local
+tangent plane (pymap3d ENU). Latitudes and longitudes are degrees; altitudes metres AMSL.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pymap3d
+from numpy.typing import ArrayLike, NDArray
+
+E7 = 1e7  # MAVLink MISSION_ITEM_INT stores degrees x 1e7 as int32
+
+
+@dataclass(frozen=True)
+class LocalFrame:
+    """East/north tangent-plane frame anchored at ``(lat0_deg, lon0_deg, alt0_m)``."""
+
+    lat0_deg: float
+    lon0_deg: float
+    alt0_m: float = 0.0
+
+    def to_geodetic(self, xy_m: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Latitudes and longitudes (degrees) of points ``xy_m`` (..., 2) on the ground plane."""
+        xy = np.asarray(xy_m, dtype=float)
+        lat, lon, _ = pymap3d.enu2geodetic(
+            xy[..., 0], xy[..., 1], np.zeros(xy.shape[:-1]), self.lat0_deg, self.lon0_deg, 0.0
+        )
+        return np.asarray(lat, dtype=float), np.asarray(lon, dtype=float)
+
+    def to_local(self, lat_deg: ArrayLike, lon_deg: ArrayLike) -> NDArray[np.float64]:
+        """Metres east/north (..., 2) of geodetic points, projected onto the tangent plane."""
+        lat = np.asarray(lat_deg, dtype=float)
+        lon = np.asarray(lon_deg, dtype=float)
+        e, n, _ = pymap3d.geodetic2enu(
+            lat, lon, np.zeros(lat.shape), self.lat0_deg, self.lon0_deg, 0.0
+        )
+        return np.stack([np.asarray(e, dtype=float), np.asarray(n, dtype=float)], axis=-1)
+
+
+def to_int_e7(deg: ArrayLike) -> NDArray[np.int64]:
+    """Degrees as MAVLink int32 degrees x 1e7, rounded to nearest as ground stations do."""
+    return np.rint(np.asarray(deg, dtype=float) * E7).astype(np.int64)
+
+
+def round_e7(deg: ArrayLike) -> NDArray[np.float64]:
+    """Degrees after a trip through MAVLink's int32 1e-7 degree representation."""
+    return to_int_e7(deg).astype(float) / E7

@@ -1,0 +1,342 @@
+"""The site file: origin, ground nodes, no-fly zones, UAV and radio parameters.
+
+A site file is YAML of this shape (see ``samples/paper-default.yaml``)::
+
+    name: paper-default
+    origin: {lat: 37.5585, lon: 126.999, alt: 40.0}   # WGS84; alt = ground AMSL, m
+    home: {x: 0.0, y: 0.0}                            # optional, default: the origin
+    uav: {altitude: 30.0, max_speed: 30.0, period: 50.0, slots: 50}
+    radio: {p_avg_dbm: 20.0, p_peak_dbm: 26.0206, beta0_db: -30.0, noise_dbm: -70.0}
+    ground_nodes:
+      - {name: GN1, x: 60.0, y: 340.0}            # metres east/north of origin ...
+      - {name: GN2, lat: 37.5590, lon: 127.0001}  # ... or WGS84 degrees
+    no_fly_zones:
+      - {name: NFZ1, x: 150.0, y: 200.0, radius: 30.0}
+    safety: {buffer_m: 2.0}
+
+:func:`load_site` validates it with pydantic and resolves it into a :class:`Site` in SI units
+and local metres. Every mistake raises :class:`~validator.errors.InputError` naming the field.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from numpy.typing import NDArray
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from validator.errors import InputError
+from validator.geodesy import LocalFrame
+
+DEFAULT_BUFFER_M = 2.0
+DEFAULT_MAX_ACCEL_MPS2 = 2.5  # ArduCopter WPNAV_ACCEL default
+DEFAULT_MAX_JERK_MPS3 = 1.0  # ArduCopter WPNAV_JERK default
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class OriginModel(_Strict):
+    lat: float = Field(ge=-90, le=90)
+    lon: float = Field(ge=-180, le=180)
+    alt: float = 0.0
+
+
+class PointModel(_Strict):
+    """A point given either as local metres (x, y) or as WGS84 degrees (lat, lon)."""
+
+    x: float | None = None
+    y: float | None = None
+    lat: float | None = Field(default=None, ge=-90, le=90)
+    lon: float | None = Field(default=None, ge=-180, le=180)
+
+    @model_validator(mode="after")
+    def _one_way(self) -> PointModel:
+        local = self.x is not None or self.y is not None
+        geo = self.lat is not None or self.lon is not None
+        if local and geo:
+            raise ValueError("give the position either as x/y or as lat/lon, not both")
+        if local and (self.x is None or self.y is None):
+            raise ValueError("give both x and y")
+        if geo and (self.lat is None or self.lon is None):
+            raise ValueError("give both lat and lon")
+        if not (local or geo):
+            raise ValueError("give the position as x/y or as lat/lon")
+        return self
+
+
+class GroundNodeModel(PointModel):
+    name: str = Field(min_length=1)
+
+
+class NoFlyZoneModel(PointModel):
+    name: str = Field(min_length=1)
+    radius: float = Field(gt=0, description="m")
+
+
+class UavModel(_Strict):
+    altitude: float = Field(gt=0, description="flight altitude H above ground, m")
+    max_speed: float = Field(gt=0, description="the vehicle's real top speed V, m/s")
+    period: float = Field(gt=0, description="service period T, s")
+    slots: int = Field(gt=0, description="number of time slots N")
+    max_accel: float = Field(default=DEFAULT_MAX_ACCEL_MPS2, gt=0, description="m/s^2")
+    max_jerk: float = Field(default=DEFAULT_MAX_JERK_MPS3, gt=0, description="m/s^3")
+
+
+class RadioModel(_Strict):
+    p_avg_dbm: float
+    p_peak_dbm: float
+    beta0_db: float
+    noise_dbm: float
+
+    @model_validator(mode="after")
+    def _peak_above_avg(self) -> RadioModel:
+        if self.p_peak_dbm < self.p_avg_dbm:
+            raise ValueError("p_peak_dbm must not be below p_avg_dbm")
+        return self
+
+
+class SafetyModel(_Strict):
+    buffer_m: float = Field(default=DEFAULT_BUFFER_M, ge=0)
+
+
+class SiteModel(_Strict):
+    """The site file exactly as written (pydantic schema)."""
+
+    name: str = Field(min_length=1)
+    origin: OriginModel
+    home: PointModel | None = None
+    uav: UavModel
+    radio: RadioModel
+    ground_nodes: list[GroundNodeModel] = Field(min_length=1)
+    no_fly_zones: list[NoFlyZoneModel] = Field(default_factory=list)
+    safety: SafetyModel = Field(default_factory=SafetyModel)
+
+
+@dataclass(frozen=True)
+class Site:
+    """A validated site in SI units, positions in metres east/north of the origin.
+
+    Arrays: ``gn_xy_m`` is (K, 2), ``nfz_xy_m`` is (M, 2), ``nfz_radius_m`` is (M,).
+    ``nfz_radius_m`` are the zones as published; planning adds ``buffer_m`` to each.
+    """
+
+    name: str
+    frame: LocalFrame
+    home_xy_m: NDArray[np.float64]
+    altitude_m: float
+    max_speed_mps: float
+    period_s: float
+    slots: int
+    max_accel_mps2: float
+    max_jerk_mps3: float
+    p_avg_w: float
+    p_peak_w: float
+    beta0: float  # linear channel power gain at 1 m
+    noise_w: float
+    gn_names: tuple[str, ...]
+    gn_xy_m: NDArray[np.float64]
+    nfz_names: tuple[str, ...]
+    nfz_xy_m: NDArray[np.float64]
+    nfz_radius_m: NDArray[np.float64]
+    buffer_m: float = DEFAULT_BUFFER_M
+
+    @property
+    def num_gns(self) -> int:
+        return len(self.gn_names)
+
+    @property
+    def num_nfzs(self) -> int:
+        return len(self.nfz_names)
+
+    @property
+    def planning_radius_m(self) -> NDArray[np.float64]:
+        """NFZ radii plus the safety buffer: the zones the planner keeps every leg out of."""
+        return self.nfz_radius_m + self.buffer_m
+
+    def with_buffer(self, buffer_m: float) -> Site:
+        """The same site with another safety buffer (m), re-checked."""
+        if buffer_m < 0:
+            raise InputError(f"buffer_m: must be >= 0, got {buffer_m}")
+        site = dataclasses.replace(self, buffer_m=float(buffer_m))
+        _check_home_clear(site, "buffer_m")
+        return site
+
+    def with_limits(self, **changes: Any) -> Site:
+        """The same site with other UAV or radio numbers (``dataclasses.replace`` fields)."""
+        return dataclasses.replace(self, **changes)
+
+
+def dbm_to_w(dbm: float) -> float:
+    return float(10.0 ** ((dbm - 30.0) / 10.0))
+
+
+def db_to_linear(db: float) -> float:
+    return float(10.0 ** (db / 10.0))
+
+
+def _format_loc(loc: tuple[int | str, ...], data: Any) -> str:
+    """``('ground_nodes', 1, 'x')`` -> ``ground_nodes[1] (GN2).x``."""
+    out = ""
+    node = data
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+            try:
+                node = node[part]
+                if isinstance(node, dict) and "name" in node:
+                    out += f" ({node['name']})"
+            except (IndexError, KeyError, TypeError):
+                node = None
+        else:
+            out += f".{part}" if out else str(part)
+            node = node.get(part) if isinstance(node, dict) else None
+    return out
+
+
+def _first_error(err: ValidationError, data: Any) -> str:
+    e = err.errors()[0]
+    loc = tuple(p for p in e["loc"] if not (isinstance(p, str) and p.startswith("function-")))
+    msg = str(e["msg"]).removeprefix("Value error, ")
+    if e["type"] == "extra_forbidden":
+        msg = "unknown key"
+    elif e["type"] == "missing":
+        msg = "missing field"
+    where = _format_loc(loc, data) or "site"
+    return f"{where}: {msg}"
+
+
+def _resolve(frame: LocalFrame, p: PointModel) -> NDArray[np.float64]:
+    if p.x is not None and p.y is not None:
+        return np.array([p.x, p.y], dtype=float)
+    assert p.lat is not None and p.lon is not None
+    return frame.to_local(p.lat, p.lon)
+
+
+def _check_home_clear(site: Site, field: str) -> None:
+    d = np.linalg.norm(site.nfz_xy_m - site.home_xy_m, axis=1) if site.num_nfzs else np.zeros(0)
+    for m in range(site.num_nfzs):
+        if d[m] < site.nfz_radius_m[m] + site.buffer_m:
+            raise InputError(
+                f"{field}: home lies inside {site.nfz_names[m]} plus its {site.buffer_m:g} m "
+                f"safety buffer ({d[m]:.1f} m from its centre)"
+            )
+
+
+def parse_site(data: Any, source: str = "site") -> Site:
+    """Validate a site given as a parsed YAML mapping and resolve it into a :class:`Site`."""
+    if not isinstance(data, dict):
+        raise InputError(f"{source}: expected a mapping at the top level")
+    try:
+        model = SiteModel.model_validate(data)
+    except ValidationError as err:
+        raise InputError(f"{source}: {_first_error(err, data)}") from None
+    return site_from_model(model, source)
+
+
+def site_from_model(model: SiteModel, source: str = "site") -> Site:
+    """Resolve a validated :class:`SiteModel`; checks relations between items."""
+    frame = LocalFrame(model.origin.lat, model.origin.lon, model.origin.alt)
+    gn_xy = np.array([_resolve(frame, g) for g in model.ground_nodes], dtype=float)
+    nfz_xy = np.array(
+        [_resolve(frame, z) for z in model.no_fly_zones], dtype=float
+    ).reshape(-1, 2)
+    radius = np.array([z.radius for z in model.no_fly_zones], dtype=float)
+    home = _resolve(frame, model.home) if model.home else np.zeros(2)
+
+    for field, items in (("ground_nodes", model.ground_nodes), ("no_fly_zones", model.no_fly_zones)):
+        seen: set[str] = set()
+        for i, item in enumerate(items):
+            if item.name in seen:
+                raise InputError(f"{source}: {field}[{i}] ({item.name}): duplicate name")
+            seen.add(item.name)
+    for i in range(len(radius)):
+        for j in range(i + 1, len(radius)):
+            if np.linalg.norm(nfz_xy[i] - nfz_xy[j]) < radius[i] + radius[j]:
+                zi, zj = model.no_fly_zones[i].name, model.no_fly_zones[j].name
+                raise InputError(
+                    f"{source}: no_fly_zones[{j}] ({zj}): overlaps no_fly_zones[{i}] ({zi})"
+                )
+    for k, g in enumerate(model.ground_nodes):
+        for m, z in enumerate(model.no_fly_zones):
+            if np.linalg.norm(gn_xy[k] - nfz_xy[m]) < radius[m]:
+                raise InputError(f"{source}: ground_nodes[{k}] ({g.name}): lies inside {z.name}")
+    site = Site(
+        name=model.name,
+        frame=frame,
+        home_xy_m=home,
+        altitude_m=model.uav.altitude,
+        max_speed_mps=model.uav.max_speed,
+        period_s=model.uav.period,
+        slots=model.uav.slots,
+        max_accel_mps2=model.uav.max_accel,
+        max_jerk_mps3=model.uav.max_jerk,
+        p_avg_w=dbm_to_w(model.radio.p_avg_dbm),
+        p_peak_w=dbm_to_w(model.radio.p_peak_dbm),
+        beta0=db_to_linear(model.radio.beta0_db),
+        noise_w=dbm_to_w(model.radio.noise_dbm),
+        gn_names=tuple(g.name for g in model.ground_nodes),
+        gn_xy_m=gn_xy,
+        nfz_names=tuple(z.name for z in model.no_fly_zones),
+        nfz_xy_m=nfz_xy,
+        nfz_radius_m=radius,
+        buffer_m=model.safety.buffer_m,
+    )
+    _check_home_clear(site, f"{source}: home")
+    return site
+
+
+def load_site(path: str | Path) -> Site:
+    """Read, validate and resolve a site YAML file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as err:
+        raise InputError(f"{path}: cannot read site file ({err.strerror})") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        mark = getattr(err, "problem_mark", None)
+        line = f" at line {mark.line + 1}" if mark is not None else ""
+        raise InputError(f"{path}: unreadable YAML{line}") from None
+    return parse_site(data, str(path))
+
+
+def site_to_dict(site: Site) -> dict[str, Any]:
+    """A site file mapping (local x/y points) that :func:`parse_site` reads back to ``site``."""
+    def dbm(w: float) -> float:
+        return float(10.0 * np.log10(w) + 30.0)
+
+    return {
+        "name": site.name,
+        "origin": {"lat": site.frame.lat0_deg, "lon": site.frame.lon0_deg, "alt": site.frame.alt0_m},
+        "home": {"x": float(site.home_xy_m[0]), "y": float(site.home_xy_m[1])},
+        "uav": {
+            "altitude": site.altitude_m,
+            "max_speed": site.max_speed_mps,
+            "period": site.period_s,
+            "slots": site.slots,
+            "max_accel": site.max_accel_mps2,
+            "max_jerk": site.max_jerk_mps3,
+        },
+        "radio": {
+            "p_avg_dbm": dbm(site.p_avg_w),
+            "p_peak_dbm": dbm(site.p_peak_w),
+            "beta0_db": float(10.0 * np.log10(site.beta0)),
+            "noise_dbm": dbm(site.noise_w),
+        },
+        "ground_nodes": [
+            {"name": n, "x": float(x), "y": float(y)} for n, (x, y) in zip(site.gn_names, site.gn_xy_m)
+        ],
+        "no_fly_zones": [
+            {"name": n, "x": float(x), "y": float(y), "radius": float(r)}
+            for n, (x, y), r in zip(site.nfz_names, site.nfz_xy_m, site.nfz_radius_m)
+        ],
+        "safety": {"buffer_m": site.buffer_m},
+    }
