@@ -1,0 +1,230 @@
+"""``plan-mission``: optimise a site's service cycle and export it as an autopilot mission.
+
+    plan-mission SITE.yaml -o mission.plan [--scheme proposed|conventional] [--report R.json]
+        [--buffer-m B] [--autopilot ardupilot|px4] [--cycles C] [--fence-margin-m M]
+        [--operating-area polygon|circle] [--operating-area-margin-m A]
+        [--format plan|waypoints] [--geojson F.geojson] [--plot F.png] [--force] [--seed S]
+
+Exit status: 0 written; 1 refused by the safety gate (some leg inside an NFZ plus its buffer,
+or another problem of :func:`mission_planner.mission.plan_problems`), nothing written unless
+``--force``; 2 bad input (one line on stderr naming the field), nothing written.
+Every output is prepared in memory first and written atomically.
+
+The same steps from Python: :func:`plan_and_build` then :func:`output_files` and
+:func:`write_outputs`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any, NoReturn
+
+from mission_planner.mission import (
+    AUTOPILOTS,
+    OPERATING_AREAS,
+    Mission,
+    MissionOptions,
+    build_mission,
+    check_options,
+    mission_summary,
+)
+from validator.errors import InputError
+from validator.fileio import write_atomic
+from validator.geojson_format import dumps_geojson, plan_geojson
+from validator.plan_format import dumps_plan
+from validator.site import Site, load_site
+from validator.waypoints_format import waypoint_files
+
+FORMATS = ("plan", "waypoints")
+Progress = Callable[[int, float], None]
+
+
+def mission_report(mission: Mission) -> dict[str, Any]:
+    """The report JSON: the solution's report plus the mission summary under ``"mission"``."""
+    return {**mission.solution.report(), "mission": mission_summary(mission)}
+
+
+def output_files(
+    mission: Mission,
+    out: str | Path,
+    *,
+    fmt: str = "plan",
+    report: str | Path | None = None,
+    geojson: str | Path | None = None,
+    plot: str | Path | None = None,
+) -> dict[Path, str | bytes]:
+    """Every file the mission is exported to (path -> content), not yet written.
+
+    ``fmt`` "plan" writes a QGroundControl plan to ``out``; "waypoints" a QGC WPL 110 mission
+    with its fence and rally files beside it (``NAME.fence.waypoints``, ``NAME.rally.waypoints``).
+    """
+    if fmt not in FORMATS:
+        raise InputError(f"format: expected one of {', '.join(FORMATS)}, got {fmt!r}")
+    files: dict[Path, str | bytes] = {}
+    if fmt == "plan":
+        files[Path(out)] = dumps_plan(mission.plan)
+    else:
+        files.update(waypoint_files(mission.plan, out))
+    if report is not None:
+        files[Path(report)] = json.dumps(mission_report(mission), indent=1) + "\n"
+    if geojson is not None:
+        files[Path(geojson)] = dumps_geojson(plan_geojson(mission.plan, mission.solution.site))
+    if plot is not None:
+        from mission_planner.figure import figure_png, solution_figure
+
+        files[Path(plot)] = figure_png(solution_figure(mission.solution, mission))
+    return files
+
+
+def check_output_paths(paths: Sequence[Path]) -> None:
+    """Refuse outputs that collide or whose folder does not exist, before any work is done."""
+    seen: set[Path] = set()
+    for p in paths:
+        resolved = p.resolve()
+        if resolved in seen:
+            raise InputError(f"{p}: named for two outputs")
+        seen.add(resolved)
+        if not p.parent.resolve().is_dir():
+            raise InputError(f"{p}: folder {p.parent} does not exist")
+        if p.is_dir():
+            raise InputError(f"{p}: is a folder")
+
+
+def write_outputs(files: dict[Path, str | bytes]) -> None:
+    """Write each file atomically."""
+    for path, content in files.items():
+        write_atomic(path, content)
+
+
+def plan_and_build(
+    site: Site,
+    scheme: str = "proposed",
+    options: MissionOptions | None = None,
+    *,
+    seed: int | None = None,
+    progress: Progress | None = None,
+) -> Mission:
+    """Optimise ``site`` with the paper's Algorithm 1 and lay out its mission.
+
+    Options are checked before the (slow) optimisation. The safety verdict is in
+    ``Mission.problems``; nothing is written here.
+    """
+    opt = options or MissionOptions()
+    check_options(site, opt)
+    from mission_planner.optimize import PlannerOptions, plan  # cvxpy is slow to import
+
+    planner_options = PlannerOptions()
+    if seed is not None and "seed" in {f.name for f in dataclasses.fields(PlannerOptions)}:
+        planner_options = dataclasses.replace(planner_options, seed=seed)  # type: ignore[call-arg]
+    solution = plan(site, scheme, options=planner_options, progress=progress)
+    return build_mission(solution, opt)
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> NoReturn:  # one line, exit 2, as every user error
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = _Parser(
+        prog="plan-mission",
+        description="Optimise a site's UAV service cycle (trajectory, slot lengths, power, "
+        "scheduling) avoiding no-fly zones, and export it as an autopilot mission.",
+    )
+    p.add_argument("site", type=Path, help="site file (YAML)")
+    p.add_argument("-o", "--output", type=Path, required=True,
+                   help="mission file to write (.plan, or .waypoints with --format waypoints)")
+    p.add_argument("--scheme", choices=("proposed", "conventional"), default="proposed",
+                   help="NFZ rule: proposed = whole leg outside (Theorem 1), conventional = "
+                   "waypoints only (default: proposed)")
+    p.add_argument("--report", type=Path, help="write the solution and mission report (JSON)")
+    p.add_argument("--buffer-m", type=float,
+                   help="safety buffer added to every NFZ radius (m; default: the site's)")
+    p.add_argument("--autopilot", choices=tuple(AUTOPILOTS), default="ardupilot",
+                   help="firmware the plan is for (default: ardupilot)")
+    p.add_argument("--cycles", type=int, default=1,
+                   help="service cycles to fly before returning (DO_JUMP; default 1)")
+    p.add_argument("--fence-margin-m", type=float,
+                   help="exclusion fence radius = NFZ radius + this (m; default: buffer / 2; "
+                   "at most the buffer)")
+    p.add_argument("--operating-area", choices=OPERATING_AREAS,
+                   help="add an inclusion fence around everything flown")
+    p.add_argument("--operating-area-margin-m", type=float, default=20.0,
+                   help="distance of the inclusion fence outside the flown area (m; default 20)")
+    p.add_argument("--format", choices=FORMATS,
+                   help="plan (QGroundControl) or waypoints (QGC WPL 110 with .fence/.rally "
+                   "files beside it); default: from the output's suffix, else plan")
+    p.add_argument("--geojson", type=Path, help="also write a GeoJSON FeatureCollection")
+    p.add_argument("--plot", type=Path, help="also draw the paper's Fig. 3 (PNG)")
+    p.add_argument("--force", action="store_true",
+                   help="write the mission even if the safety gate refuses it")
+    p.add_argument("--seed", type=int,
+                   help="seed for any randomised step (the optimiser is deterministic)")
+    return p
+
+
+def _print_progress(iteration: int, objective: float) -> None:
+    print(f"plan-mission: iteration {iteration}: objective {objective:.6g}", file=sys.stderr,
+          flush=True)
+
+
+def plan_mission_main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``plan-mission`` (see the module doc); returns the exit status."""
+    args = _parser().parse_args(argv)
+    try:
+        fmt = args.format or ("waypoints" if args.output.suffix == ".waypoints" else "plan")
+        outputs = [args.output] + [p for p in (args.report, args.geojson, args.plot) if p]
+        if fmt == "waypoints":
+            from validator.waypoints_format import sidecar_paths
+
+            outputs += list(sidecar_paths(args.output))
+        check_output_paths(outputs)
+        site = load_site(args.site)
+        if args.buffer_m is not None:
+            site = site.with_buffer(args.buffer_m)
+        options = MissionOptions(
+            autopilot=args.autopilot,
+            cycles=args.cycles,
+            fence_margin_m=args.fence_margin_m,
+            operating_area=args.operating_area,
+            operating_area_margin_m=args.operating_area_margin_m,
+        )
+        mission = plan_and_build(site, args.scheme, options, seed=args.seed,
+                                 progress=_print_progress)
+        if mission.problems:
+            for problem in mission.problems:
+                print(f"plan-mission: unsafe: {problem}", file=sys.stderr)
+            if not args.force:
+                print(f"plan-mission: refused to write {args.output} "
+                      f"({len(mission.problems)} problems); --force writes it anyway",
+                      file=sys.stderr)
+                return 1
+            print("plan-mission: --force: writing the unsafe mission", file=sys.stderr)
+        files = output_files(mission, args.output, fmt=fmt, report=args.report,
+                             geojson=args.geojson, plot=args.plot)
+        write_outputs(files)
+    except InputError as err:
+        print(f"plan-mission: error: {err}", file=sys.stderr)
+        return 2
+    summary = mission_summary(mission)
+    print(
+        f"plan-mission: wrote {', '.join(str(p) for p in files)}: {summary['items']} items, "
+        f"cycle {summary['cycle_duration_s']:.1f} s (T = {summary['period_s']:g} s), "
+        f"min rate {mission.solution.min_rate_bps_hz:.4f} bps/Hz, "
+        f"min NFZ clearance {summary['nfz_clearance_min_m']} m",
+        file=sys.stderr,
+    )
+    return 0
+
+
+def main() -> None:
+    sys.exit(plan_mission_main())
+
+
+if __name__ == "__main__":
+    main()

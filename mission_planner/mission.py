@@ -1,0 +1,686 @@
+"""A planned service cycle turned into an autopilot-ready mission.
+
+:func:`build_mission` takes a :class:`~mission_planner.optimize.solution.Solution` and lays
+out a QGroundControl :class:`~validator.plan_format.Plan`:
+
+1. NAV_TAKEOFF at home to the site altitude (relative-altitude frame 3);
+2. DO_CHANGE_SPEED to the transit speed and the outbound transit: the shortest path from home
+   to q[0] whose straight legs keep out of every NFZ plus its buffer (:mod:`.transit`);
+3. one service cycle: for each slot n a DO_CHANGE_SPEED (param1 = 1, param2 = leg length /
+   δ[n] m/s) where the speed changes and a NAV_WAYPOINT at q[n]. Slots in which the UAV stays
+   put (within ``stationary_tol_m``) merge into the waypoint before them, whose hold is their
+   δ sum; slots at the start of the cycle in which it stays put become a hold at q[0];
+4. DO_JUMP back to the cycle's first item ``cycles − 1`` times;
+5. DO_CHANGE_SPEED to the transit speed, the return transit, NAV_LAND at home. Never RTL:
+   it flies straight home whatever lies between.
+
+The geofence holds one exclusion circle per NFZ (radius R + fence margin), optionally an
+inclusion polygon or circle around everything the vehicle flies, the breach return point and
+one rally point at home.
+
+Decisions where autopilots and the plan disagree (all in :class:`MissionOptions`):
+
+- **Clearance after rounding.** The optimiser keeps legs R + buffer away only up to solver
+  tolerance, and MAVLink's int32 1e-7° coordinates move each point by up to ~0.8 cm. Each
+  service leg closer than R + buffer + ``export_margin_m`` (1 cm) to a centre is pushed out
+  by translating its two waypoints away from that centre by the shortfall, repeated until
+  every leg clears; shortfalls above ``max_nudge_m`` (5 cm) are not solver noise and are left
+  for the safety check to refuse. Transits are planned around R + buffer + the same margin.
+  The plan is then re-read from rounded coordinates and every leg must stay at least
+  R + buffer − 1 mm from each centre.
+- **Whole-second holds.** ArduCopter stores a waypoint hold as whole seconds (it truncates).
+  For ArduPilot holds are rounded by error diffusion along the cycle (each hold is the
+  rounded running sum minus the previous rounded running sum), so no hold is off by a second
+  or more and the cycle's total hold differs from the plan by less than half a second; the
+  summary reports the difference. PX4 keeps fractional holds.
+- **Slow legs.** ArduCopter ignores a DO_CHANGE_SPEED below 0.2 m/s (WPNAV_WP_SPEED_MIN), so
+  a leg that would need less is flown at ``min_speed_mps`` and the waypoint holds for the
+  rest of its slot: the slot keeps its length and the UAV ends it at the same place.
+- **Speed limit.** A leg speed never exceeds the site's V: float excess is clipped (the leg
+  then takes a hair longer than δ); an excess above 1 % is reported as a problem.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import shapely
+from numpy.typing import ArrayLike, NDArray
+
+from mission_planner.optimize.solution import Solution
+from mission_planner.transit import DEFAULT_ARC_STEP_DEG, path_length_m, shortest_safe_path
+from validator.errors import InputError
+from validator.geodesy import LocalFrame, round_e7
+from validator.geometry import (
+    expanded_radius,
+    segment_point_closest_fraction,
+    segment_point_distance,
+)
+from validator.plan_format import (
+    EXTRA_KEY,
+    Autopilot,
+    Cmd,
+    FenceCircle,
+    FencePolygon,
+    Frame,
+    MissionItem,
+    Plan,
+)
+from validator.site import Site
+
+AUTOPILOTS = {"ardupilot": Autopilot.ARDUPILOTMEGA, "px4": Autopilot.PX4}
+OPERATING_AREAS = ("polygon", "circle")
+CLEARANCE_TOLERANCE_M = 1e-3  # a leg may come this much closer than R + buffer (issue item 4)
+SPEED_EXCESS_ALLOWED = 0.01  # relative excess over V clipped silently (solver tolerance)
+NAV_POSITION_COMMANDS = (Cmd.NAV_TAKEOFF, Cmd.NAV_WAYPOINT, Cmd.NAV_LAND)
+_NAN = math.nan
+
+
+@dataclass(frozen=True)
+class MissionOptions:
+    """How to lay out the mission; every length in metres, speed in m/s, time in seconds.
+
+    ``fence_margin_m`` None means half the site's safety buffer. ``operating_area`` None, or
+    "polygon" (buffered convex hull) / "circle" (bounding circle) around everything flown,
+    ``operating_area_margin_m`` outside it. ``transit_speed_mps`` None means the site's V.
+    """
+
+    autopilot: str = "ardupilot"
+    cycles: int = 1
+    fence_margin_m: float | None = None
+    operating_area: str | None = None
+    operating_area_margin_m: float = 20.0
+    transit_speed_mps: float | None = None
+    export_margin_m: float = 0.01
+    max_nudge_m: float = 0.05
+    stationary_tol_m: float = 0.05
+    min_speed_mps: float = 0.2
+    speed_tol_mps: float = 1e-3
+    arc_step_deg: float = DEFAULT_ARC_STEP_DEG
+
+
+@dataclass(frozen=True)
+class CycleStep:
+    """One NAV_WAYPOINT of the service cycle.
+
+    ``index`` is the trajectory index of its position, ``slots`` the 1-based slots it covers,
+    ``leg_s`` the planned time of the leg into it (δ of its moving slot, 0 for a hold at q[0]),
+    ``hold_s`` the planned hold (δ of the stationary slots after it, plus any time a slow leg
+    saves). ``speed_mps`` is filled in once the geometry is final; None for a hold at q[0].
+    """
+
+    index: int
+    slots: tuple[int, ...]
+    leg_s: float
+    hold_s: float
+    speed_mps: float | None = None
+
+
+@dataclass(frozen=True)
+class Mission:
+    """An exported mission and what went into it.
+
+    ``trajectory_m`` (N+1, 2) is the service trajectory as exported (after any clearance
+    nudge); ``outbound_m`` and ``return_m`` are the transit polylines (home → q[0], last
+    waypoint → home); ``cycle_items`` the 0-based first and last item of the service cycle.
+    ``problems`` lists every reason the safety gate refuses the mission (empty: safe).
+    """
+
+    plan: Plan
+    solution: Solution
+    options: MissionOptions
+    trajectory_m: NDArray[np.float64]
+    steps: tuple[CycleStep, ...]
+    outbound_m: NDArray[np.float64]
+    return_m: NDArray[np.float64]
+    cycle_items: tuple[int, int]
+    fence_margin_m: float
+    operating_area_m: NDArray[np.float64] | None
+    max_nudge_m: float
+    problems: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def safe(self) -> bool:
+        return not self.problems
+
+
+def check_options(site: Site, options: MissionOptions) -> None:
+    """Refuse option values that cannot give a sensible mission (:class:`InputError`)."""
+    if options.autopilot not in AUTOPILOTS:
+        raise InputError(
+            f"autopilot: expected one of {', '.join(AUTOPILOTS)}, got {options.autopilot!r}")
+    if options.cycles < 1:
+        raise InputError(f"cycles: must be >= 1, got {options.cycles}")
+    margin = fence_margin_for(site, options)
+    if margin < 0:
+        raise InputError(f"fence_margin_m: must be >= 0, got {margin:g}")
+    if margin > site.buffer_m:
+        raise InputError(
+            f"fence_margin_m: {margin:g} m is larger than the planned clearance (safety buffer "
+            f"{site.buffer_m:g} m): the planned legs would breach the fence"
+        )
+    if options.operating_area not in (None, *OPERATING_AREAS):
+        raise InputError(
+            f"operating_area: expected one of {', '.join(OPERATING_AREAS)}, "
+            f"got {options.operating_area!r}")
+    if not options.operating_area_margin_m > 0:
+        raise InputError(
+            f"operating_area_margin_m: must be > 0, got {options.operating_area_margin_m:g}")
+    if options.transit_speed_mps is not None and not (
+        0 < options.transit_speed_mps <= site.max_speed_mps
+    ):
+        raise InputError(
+            f"transit_speed_mps: must be in (0, {site.max_speed_mps:g}], "
+            f"got {options.transit_speed_mps:g}")
+    if not 0 <= options.min_speed_mps < site.max_speed_mps:
+        raise InputError(f"min_speed_mps: must be in [0, V), got {options.min_speed_mps:g}")
+    for name in ("export_margin_m", "max_nudge_m", "stationary_tol_m", "speed_tol_mps",
+                 "arc_step_deg"):
+        if not getattr(options, name) >= 0:
+            raise InputError(f"{name}: must be >= 0, got {getattr(options, name)}")
+
+
+def fence_margin_for(site: Site, options: MissionOptions) -> float:
+    """The fence margin (m) outside each NFZ radius: the option, else half the buffer."""
+    return site.buffer_m / 2.0 if options.fence_margin_m is None else float(options.fence_margin_m)
+
+
+# ---------------------------------------------------------------------------- service cycle
+
+
+def service_steps(trajectory_m: ArrayLike, delta_s: ArrayLike,
+                  stationary_tol_m: float) -> list[CycleStep]:
+    """Group the slots of a closed trajectory into the waypoints of one service cycle.
+
+    A slot whose end point lies within ``stationary_tol_m`` of the position its group started
+    from adds its δ to the group's hold; any other slot starts a new waypoint at its end point.
+    Groups end at their last slot's end point, so the last waypoint is q[N] = q[0]. Slots at
+    the start of the cycle in which the UAV stays put become a hold-only waypoint at q[0].
+    """
+    q = np.asarray(trajectory_m, dtype=float)
+    delta = np.asarray(delta_s, dtype=float)
+    steps: list[CycleStep] = []
+    start = q[0]  # where the current group started
+    lead: list[int] = []
+    for n in range(1, len(q)):
+        d = float(delta[n - 1])
+        if np.hypot(*(q[n] - start)) <= stationary_tol_m:
+            if steps:
+                s = steps[-1]
+                steps[-1] = CycleStep(n, (*s.slots, n), s.leg_s, s.hold_s + d)
+            else:
+                lead.append(n)
+            continue
+        steps.append(CycleStep(n, (n,), d, 0.0))
+        start = q[n]
+    if lead:
+        steps.insert(0, CycleStep(0, tuple(lead), 0.0, float(np.sum(delta[[n - 1 for n in lead]]))))
+    return steps
+
+
+def nudge_clear(points_m: ArrayLike, centres_m: ArrayLike, radii_m: ArrayLike, *,
+                target_margin_m: float, max_nudge_m: float,
+                closed: bool = True) -> tuple[NDArray[np.float64], float]:
+    """Push a polyline's points out so every leg keeps ``radii + target_margin_m`` from each centre.
+
+    Only legs short of that by at most ``target_margin_m + max_nudge_m`` are moved: both their
+    end points are translated away from the centre (along the normal through the leg's closest
+    point) by the shortfall, which raises the leg's distance by at least as much; repeated
+    until no leg is short. ``closed`` adds the leg from the last point back to the first.
+    Returns the points and the largest distance any point moved (m).
+    """
+    pts = np.array(points_m, dtype=float)
+    original = pts.copy()
+    centres = np.asarray(centres_m, dtype=float).reshape(-1, 2)
+    target = np.asarray(radii_m, dtype=float).reshape(-1) + target_margin_m
+    if centres.size == 0 or len(pts) < 2:
+        return pts, 0.0
+    limit = target_margin_m + max_nudge_m
+    for _ in range(100):
+        a = pts
+        b = np.roll(pts, -1, axis=0) if closed else pts[1:]
+        a = a if closed else pts[:-1]
+        d = segment_point_distance(a[:, None, :], b[:, None, :], centres[None, :, :])
+        short = target[None, :] - d
+        fix = (short > 1e-9) & (short <= limit)
+        if not np.any(fix):
+            break
+        move = np.zeros_like(pts)
+        for k, m in zip(*np.nonzero(fix), strict=True):
+            t = float(segment_point_closest_fraction(a[k], b[k], centres[m]))
+            closest = a[k] + t * (b[k] - a[k])
+            u = closest - centres[m]
+            norm = float(np.hypot(*u))
+            u = u / norm if norm > 0 else np.array([1.0, 0.0])
+            push = (short[k, m] + 1e-6) * u
+            j = (k + 1) % len(pts) if closed else k + 1
+            for idx in (k, j):
+                if np.dot(move[idx], u) < np.dot(push, u):
+                    move[idx] += push - np.dot(move[idx], u) * u
+        pts = pts + move
+    moved = float(np.max(np.linalg.norm(pts - original, axis=1)))
+    return pts, moved
+
+
+def assign_speeds(steps: list[CycleStep], trajectory_m: NDArray[np.float64], max_speed_mps: float,
+                  min_speed_mps: float) -> tuple[list[CycleStep], list[str]]:
+    """Fill in each step's leg speed (m/s) from the final geometry.
+
+    speed = leg length / leg time, clipped to ``max_speed_mps``; a leg slower than
+    ``min_speed_mps`` is flown at that speed and the step holds for the time saved. Returns
+    the steps and a problem for each leg whose speed exceeds V by more than 1 %.
+    """
+    out: list[CycleStep] = []
+    problems: list[str] = []
+    prev = trajectory_m[0]
+    for s in steps:
+        here = trajectory_m[s.index]
+        length = float(np.hypot(*(here - prev)))
+        prev = here
+        if s.leg_s <= 0:
+            out.append(CycleStep(s.index, s.slots, 0.0, s.hold_s, None))
+            continue
+        speed = length / s.leg_s
+        hold = s.hold_s
+        if speed > max_speed_mps:
+            if speed > max_speed_mps * (1 + SPEED_EXCESS_ALLOWED):
+                problems.append(
+                    f"slot {s.slots[0]}: leg of {length:.2f} m in {s.leg_s:.3f} s needs "
+                    f"{speed:.2f} m/s, above the vehicle's {max_speed_mps:g} m/s")
+            speed = max_speed_mps
+        elif speed < min_speed_mps:
+            hold += s.leg_s - length / min_speed_mps
+            speed = min_speed_mps
+        out.append(CycleStep(s.index, s.slots, s.leg_s, hold, speed))
+    return out, problems
+
+
+def whole_second_holds(holds_s: ArrayLike) -> NDArray[np.float64]:
+    """Holds (s) rounded to whole seconds by error diffusion along the sequence.
+
+    Hold k becomes round(Σ_{i≤k} h_i) − round(Σ_{i<k} h_i): never negative, zero where the
+    planned hold is zero, and the total stays within half a second of the planned total.
+    """
+    cum = np.cumsum(np.asarray(holds_s, dtype=float))
+    rounded = np.floor(cum + 0.5)
+    return np.diff(np.concatenate([[0.0], rounded]))
+
+
+# ---------------------------------------------------------------------------- items
+
+
+def _nav(cmd: Cmd, lat: float, lon: float, alt: float, p1: float = 0.0) -> MissionItem:
+    # param4 NaN: keep the current yaw (QGroundControl's default).
+    return MissionItem(int(cmd), [p1, 0.0, 0.0, _NAN, lat, lon, alt],
+                       int(Frame.GLOBAL_RELATIVE_ALT))
+
+
+def _speed(speed_mps: float) -> MissionItem:
+    # param1 1 = ground speed; param3 −1 = leave the throttle alone.
+    return MissionItem(int(Cmd.DO_CHANGE_SPEED), [1.0, float(speed_mps), -1.0, 0.0, 0.0, 0.0, 0.0],
+                       int(Frame.MISSION))
+
+
+def _jump(target_item: int, repeats: int) -> MissionItem:
+    # param1 is the target's doJumpId (1-based item number; ArduPilot's seq, home being 0).
+    return MissionItem(int(Cmd.DO_JUMP), [float(target_item + 1), float(repeats), 0, 0, 0, 0, 0],
+                       int(Frame.MISSION))
+
+
+def operating_area(points_m: ArrayLike, kind: str, margin_m: float) -> NDArray[np.float64]:
+    """Vertices (V, 2), not closed, of an inclusion zone ``margin_m`` around the points.
+
+    "polygon": the convex hull grown by the margin (mitred corners, bevelled when sharp), so
+    the zone stays convex and every leg between points inside it stays inside. "circle": the
+    smallest enclosing circle grown by the margin, returned as [[cx, cy], [radius, 0]].
+    """
+    hull = shapely.MultiPoint(np.asarray(points_m, dtype=float)).convex_hull
+    if kind == "circle":
+        radius = float(shapely.minimum_bounding_radius(hull))
+        centre = shapely.minimum_bounding_circle(hull).centroid
+        if radius == 0.0:
+            centre = hull.centroid
+        return np.array([[centre.x, centre.y], [radius + margin_m, 0.0]])
+    area = hull.buffer(margin_m, join_style="mitre", mitre_limit=2.0)
+    ring = shapely.get_coordinates(shapely.normalize(area).exterior)[:-1]
+    return np.asarray(ring, dtype=float)
+
+
+def build_mission(solution: Solution, options: MissionOptions | None = None) -> Mission:
+    """Lay out the mission of ``solution`` (see the module doc). Raises :class:`InputError`
+    for bad options; unsafe geometry is not an exception but listed in ``Mission.problems``."""
+    opt = options or MissionOptions()
+    site = solution.site
+    check_options(site, opt)
+    frame = site.frame
+    alt = site.altitude_m
+    transit_speed = opt.transit_speed_mps or site.max_speed_mps
+    problems: list[str] = []
+
+    q = np.array(solution.trajectory_m, dtype=float)
+    delta = np.asarray(solution.delta_s, dtype=float)
+    if q.ndim != 2 or q.shape[1] != 2 or len(q) != len(delta) + 1 or len(delta) == 0:
+        raise ValueError("solution: trajectory_m must be (N+1, 2) and delta_s (N,)")
+    if np.hypot(*(q[-1] - q[0])) > opt.stationary_tol_m:
+        raise ValueError("solution: trajectory is not closed (q[N] != q[0])")
+    q[-1] = q[0]
+
+    steps = service_steps(q, delta, opt.stationary_tol_m)
+    cyc_idx = [0] + [s.index for s in steps if s.index not in (0, len(q) - 1)]
+    radii = site.planning_radius_m
+    pts, moved = nudge_clear(q[cyc_idx], site.nfz_xy_m, radii, target_margin_m=opt.export_margin_m,
+                             max_nudge_m=opt.max_nudge_m, closed=True)
+    q[cyc_idx] = pts
+    q[-1] = q[0]
+    steps, speed_problems = assign_speeds(steps, q, site.max_speed_mps, opt.min_speed_mps)
+    problems += speed_problems
+    if opt.autopilot == "ardupilot":
+        holds = whole_second_holds([s.hold_s for s in steps])
+    else:
+        holds = np.array([s.hold_s for s in steps])
+
+    home = site.home_xy_m
+    last = q[steps[-1].index] if steps else q[0]
+    outbound, back = _transits(site, home, q[0], last, opt, problems)
+
+    def latlon(xy: NDArray[np.float64]) -> tuple[float, float]:
+        lat, lon = frame.to_geodetic(xy)
+        return float(lat), float(lon)
+
+    items: list[MissionItem] = []
+    items.append(_nav(Cmd.NAV_TAKEOFF, *latlon(home), alt))
+    items.append(_speed(transit_speed))
+    for p in outbound[1:]:
+        items.append(_nav(Cmd.NAV_WAYPOINT, *latlon(p), alt))
+    first = len(items)
+    current: float | None = None
+    for s, hold in zip(steps, holds, strict=True):
+        if s.speed_mps is not None and (current is None or
+                                        abs(s.speed_mps - current) > opt.speed_tol_mps):
+            items.append(_speed(s.speed_mps))
+            current = s.speed_mps
+        items.append(_nav(Cmd.NAV_WAYPOINT, *latlon(q[s.index]), alt, p1=float(hold)))
+    closing = len(items) - 1
+    if opt.cycles > 1:
+        items.append(_jump(first, opt.cycles - 1))
+    items.append(_speed(transit_speed))
+    for p in back[1:-1]:
+        items.append(_nav(Cmd.NAV_WAYPOINT, *latlon(p), alt))
+    items.append(_nav(Cmd.NAV_LAND, *latlon(home), 0.0))
+
+    margin = fence_margin_for(site, opt)
+    circles = [
+        FenceCircle(*latlon(c), float(r + margin), inclusion=False)
+        for c, r in zip(site.nfz_xy_m, site.nfz_radius_m, strict=True)
+    ]
+    polygons: list[FencePolygon] = []
+    area: NDArray[np.float64] | None = None
+    if opt.operating_area is not None:
+        flown = np.vstack([outbound, q, back])
+        area = operating_area(flown, opt.operating_area, opt.operating_area_margin_m)
+        if opt.operating_area == "circle":
+            circles.append(FenceCircle(*latlon(area[0]), float(area[1, 0]), inclusion=True))
+        else:
+            lat, lon = frame.to_geodetic(area)
+            vertices = [(float(a), float(b)) for a, b in zip(lat, lon, strict=True)]
+            polygons.append(FencePolygon(vertices, inclusion=True))
+    home_ll = latlon(home)
+    plan = Plan(
+        items=items,
+        home_lat_deg=home_ll[0],
+        home_lon_deg=home_ll[1],
+        home_alt_m=frame.alt0_m,
+        firmware_type=int(AUTOPILOTS[opt.autopilot]),
+        cruise_speed_mps=float(transit_speed),
+        hover_speed_mps=float(transit_speed),
+        circles=circles,
+        polygons=polygons,
+        rally=[(home_ll[0], home_ll[1], alt)],
+        breach_return=(home_ll[0], home_ll[1], alt),
+        extra={
+            "format": 1,
+            "site": site.name,
+            "scheme": solution.scheme,
+            "trajectory_m": q.tolist(),
+            "delta_s": [float(d) for d in delta],
+            "power_w": [float(p) for p in solution.power_w],
+            "schedule": [site.gn_names[k] if k >= 0 else None for k in solution.schedule],
+            "cycle_items": [first, closing],
+            "cycles": opt.cycles,
+        },
+    )
+    problems += plan_problems(plan, site, (first, closing))
+    return Mission(
+        plan=plan, solution=solution, options=opt, trajectory_m=q, steps=tuple(steps),
+        outbound_m=outbound, return_m=back, cycle_items=(first, closing), fence_margin_m=margin,
+        operating_area_m=area, max_nudge_m=moved, problems=tuple(problems),
+    )
+
+
+def _transits(site: Site, home: NDArray[np.float64], start: NDArray[np.float64],
+              end: NDArray[np.float64], opt: MissionOptions,
+              problems: list[str]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Outbound (home → start) and return (end → home) transits around R + buffer + margin.
+
+    A zone's radius is shrunk to the distance of an end point that lies closer than that, so
+    the search can start there; the safety check judges whether that is still clear enough.
+    """
+    centres = site.nfz_xy_m
+    ends = np.array([home, start, end])
+
+    def radii_for(pair: NDArray[np.float64]) -> NDArray[np.float64]:
+        r = site.planning_radius_m + opt.export_margin_m
+        if centres.size == 0:
+            return r
+        d = np.min(np.linalg.norm(pair[:, None, :] - centres[None, :, :], axis=2), axis=0)
+        return np.minimum(r, d * (1 - 1e-12))
+
+    out = []
+    for a, b, name in ((ends[0], ends[1], "outbound"), (ends[2], ends[0], "return")):
+        try:
+            out.append(shortest_safe_path(a, b, centres, radii_for(np.array([a, b])),
+                                          arc_step_deg=opt.arc_step_deg))
+        except ValueError as err:
+            problems.append(f"{name} transit: {err}; flying straight instead")
+            out.append(np.array([a, b]))
+    return out[0], out[1]
+
+
+# ---------------------------------------------------------------------------- checks
+
+
+def nav_positions(plan: Plan, frame: LocalFrame, *, rounded: bool = True
+                  ) -> tuple[list[int], NDArray[np.float64]]:
+    """Item indices and local positions (m) of every positional mission item, in item order.
+
+    ``rounded`` first puts the coordinates through MAVLink's int32 1e-7° representation.
+    """
+    idx = [i for i, it in enumerate(plan.items) if it.command in NAV_POSITION_COMMANDS]
+    lat = np.array([plan.items[i].lat_deg for i in idx])
+    lon = np.array([plan.items[i].lon_deg for i in idx])
+    if rounded:
+        lat, lon = round_e7(lat), round_e7(lon)
+    return idx, frame.to_local(lat, lon).reshape(-1, 2)
+
+
+def flown_legs(plan: Plan, frame: LocalFrame, cycle_items: tuple[int, int] | None = None, *,
+               rounded: bool = True) -> tuple[list[tuple[int, int]], NDArray[np.float64]]:
+    """Every straight leg the vehicle flies: consecutive positional items, plus, when the plan
+    repeats its cycle with DO_JUMP, the leg from the cycle's last waypoint back to its first
+    position. Returns (from item, to item) pairs and the legs as an (L, 2, 2) array in metres.
+    """
+    idx, xy = nav_positions(plan, frame, rounded=rounded)
+    pairs = list(zip(idx[:-1], idx[1:], strict=True))
+    legs = [np.array([xy[k], xy[k + 1]]) for k in range(len(idx) - 1)]
+    has_jump = any(it.command == Cmd.DO_JUMP for it in plan.items)
+    if cycle_items is not None and has_jump:
+        first, last = cycle_items
+        targets = [k for k, i in enumerate(idx) if i >= first]
+        if targets and last in idx:
+            k0, k1 = targets[0], idx.index(last)
+            pairs.append((last, idx[k0]))
+            legs.append(np.array([xy[k1], xy[k0]]))
+    return pairs, np.array(legs).reshape(-1, 2, 2)
+
+
+def plan_problems(plan: Plan, site: Site, cycle_items: tuple[int, int] | None = None) -> list[str]:
+    """Why the safety gate should refuse ``plan`` (empty if it is safe to fly).
+
+    Every leg, re-read from int32-rounded coordinates, must keep R + buffer − 1 mm from each
+    NFZ centre; the rally and breach return points must lie outside every exclusion circle
+    and inside any inclusion zone; no leg speed may exceed the site's V.
+    """
+    problems: list[str] = []
+    frame = site.frame
+    pairs, legs = flown_legs(plan, frame, cycle_items, rounded=True)
+    if site.num_nfzs and len(legs):
+        d = segment_point_distance(legs[:, None, 0, :], legs[:, None, 1, :], site.nfz_xy_m[None])
+        short = d - site.planning_radius_m[None, :]
+        for k, m in zip(*np.nonzero(short < -CLEARANCE_TOLERANCE_M), strict=True):
+            inside = d[k, m] < site.nfz_radius_m[m]
+            problems.append(
+                f"leg from item {pairs[k][0]} to item {pairs[k][1]} passes {d[k, m]:.3f} m from "
+                f"the centre of {site.nfz_names[m]}: "
+                + (f"inside the zone itself (radius {site.nfz_radius_m[m]:g} m)" if inside else
+                   f"{-short[k, m]:.3f} m inside its {site.buffer_m:g} m safety buffer")
+            )
+    for it_index, it in enumerate(plan.items):
+        if it.command == Cmd.DO_CHANGE_SPEED and it.params[1] > site.max_speed_mps:
+            problems.append(f"item {it_index}: speed {it.params[1]:g} m/s above the vehicle's "
+                            f"{site.max_speed_mps:g} m/s")
+    points = list(plan.rally) + ([plan.breach_return] if plan.breach_return else [])
+    for lat, lon, _ in points:
+        p = frame.to_local(lat, lon)
+        for c in plan.circles:
+            centre = frame.to_local(c.lat_deg, c.lon_deg)
+            dist = float(np.hypot(*(p - centre)))
+            if not c.inclusion and dist <= c.radius_m:
+                problems.append(f"rally/return point ({lat:.7f}, {lon:.7f}) lies inside an "
+                                f"exclusion circle")
+            if c.inclusion and dist >= c.radius_m:
+                problems.append(f"rally/return point ({lat:.7f}, {lon:.7f}) lies outside the "
+                                f"inclusion circle")
+        for poly in plan.polygons:
+            lat_v, lon_v = zip(*poly.vertices_deg, strict=True)
+            zone = shapely.Polygon(frame.to_local(np.array(lat_v), np.array(lon_v)))
+            if zone.contains(shapely.Point(p)) != poly.inclusion:
+                problems.append(f"rally/return point ({lat:.7f}, {lon:.7f}) is on the wrong "
+                                "side of a fence polygon")
+    if len(legs):
+        _, xy = nav_positions(plan, frame, rounded=True)
+        for c in plan.circles:
+            if c.inclusion:
+                centre = frame.to_local(c.lat_deg, c.lon_deg)
+                if np.any(np.linalg.norm(xy - centre, axis=1) >= c.radius_m):
+                    problems.append("a waypoint lies outside the inclusion circle")
+        for poly in plan.polygons:
+            if poly.inclusion:
+                lat_v, lon_v = zip(*poly.vertices_deg, strict=True)
+                zone = shapely.Polygon(frame.to_local(np.array(lat_v), np.array(lon_v)))
+                if not bool(np.all(shapely.contains_xy(zone, xy[:, 0], xy[:, 1]))):
+                    problems.append("a waypoint lies outside the inclusion polygon")
+    return problems
+
+
+def planned_cycle_s(plan: Plan, frame: LocalFrame, cycle_items: tuple[int, int]) -> float:
+    """Duration (s) of one service cycle at the plan's own speeds and holds.
+
+    Walks items ``first..last``: each positional item adds the leg from the previous position
+    at the speed in force (the last DO_CHANGE_SPEED before it) plus its hold (param1). The
+    cycle starts at the position before its first item (the end of the outbound transit).
+    """
+    first, last = cycle_items
+    speed = math.nan
+    pos: NDArray[np.float64] | None = None
+    for it in plan.items[:first]:
+        if it.command == Cmd.DO_CHANGE_SPEED:
+            speed = it.params[1]
+        elif it.command in NAV_POSITION_COMMANDS:
+            pos = frame.to_local(it.lat_deg, it.lon_deg)
+    total = 0.0
+    for it in plan.items[first:last + 1]:
+        if it.command == Cmd.DO_CHANGE_SPEED:
+            speed = it.params[1]
+        elif it.command in NAV_POSITION_COMMANDS:
+            here = frame.to_local(it.lat_deg, it.lon_deg)
+            length = float(np.hypot(*(here - pos))) if pos is not None else 0.0
+            if length > 0:
+                total += length / speed
+            total += it.params[0] if it.command == Cmd.NAV_WAYPOINT else 0.0
+            pos = here
+    return total
+
+
+def mission_summary(mission: Mission) -> dict[str, Any]:
+    """The mission part of the report: items, cycle duration, transits, fence, expanded radii."""
+    plan = mission.plan
+    site = mission.solution.site
+    sol = mission.solution
+    first, last = mission.cycle_items
+    cycle_s = planned_cycle_s(plan, site.frame, mission.cycle_items)
+    speeds = [it.params[1] for it in plan.items if it.command == Cmd.DO_CHANGE_SPEED]
+    service_speeds = [s.speed_mps for s in mission.steps if s.speed_mps is not None]
+    planned_hold = float(sum(s.hold_s for s in mission.steps))
+    written_hold = float(sum(plan.items[i].params[0] for i in range(first, last + 1)
+                             if plan.items[i].command == Cmd.NAV_WAYPOINT))
+    exp = (expanded_radius(site.planning_radius_m[None, :],
+                           (site.max_speed_mps * sol.delta_s)[:, None])
+           if site.num_nfzs else np.zeros((0, 0)))
+    _, legs = flown_legs(plan, site.frame, mission.cycle_items, rounded=True)
+    clearance = (segment_point_distance(legs[:, None, 0, :], legs[:, None, 1, :],
+                                        site.nfz_xy_m[None]) - site.nfz_radius_m[None, :]
+                 if site.num_nfzs and len(legs) else np.zeros((0, 0)))
+    out_len = path_length_m(mission.outbound_m)
+    ret_len = path_length_m(mission.return_m)
+    return {
+        "autopilot": mission.options.autopilot,
+        "items": len(plan.items),
+        "service_waypoints": len(mission.steps),
+        "speed_changes": len(speeds),
+        "cycle_items": [first, last],
+        "cycles": mission.options.cycles,
+        "period_s": site.period_s,
+        "cycle_duration_s": cycle_s,
+        "hold_planned_s": planned_hold,
+        "hold_written_s": written_hold,
+        "max_service_speed_mps": max(service_speeds) if service_speeds else 0.0,
+        "transit_speed_mps": plan.cruise_speed_mps,
+        "transit_out_m": out_len,
+        "transit_out_waypoints": len(mission.outbound_m) - 1,
+        "transit_return_m": ret_len,
+        "transit_return_waypoints": len(mission.return_m) - 1,
+        "mission_duration_s": (mission.options.cycles * cycle_s
+                               + (out_len + ret_len) / plan.cruise_speed_mps),
+        "fence_margin_m": mission.fence_margin_m,
+        "fence_radii_m": {n: float(r + mission.fence_margin_m)
+                          for n, r in zip(site.nfz_names, site.nfz_radius_m, strict=True)},
+        "operating_area": mission.options.operating_area,
+        "expanded_radius_max_m": float(np.max(exp)) if exp.size else None,
+        "expanded_radius_by_nfz_m": {n: float(np.max(exp[:, m]))
+                                     for m, n in enumerate(site.nfz_names)} if exp.size else {},
+        "nfz_clearance_min_m": float(np.min(clearance)) if clearance.size else None,
+        "clearance_nudge_max_m": mission.max_nudge_m,
+        "rally_points": len(plan.rally),
+        "problems": list(mission.problems),
+    }
+
+
+__all__ = [
+    "AUTOPILOTS",
+    "EXTRA_KEY",
+    "Mission",
+    "MissionOptions",
+    "CycleStep",
+    "build_mission",
+    "check_options",
+    "flown_legs",
+    "mission_summary",
+    "nav_positions",
+    "plan_problems",
+    "planned_cycle_s",
+    "service_steps",
+    "whole_second_holds",
+]

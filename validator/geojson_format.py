@@ -1,0 +1,104 @@
+"""A plan and its site as one GeoJSON FeatureCollection (RFC 7946: [lon, lat] degrees WGS84).
+
+Features, each with a ``kind`` property: ``flown_path`` (LineString through every positional
+mission item, home to home), ``service_trajectory`` (the planner's closed cycle from the
+plan's ``nfzMission`` data, when present), ``waypoint`` (Point per positional item, with its
+item index, command and hold), ``ground_node``, ``home``, ``nfz`` (the published zone),
+``nfz_buffered`` (zone plus safety buffer), ``fence_exclusion`` / ``fence_inclusion`` (circles
+and polygons of the geofence) and ``rally``. GeoJSON has no circles, so a circle is a Polygon
+of ``CIRCLE_VERTICES`` points on it, with ``center`` and ``radius_m`` in its properties.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from validator.fileio import write_atomic
+from validator.geodesy import LocalFrame
+from validator.plan_format import EXTRA_KEY, Cmd, Plan
+from validator.site import Site
+
+CIRCLE_VERTICES = 72
+_POSITION_COMMANDS = (Cmd.NAV_TAKEOFF, Cmd.NAV_WAYPOINT, Cmd.NAV_LAND, Cmd.NAV_LOITER_TIME,
+                      Cmd.NAV_LOITER_TURNS, Cmd.NAV_LOITER_UNLIM)
+
+
+def _lonlat(frame: LocalFrame, xy_m: ArrayLike) -> list[list[float]]:
+    lat, lon = frame.to_geodetic(np.asarray(xy_m, dtype=float).reshape(-1, 2))
+    return [[float(a), float(b)] for a, b in zip(lon, lat, strict=True)]
+
+
+def _feature(geometry: dict[str, Any], **props: Any) -> dict[str, Any]:
+    return {"type": "Feature", "geometry": geometry, "properties": props}
+
+
+def _circle(frame: LocalFrame, centre_m: ArrayLike, radius_m: float,
+            **props: Any) -> dict[str, Any]:
+    c = np.asarray(centre_m, dtype=float)
+    ang = np.linspace(0.0, 2.0 * np.pi, CIRCLE_VERTICES, endpoint=False)
+    ring = _lonlat(frame, np.c_[c[0] + radius_m * np.cos(ang), c[1] + radius_m * np.sin(ang)])
+    ring.append(ring[0])
+    centre = _lonlat(frame, c)[0]
+    return _feature({"type": "Polygon", "coordinates": [ring]}, center=centre,
+                    radius_m=float(radius_m), **props)
+
+
+def plan_geojson(plan: Plan, site: Site) -> dict[str, Any]:
+    """The FeatureCollection of ``plan`` flown at ``site`` (see the module doc)."""
+    frame = site.frame
+    feats: list[dict[str, Any]] = []
+    nav = [(i, it) for i, it in enumerate(plan.items) if it.command in _POSITION_COMMANDS]
+    path = [[it.lon_deg, it.lat_deg] for _, it in nav]
+    if len(path) >= 2:
+        feats.append(_feature({"type": "LineString", "coordinates": path}, kind="flown_path"))
+    extra = plan.extra or {}
+    if isinstance(extra.get("trajectory_m"), list) and len(extra["trajectory_m"]) >= 2:
+        feats.append(_feature({"type": "LineString",
+                               "coordinates": _lonlat(frame, extra["trajectory_m"])},
+                              kind="service_trajectory", scheme=extra.get("scheme"),
+                              schedule=extra.get("schedule"), delta_s=extra.get("delta_s")))
+    for i, it in nav:
+        feats.append(_feature({"type": "Point", "coordinates": [it.lon_deg, it.lat_deg]},
+                              kind="waypoint", item=i, command=int(it.command),
+                              altitude_m=it.alt_m,
+                              hold_s=it.params[0] if it.command == Cmd.NAV_WAYPOINT else None))
+    for name, xy in zip(site.gn_names, site.gn_xy_m, strict=True):
+        feats.append(_feature({"type": "Point", "coordinates": _lonlat(frame, xy)[0]},
+                              kind="ground_node", name=name))
+    feats.append(_feature({"type": "Point", "coordinates": _lonlat(frame, site.home_xy_m)[0]},
+                          kind="home"))
+    for name, xy, r in zip(site.nfz_names, site.nfz_xy_m, site.nfz_radius_m, strict=True):
+        feats.append(_circle(frame, xy, float(r), kind="nfz", name=name))
+        if site.buffer_m > 0:
+            feats.append(_circle(frame, xy, float(r + site.buffer_m), kind="nfz_buffered",
+                                 name=name, buffer_m=site.buffer_m))
+    for c in plan.circles:
+        centre = frame.to_local(c.lat_deg, c.lon_deg)
+        feats.append(_circle(frame, centre, c.radius_m,
+                             kind="fence_inclusion" if c.inclusion else "fence_exclusion"))
+    for p in plan.polygons:
+        ring = [[lon, lat] for lat, lon in p.vertices_deg]
+        ring.append(ring[0])
+        feats.append(_feature({"type": "Polygon", "coordinates": [ring]},
+                              kind="fence_inclusion" if p.inclusion else "fence_exclusion"))
+    for lat, lon, alt in plan.rally:
+        feats.append(_feature({"type": "Point", "coordinates": [lon, lat]}, kind="rally",
+                              altitude_m=alt))
+    return {"type": "FeatureCollection",
+            "properties": {"site": site.name, "source": EXTRA_KEY if extra else None},
+            "features": feats}
+
+
+def dumps_geojson(data: dict[str, Any]) -> str:
+    """GeoJSON text with full double precision."""
+    return json.dumps(data, indent=1, allow_nan=False) + "\n"
+
+
+def write_geojson(plan: Plan, site: Site, path: str | Path) -> None:
+    """Write :func:`plan_geojson` of ``plan`` to ``path`` atomically."""
+    write_atomic(path, dumps_geojson(plan_geojson(plan, site)))
