@@ -1,0 +1,141 @@
+"""``nfz-study``: reproduce the paper's Fig. 3 and Fig. 4 (thin wrapper over fig3/fig4).
+
+    nfz-study fig3 SITE -o DIR [--buffer-m B]
+    nfz-study fig4 -o DIR [--trials N] [--radii 10,20,30,40,50] [--counts 1,2,3,4,5] [--seed S]
+                   [--slots N] [--workers W | --scheduler tcp://HOST:PORT] [--format csv|parquet]
+
+Bad input: one line on stderr, exit 2, no output. Interrupted: exit 130; run the same command
+again to resume. Any failed trials: listed in the table, a warning on stderr, exit 0 (exit 1
+if every trial failed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Callable, Sequence
+from typing import TypeVar
+
+from validator.errors import InputError
+
+T = TypeVar("T")
+
+
+def _list_of(kind: Callable[[str], T]) -> Callable[[str], tuple[T, ...]]:
+    def parse(text: str) -> tuple[T, ...]:
+        try:
+            values = tuple(kind(v) for v in text.split(",") if v.strip())
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"expected comma-separated numbers, got {text!r}") from None
+        if not values:
+            raise argparse.ArgumentTypeError("give at least one value")
+        return values
+
+    parse.__name__ = "list"
+    return parse
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # type: ignore[override]
+        raise InputError(message)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="nfz-study", description=__doc__.split("\n")[0] if __doc__ else None)
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    p3 = sub.add_parser("fig3", help="both schemes on one site: map, δ[n], p[n] (PNG + CSV)")
+    p3.add_argument("site", help="site YAML file")
+    p3.add_argument("-o", "--out", required=True, help="output directory")
+    p3.add_argument("--buffer-m", type=float, default=None,
+                    help="replace the site's safety buffer, m (0 reproduces the paper)")
+
+    p4 = sub.add_parser("fig4", help="Monte-Carlo sweeps of NFZ radius and count (Fig. 4)")
+    p4.add_argument("-o", "--out", required=True, help="output directory (re-run to resume)")
+    p4.add_argument("--trials", type=int, default=100, help="random sites per point (100)")
+    p4.add_argument("--radii", type=_list_of(float), default=(10, 20, 30, 40, 50),
+                    help="NFZ radii of the radius sweep, m (10,20,30,40,50)")
+    p4.add_argument("--counts", type=_list_of(int), default=(1, 2, 3, 4, 5),
+                    help="NFZ counts of the count sweep (1,2,3,4,5)")
+    p4.add_argument("--radius", type=float, default=30.0,
+                    help="NFZ radius in the count sweep, m (30)")
+    p4.add_argument("--count", type=int, default=3, help="NFZ count in the radius sweep (3)")
+    p4.add_argument("--seed", type=int, default=0, help="study seed (0)")
+    p4.add_argument("--slots", type=int, default=50, help="time slots N (50)")
+    p4.add_argument("--gns", type=int, default=4, help="ground nodes K (4)")
+    p4.add_argument("--buffer-m", type=float, default=0.0,
+                    help="safety buffer added to every NFZ when planning, m (0, as the paper); "
+                         "outage is always judged against the published radius")
+    p4.add_argument("--workers", type=int, default=None,
+                    help="local worker processes (all CPUs); 1 runs in this process")
+    p4.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                    help="run the trials on this Dask scheduler instead")
+    p4.add_argument("--format", dest="table_format", default="csv",
+                    help="trial table format: csv or parquet (needs pyarrow)")
+    p4.add_argument("--retry-errors", action="store_true",
+                    help="re-run logged trials that ended in an error")
+    p4.add_argument("--no-progress", action="store_true", help="no progress bar")
+    return parser
+
+
+def _fig3(args: argparse.Namespace) -> int:
+    from mission_planner.study.fig3 import run_fig3
+    from validator.site import load_site
+
+    site = load_site(args.site)
+    result = run_fig3(site, args.out, buffer_m=args.buffer_m)
+    for sol in result.solutions:
+        print(f"{sol.scheme}: min rate {sol.min_rate_bps_hz:.4f} bps/Hz, "
+              f"min leg clearance {sol.nfz_clearance_min_m:.2f} m")
+    for path in result.files:
+        print(path)
+    return 0
+
+
+def _fig4(args: argparse.Namespace) -> int:
+    from mission_planner.study.fig4 import Fig4Config, run_fig4
+
+    config = Fig4Config(
+        trials=args.trials, radii_m=tuple(float(r) for r in args.radii),
+        counts=tuple(args.counts), seed=args.seed, slots=args.slots, num_gns=args.gns,
+        radius_m=args.radius, num_nfzs=args.count, buffer_m=args.buffer_m,
+    )
+    result = run_fig4(
+        args.out, config, workers=args.workers, scheduler=args.scheduler,
+        progress=False if args.no_progress else None, table_format=args.table_format,
+        retry_errors=args.retry_errors,
+    )
+    run = result.run
+    print(f"{len(run.rows)} trials ({run.executed} run now, {run.skipped} from {args.out})")
+    for path in result.files:
+        print(path)
+    if run.failed:
+        print(f"warning: {len(run.failed)} trials failed, e.g. {run.failed[0]['key']}: "
+              f"{run.failed[0]['error']}", file=sys.stderr)
+        if len(run.failed) == len(run.rows):
+            return 1
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``nfz-study``; returns the exit status."""
+    from mission_planner.study.executors import ExecutorError
+
+    try:
+        args = build_parser().parse_args(argv)
+        return _fig3(args) if args.command == "fig3" else _fig4(args)
+    except InputError as err:
+        print(f"nfz-study: {err}", file=sys.stderr)
+        return 2
+    except ExecutorError as err:
+        print(f"nfz-study: {err}; finished trials are kept, run again to resume", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("nfz-study: interrupted; finished trials are kept, run again to resume",
+              file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

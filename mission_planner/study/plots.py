@@ -1,0 +1,219 @@
+"""Matplotlib drawings of the studies: Fig. 3 (map, slots) and Fig. 4 (sweeps).
+
+Each ``plot_*`` function turns results into a :class:`matplotlib.figure.Figure` and does no I/O;
+:func:`save_png` writes one atomically. Figures are built with the object API (no pyplot state),
+so they are safe in worker processes and notebooks alike.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from matplotlib import colormaps
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Circle
+from numpy.typing import NDArray
+
+from validator.fileio import write_atomic
+from validator.geometry import segment_point_closest_fraction
+
+if TYPE_CHECKING:
+    from mission_planner.optimize.solution import Solution
+    from mission_planner.study.fig4 import Fig4Config
+
+SCHEME_STYLE: dict[str, dict[str, Any]] = {
+    "proposed": {"linestyle": "-", "marker": "o", "color": "tab:blue"},
+    "conventional": {"linestyle": "--", "marker": "s", "color": "tab:orange"},
+}
+VIOLATION_COLOR = "red"
+MAX_INSETS = 4
+
+
+def save_png(fig: Figure, path: str | Path, dpi: int = 150) -> Path:
+    """Render ``fig`` to PNG and write it atomically; returns the path."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
+    path = Path(path)
+    write_atomic(path, buf.getvalue())
+    return path
+
+
+def _gn_colors(num_gns: int) -> list[Any]:
+    """A colour per GN; never red, which marks violations."""
+    tab10 = colormaps["tab10"]
+    base = [tab10(i) for i in (0, 1, 2, 4, 5, 6, 7, 8, 9)]
+    if num_gns <= len(base):
+        return base[:num_gns]
+    return [colormaps["viridis"](k / (num_gns - 1)) for k in range(num_gns)]
+
+
+def _draw_site(ax: Axes, sol: Solution, gn_colors: Sequence[Any], labels: bool) -> None:
+    site = sol.site
+    for name, c, r in zip(site.nfz_names, site.nfz_xy_m, site.nfz_radius_m, strict=True):
+        ax.add_patch(Circle(tuple(c), r, facecolor="0.85", edgecolor="0.3", lw=1.0, zorder=1))
+        if site.buffer_m > 0:
+            ax.add_patch(Circle(tuple(c), r + site.buffer_m, fill=False, edgecolor="0.3",
+                                lw=0.6, linestyle=":", zorder=1))
+        if labels:
+            ax.annotate(name, tuple(c), ha="center", va="center", fontsize=8, color="0.2")
+    for k, (name, g) in enumerate(zip(site.gn_names, site.gn_xy_m, strict=True)):
+        ax.plot(*g, marker="^", markersize=10, color=gn_colors[k], markeredgecolor="k", zorder=5)
+        if labels:
+            ax.annotate(name, tuple(g), textcoords="offset points", xytext=(6, 6), fontsize=9)
+
+
+def _draw_trajectory(ax: Axes, sol: Solution, gn_colors: Sequence[Any], marker_size: float
+                     ) -> None:
+    style = SCHEME_STYLE.get(sol.scheme, SCHEME_STYLE["proposed"])
+    q = sol.trajectory_m
+    ax.plot(q[:, 0], q[:, 1], linestyle=style["linestyle"], color="0.25", lw=1.0, zorder=2)
+    colors = [gn_colors[k] if k >= 0 else "white" for k in sol.schedule]
+    ax.scatter(q[1:, 0], q[1:, 1], c=colors, marker=style["marker"], s=marker_size,
+               edgecolors="k", linewidths=0.5, zorder=3)
+    inside = np.any(sol.nfz_clearance_m < 0.0, axis=1) if sol.site.num_nfzs else []
+    for n in np.flatnonzero(inside):
+        ax.plot(q[n:n + 2, 0], q[n:n + 2, 1], color=VIOLATION_COLOR, lw=2.5, zorder=4)
+
+
+def _intrusions(sol: Solution) -> list[tuple[int, int, float]]:
+    """(leg n, zone m, clearance m) of every leg that enters a zone, deepest first."""
+    if not sol.site.num_nfzs:
+        return []
+    c = sol.nfz_clearance_m
+    legs, zones = np.nonzero(c < 0.0)
+    return sorted(((int(n), int(m), float(c[n, m])) for n, m in zip(legs, zones, strict=True)),
+                  key=lambda t: t[2])
+
+
+def _zoom_window(sol: Solution, leg: int, zone: int) -> tuple[NDArray[np.float64], float]:
+    """Centre and half-size (m) of a window showing where leg ``leg`` cuts zone ``zone``."""
+    a, b = sol.trajectory_m[leg], sol.trajectory_m[leg + 1]
+    c = sol.site.nfz_xy_m[zone]
+    r = float(sol.site.nfz_radius_m[zone])
+    t = float(segment_point_closest_fraction(a, b, c))
+    p = a + t * (b - a)
+    depth = r - float(np.linalg.norm(p - c))
+    half_chord = math.sqrt(max(r * r - (r - depth) ** 2, 0.0))
+    return p, max(1.3 * half_chord, 4.0 * depth, 5.0)
+
+
+def plot_fig3_map(solutions: Sequence[Solution]) -> Figure:
+    """Fig. 3a: NFZs, GNs, each scheme's trajectory with slots coloured by the GN served.
+
+    Legs entering an NFZ are red; each zone that is entered gets a zoomed inset (up to
+    :data:`MAX_INSETS`) to the right of the map.
+    """
+    site = solutions[0].site
+    gn_colors = _gn_colors(site.num_gns)
+    fig = Figure(figsize=(7.5, 6.5))
+    ax = fig.add_subplot()
+    _draw_site(ax, solutions[0], gn_colors, labels=True)
+    for sol in solutions:
+        _draw_trajectory(ax, sol, gn_colors, marker_size=22)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m, east)")
+    ax.set_ylabel("y (m, north)")
+    ax.grid(True, lw=0.3)
+    handles = [
+        Line2D([], [], color="0.25", linestyle=SCHEME_STYLE[s.scheme]["linestyle"],
+               marker=SCHEME_STYLE[s.scheme]["marker"], markerfacecolor="white",
+               markeredgecolor="k", label=s.scheme)
+        for s in solutions if s.scheme in SCHEME_STYLE
+    ]
+    handles.append(Line2D([], [], color=VIOLATION_COLOR, lw=2.5, label="leg inside an NFZ"))
+    handles += [Line2D([], [], color=gn_colors[k], marker="o", linestyle="none",
+                       markeredgecolor="k", label=f"served: {name}")
+                for k, name in enumerate(site.gn_names)]
+    ax.legend(handles=handles, fontsize=7, loc="best", framealpha=0.85)
+
+    seen: set[int] = set()
+    insets: list[tuple[Solution, int, int]] = []
+    for sol in solutions:
+        for leg, zone, _ in _intrusions(sol):
+            if zone in seen or len(insets) >= MAX_INSETS:
+                continue
+            seen.add(zone)
+            insets.append((sol, leg, zone))
+    for i, (sol, leg, zone) in enumerate(insets):
+        centre, half = _zoom_window(sol, leg, zone)
+        inset = ax.inset_axes((1.05, 1.0 - (i + 1) * 0.25 + 0.01, 0.23, 0.23))
+        _draw_site(inset, sol, gn_colors, labels=False)
+        for s in solutions:
+            _draw_trajectory(inset, s, gn_colors, marker_size=14)
+        inset.set_xlim(centre[0] - half, centre[0] + half)
+        inset.set_ylim(centre[1] - half, centre[1] + half)
+        inset.set_aspect("equal")
+        inset.tick_params(labelsize=6)
+        inset.set_title(f"{sol.site.nfz_names[zone]}, {sol.scheme} slot {leg + 1}", fontsize=7)
+        ax.indicate_inset_zoom(inset, edgecolor=VIOLATION_COLOR)
+    return fig
+
+
+def plot_fig3_slots(solutions: Sequence[Solution]) -> Figure:
+    """Fig. 3b: slot lengths δ[n] (s) and transmit power p[n] (W) per slot n for each scheme.
+
+    Slots whose leg enters an NFZ are marked in red.
+    """
+    fig = Figure(figsize=(8.0, 5.5))
+    ax_d, ax_p = fig.subplots(2, 1, sharex=True)
+    for sol in solutions:
+        style = SCHEME_STYLE.get(sol.scheme, SCHEME_STYLE["proposed"])
+        n = np.arange(1, len(sol.delta_s) + 1)
+        ax_d.plot(n, sol.delta_s, label=sol.scheme, markersize=3, **style)
+        ax_p.plot(n, sol.power_w, label=sol.scheme, markersize=3, **style)
+        inside = np.flatnonzero(np.any(sol.nfz_clearance_m < 0.0, axis=1)) if sol.site.num_nfzs \
+            else np.zeros(0, dtype=int)
+        if inside.size:
+            ax_d.plot(n[inside], sol.delta_s[inside], linestyle="none", marker="x", markersize=8,
+                      color=VIOLATION_COLOR, label=f"{sol.scheme}: leg inside an NFZ")
+    ax_d.set_ylabel("δ[n] (s)")
+    ax_p.set_ylabel("p[n] (W)")
+    ax_p.set_xlabel("time slot n")
+    for ax in (ax_d, ax_p):
+        ax.grid(True, lw=0.3)
+        ax.legend(fontsize=7)
+    return fig
+
+
+def _plot_sweeps(summary: Sequence[dict[str, Any]], config: Fig4Config, column: str,
+                 low: str, high: str, ylabel: str) -> Figure:
+    fig = Figure(figsize=(9.0, 4.0))
+    ax_r, ax_m = fig.subplots(1, 2, sharey=True)
+    for ax, sweep, xcol, xlabel in (
+        (ax_r, "radius", "radius_m", f"NFZ radius R (m), M = {config.num_nfzs}"),
+        (ax_m, "count", "num_nfzs", f"number of NFZs M, R = {config.radius_m:g} m"),
+    ):
+        for scheme in config.schemes:
+            pts = sorted((r for r in summary if r["sweep"] == sweep and r["scheme"] == scheme),
+                         key=lambda r: r[xcol])
+            x = np.array([r[xcol] for r in pts], dtype=float)
+            y = np.array([r[column] for r in pts], dtype=float)
+            lo = np.array([r[low] for r in pts], dtype=float)
+            hi = np.array([r[high] for r in pts], dtype=float)
+            yerr = np.vstack([np.nan_to_num(y - lo), np.nan_to_num(hi - y)])
+            style = SCHEME_STYLE.get(scheme, SCHEME_STYLE["proposed"])
+            ax.errorbar(x, y, yerr=yerr, capsize=3, label=scheme, **style)
+        ax.set_xlabel(xlabel)
+        ax.grid(True, lw=0.3)
+    ax_r.set_ylabel(ylabel)
+    ax_r.legend(fontsize=8)
+    trials = max((r["trials"] for r in summary), default=0)
+    fig.suptitle(f"{trials} random sites per point, error bars: 95 % confidence", fontsize=9)
+    return fig
+
+
+def plot_fig4(summary: Sequence[dict[str, Any]], config: Fig4Config) -> tuple[Figure, Figure]:
+    """Fig. 4a (average spectral efficiency, zero on outage) and 4b (outage probability)."""
+    fig_a = _plot_sweeps(summary, config, "spectral_efficiency_bps_hz",
+                         "spectral_efficiency_ci_low", "spectral_efficiency_ci_high",
+                         "average spectral efficiency (bps/Hz)")
+    fig_b = _plot_sweeps(summary, config, "outage_probability", "outage_ci_low",
+                         "outage_ci_high", "outage probability")
+    return fig_a, fig_b
