@@ -20,8 +20,12 @@ def segment_point_distance(a: ArrayLike, b: ArrayLike, c: ArrayLike) -> NDArray[
     ab = b - a
     ac = c - a
     den = np.sum(ab * ab, axis=-1)
-    t = np.divide(np.sum(ac * ab, axis=-1), den, out=np.zeros(np.broadcast(den, ac[..., 0]).shape),
-                  where=den > 0)
+    t = np.divide(
+        np.sum(ac * ab, axis=-1),
+        den,
+        out=np.zeros(np.broadcast(den, ac[..., 0]).shape),
+        where=den > 0,
+    )
     t = np.clip(t, 0.0, 1.0)
     closest = a + t[..., None] * ab
     return np.asarray(np.linalg.norm(c - closest, axis=-1), dtype=float)
@@ -39,7 +43,9 @@ def segment_point_closest_fraction(a: ArrayLike, b: ArrayLike, c: ArrayLike) -> 
     return np.asarray(np.clip(t, 0.0, 1.0), dtype=float)
 
 
-def leg_clearances(path_m: ArrayLike, centres_m: ArrayLike, radii_m: ArrayLike) -> NDArray[np.float64]:
+def leg_clearances(
+    path_m: ArrayLike, centres_m: ArrayLike, radii_m: ArrayLike
+) -> NDArray[np.float64]:
     """Clearance (m) of every straight leg of a polyline from every circle.
 
     ``path_m`` is (P, 2) with P >= 2, ``centres_m`` (M, 2), ``radii_m`` (M,). Returns (P-1, M):
@@ -70,7 +76,9 @@ def expanded_radius(radius_m: ArrayLike, leg_length_m: ArrayLike) -> NDArray[np.
     return np.asarray(np.sqrt(r * r + half * half), dtype=float)
 
 
-def theorem1_lower_bound(expanded_radius_m: ArrayLike, leg_length_m: ArrayLike) -> NDArray[np.float64]:
+def theorem1_lower_bound(
+    expanded_radius_m: ArrayLike, leg_length_m: ArrayLike
+) -> NDArray[np.float64]:
     """Theorem 1: distance bound sqrt(R_B² − (L/2)²) from the centre for L ≤ 2 R_B."""
     rb = np.asarray(expanded_radius_m, dtype=float)
     half = np.asarray(leg_length_m, dtype=float) / 2.0

@@ -135,9 +135,11 @@ def plan_to_dict(plan: Plan) -> dict[str, Any]:
             "params": [_json_num(float(p)) for p in it.params],
             "type": "SimpleItem",
         }
-        if it.frame in (Frame.GLOBAL_RELATIVE_ALT, Frame.GLOBAL, Frame.GLOBAL_TERRAIN_ALT) and not (
-            it.command in (Cmd.DO_JUMP, Cmd.DO_CHANGE_SPEED)
-        ):
+        if it.frame in (
+            Frame.GLOBAL_RELATIVE_ALT,
+            Frame.GLOBAL,
+            Frame.GLOBAL_TERRAIN_ALT,
+        ) and it.command not in (Cmd.DO_JUMP, Cmd.DO_CHANGE_SPEED):
             mode = {Frame.GLOBAL_RELATIVE_ALT: 1, Frame.GLOBAL: 2, Frame.GLOBAL_TERRAIN_ALT: 3}
             entry["AMSLAltAboveTerrain"] = None
             entry["Altitude"] = it.params[6]
@@ -210,7 +212,9 @@ def plan_from_dict(data: Any, source: str = "plan") -> Plan:
         if len(home) != 3:
             raise ValueError
     except (TypeError, ValueError):
-        raise InputError(f"{source}.mission.plannedHomePosition: expected [lat, lon, alt]") from None
+        raise InputError(
+            f"{source}.mission.plannedHomePosition: expected [lat, lon, alt]"
+        ) from None
     items: list[MissionItem] = []
     raw_items = _need(mission, "items", f"{source}.mission")
     if not isinstance(raw_items, list):

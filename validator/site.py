@@ -244,18 +244,19 @@ def site_from_model(model: SiteModel, source: str = "site") -> Site:
     """Resolve a validated :class:`SiteModel`; checks relations between items."""
     frame = LocalFrame(model.origin.lat, model.origin.lon, model.origin.alt)
     gn_xy = np.array([_resolve(frame, g) for g in model.ground_nodes], dtype=float)
-    nfz_xy = np.array(
-        [_resolve(frame, z) for z in model.no_fly_zones], dtype=float
-    ).reshape(-1, 2)
+    nfz_xy = np.array([_resolve(frame, z) for z in model.no_fly_zones], dtype=float).reshape(-1, 2)
     radius = np.array([z.radius for z in model.no_fly_zones], dtype=float)
     home = _resolve(frame, model.home) if model.home else np.zeros(2)
 
-    for field, items in (("ground_nodes", model.ground_nodes), ("no_fly_zones", model.no_fly_zones)):
+    for field, names in (
+        ("ground_nodes", [g.name for g in model.ground_nodes]),
+        ("no_fly_zones", [z.name for z in model.no_fly_zones]),
+    ):
         seen: set[str] = set()
-        for i, item in enumerate(items):
-            if item.name in seen:
-                raise InputError(f"{source}: {field}[{i}] ({item.name}): duplicate name")
-            seen.add(item.name)
+        for i, name in enumerate(names):
+            if name in seen:
+                raise InputError(f"{source}: {field}[{i}] ({name}): duplicate name")
+            seen.add(name)
     for i in range(len(radius)):
         for j in range(i + 1, len(radius)):
             if np.linalg.norm(nfz_xy[i] - nfz_xy[j]) < radius[i] + radius[j]:
@@ -310,12 +311,17 @@ def load_site(path: str | Path) -> Site:
 
 def site_to_dict(site: Site) -> dict[str, Any]:
     """A site file mapping (local x/y points) that :func:`parse_site` reads back to ``site``."""
+
     def dbm(w: float) -> float:
         return float(10.0 * np.log10(w) + 30.0)
 
     return {
         "name": site.name,
-        "origin": {"lat": site.frame.lat0_deg, "lon": site.frame.lon0_deg, "alt": site.frame.alt0_m},
+        "origin": {
+            "lat": site.frame.lat0_deg,
+            "lon": site.frame.lon0_deg,
+            "alt": site.frame.alt0_m,
+        },
         "home": {"x": float(site.home_xy_m[0]), "y": float(site.home_xy_m[1])},
         "uav": {
             "altitude": site.altitude_m,
@@ -332,11 +338,12 @@ def site_to_dict(site: Site) -> dict[str, Any]:
             "noise_dbm": dbm(site.noise_w),
         },
         "ground_nodes": [
-            {"name": n, "x": float(x), "y": float(y)} for n, (x, y) in zip(site.gn_names, site.gn_xy_m)
+            {"name": n, "x": float(x), "y": float(y)}
+            for n, (x, y) in zip(site.gn_names, site.gn_xy_m, strict=True)
         ],
         "no_fly_zones": [
             {"name": n, "x": float(x), "y": float(y), "radius": float(r)}
-            for n, (x, y), r in zip(site.nfz_names, site.nfz_xy_m, site.nfz_radius_m)
+            for n, (x, y), r in zip(site.nfz_names, site.nfz_xy_m, site.nfz_radius_m, strict=True)
         ],
         "safety": {"buffer_m": site.buffer_m},
     }

@@ -33,8 +33,12 @@ def average_rates(
     for k in range(site.num_gns):
         served = schedule == k
         se = spectral_efficiency(
-            trajectory_m[1:][served], site.gn_xy_m[k], site.altitude_m, power_w[served],
-            site.beta0, site.noise_w,
+            trajectory_m[1:][served],
+            site.gn_xy_m[k],
+            site.altitude_m,
+            power_w[served],
+            site.beta0,
+            site.noise_w,
         )
         rates[k] = float(np.sum(delta_s[served] * se)) / site.period_s
     return rates
@@ -57,7 +61,9 @@ class Solution:
 
     @property
     def rates_bps_hz(self) -> NDArray[np.float64]:
-        return average_rates(self.site, self.trajectory_m, self.delta_s, self.power_w, self.schedule)
+        return average_rates(
+            self.site, self.trajectory_m, self.delta_s, self.power_w, self.schedule
+        )
 
     @property
     def min_rate_bps_hz(self) -> float:
@@ -83,7 +89,9 @@ class Solution:
         rates = self.rates_bps_hz
         clearance = self.nfz_clearance_min_m
         exp_r = (
-            expanded_radius(site.planning_radius_m[None, :], (site.max_speed_mps * self.delta_s)[:, None])
+            expanded_radius(
+                site.planning_radius_m[None, :], (site.max_speed_mps * self.delta_s)[:, None]
+            )
             if site.num_nfzs
             else np.zeros((0, 0))
         )
@@ -91,7 +99,7 @@ class Solution:
             "site": site.name,
             "scheme": self.scheme,
             "min_rate_bps_hz": float(np.min(rates)),
-            "rates_bps_hz": {n: float(r) for n, r in zip(site.gn_names, rates)},
+            "rates_bps_hz": {n: float(r) for n, r in zip(site.gn_names, rates, strict=True)},
             "hover_upper_bound_bps_hz": hover_upper_bound(
                 site.num_gns, site.altitude_m, site.p_avg_w, site.beta0, site.noise_w
             ),

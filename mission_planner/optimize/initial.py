@@ -1,0 +1,190 @@
+"""A feasible starting point for Algorithm 1 (the paper gives none).
+
+A closed tour through the GNs (shortest visiting order), bent around every NFZ, with a few
+hovering slots at each GN and the rest spread evenly along the tour, slot lengths T/N. Every
+point keeps outside the expanded radius √(R² + (V T/(2N))²), so the start satisfies the
+proposed constraint (6) — and with it the point-only constraint (5) — and every SCA step from it
+stays feasible. When the tour is too long to fly in T, it is shrunk towards a safe hub near the
+GNs; the last resort is hovering at the hub.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mission_planner.optimize.scaled import Scaled
+from validator.geometry import expanded_radius, segment_point_distance
+
+DETOUR_STEP_RAD = np.deg2rad(10.0)
+CLEAR_FACTOR = 1.08  # how far outside the expanded radius the tour is laid
+
+
+def visiting_order(points: NDArray[np.float64]) -> list[int]:
+    """Shortest closed visiting order: exact up to 8 points, else nearest neighbour + 2-opt."""
+    k = len(points)
+    dist = np.linalg.norm(points[:, None] - points[None, :], axis=-1)
+
+    def length(order: list[int]) -> float:
+        return float(sum(dist[order[i - 1], order[i]] for i in range(len(order))))
+
+    if k <= 8:
+        best = min(([0, *p] for p in itertools.permutations(range(1, k))), key=length)
+        return list(best)
+    order = [0]
+    while len(order) < k:
+        rest = [j for j in range(k) if j not in order]
+        order.append(min(rest, key=lambda j: dist[order[-1], j]))
+    improved = True
+    while improved:
+        improved = False
+        for i in range(1, k - 1):
+            for j in range(i + 1, k):
+                cand = order[:i] + order[i : j + 1][::-1] + order[j + 1 :]
+                if length(cand) < length(order) - 1e-12:
+                    order, improved = cand, True
+    return order
+
+
+def _push_out(
+    p: NDArray[np.float64], centres: NDArray[np.float64], radii: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Move a point radially out of every circle it lies in (a few passes for neighbours)."""
+    p = p.copy()
+    for _ in range(4):
+        moved = False
+        for c, r in zip(centres, radii, strict=True):
+            v = p - c
+            d = float(np.hypot(*v))
+            if d < r:
+                u = v / d if d > 1e-12 else np.array([1.0, 0.0])
+                p, moved = c + u * r * (1 + 1e-6), True
+        if not moved:
+            break
+    return p
+
+
+def _detour(
+    a: NDArray[np.float64], b: NDArray[np.float64], c: NDArray[np.float64], r: float
+) -> list[NDArray[np.float64]]:
+    """Points on an arc around circle (c, r) that replace a chord a→b cutting through it."""
+    ang_a = np.arctan2(*(a - c)[::-1])
+    ang_b = np.arctan2(*(b - c)[::-1])
+    sweep = (ang_b - ang_a + np.pi) % (2 * np.pi) - np.pi  # shorter way round
+    steps = max(int(np.ceil(abs(sweep) / DETOUR_STEP_RAD)), 1)
+    radius = r / np.cos(abs(sweep) / steps / 2)  # chords between arc points stay outside r
+    return [
+        c + radius * np.array([np.cos(t), np.sin(t)])
+        for t in ang_a + sweep * np.arange(1, steps) / steps
+    ]
+
+
+def _bend(
+    loop: list[NDArray[np.float64]], centres: NDArray[np.float64], radii: NDArray[np.float64]
+) -> list[NDArray[np.float64]]:
+    """Closed polyline with every leg that cuts a circle replaced by an arc around it."""
+    for _ in range(3 * len(radii) + 1):
+        out: list[NDArray[np.float64]] = []
+        changed = False
+        for i, a in enumerate(loop):
+            b = loop[(i + 1) % len(loop)]
+            out.append(a)
+            d = segment_point_distance(a, b, centres) - radii
+            if np.any(d < -1e-9):
+                m = int(np.argmin(d))
+                out.extend(_detour(a, b, centres[m], radii[m]))
+                changed = True
+        loop = out
+        if not changed:
+            break
+    return loop
+
+
+def _resample(loop: list[NDArray[np.float64]], count: int) -> NDArray[np.float64]:
+    """``count`` points evenly spaced by arc length along a closed polyline, from loop[0]."""
+    pts = np.array([*loop, loop[0]])
+    seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    cum = np.r_[0.0, np.cumsum(seg)]
+    targets = np.arange(count) * cum[-1] / count
+    x = np.interp(targets, cum, pts[:, 0])
+    y = np.interp(targets, cum, pts[:, 1])
+    return np.stack([x, y], axis=1)
+
+
+def _hub(sc: Scaled, radii: NDArray[np.float64]) -> NDArray[np.float64]:
+    """A point outside every circle, as close as possible to the GNs' centroid."""
+    centre = sc.gn.mean(axis=0)
+    for ring in range(0, 400):
+        cands = (
+            [centre]
+            if ring == 0
+            else [
+                centre + ring * 0.05 * np.array([np.cos(t), np.sin(t)])
+                for t in np.linspace(0, 2 * np.pi, 16, endpoint=False)
+            ]
+        )
+        for p in cands:
+            if np.all(np.linalg.norm(sc.nfz - p, axis=1) >= radii):
+                return np.asarray(p, dtype=float)
+    raise RuntimeError("no point outside the no-fly zones near the ground nodes")
+
+
+def _feasible(sc: Scaled, q: NDArray[np.float64], delta: float, radii: NDArray[np.float64]) -> bool:
+    legs = np.linalg.norm(q - np.roll(q, 1, axis=0), axis=1)
+    if np.any(legs > sc.speed * delta * (1 - 1e-9)):
+        return False
+    if sc.num_nfzs == 0:
+        return True
+    d = np.linalg.norm(q[:, None, :] - sc.nfz[None, :, :], axis=-1)
+    return bool(np.all(d >= radii[None, :]))
+
+
+def initial_tour(sc: Scaled) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Positions of slots 1..N (N, 2) and slot lengths δ̃ (N,) satisfying (1)–(6)."""
+    n = sc.num_slots
+    delta = np.ones(n)
+    r_exp = expanded_radius(sc.radius, sc.speed) if sc.num_nfzs else np.zeros(0)
+    lay = r_exp * CLEAR_FACTOR
+    hub = _hub(sc, lay)
+    order = visiting_order(sc.gn) if sc.num_gns > 1 else [0]
+    for shrink in (1.0, 0.75, 0.5, 0.3, 0.15):
+        stops = [_push_out(hub + shrink * (sc.gn[j] - hub), sc.nfz, lay) for j in order]
+        loop = _bend(stops, sc.nfz, lay) if sc.num_nfzs else stops
+        pts = np.array([*loop, loop[0]])
+        length = float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
+        travel = int(np.ceil(1.15 * length / sc.speed)) if length > 0 else 0
+        if travel > n:
+            continue
+        hover = n - travel
+        per_stop = np.full(len(stops), hover // len(stops))
+        per_stop[: hover % len(stops)] += 1
+        q = _build(loop, stops, travel, per_stop)
+        q = np.array([_push_out(p, sc.nfz, r_exp * 1.001) for p in q]) if sc.num_nfzs else q
+        if _feasible(sc, q, 1.0, r_exp):
+            return q, delta
+    return np.tile(hub, (n, 1)), delta
+
+
+def _build(
+    loop: list[NDArray[np.float64]],
+    stops: list[NDArray[np.float64]],
+    travel: int,
+    per_stop: NDArray[np.int64],
+) -> NDArray[np.float64]:
+    """Travel points evenly along the loop, with ``per_stop[i]`` extra copies at each stop."""
+    moving = _resample(loop, travel) if travel else np.zeros((0, 2))
+    out: list[NDArray[np.float64]] = []
+    # Give each stop's hover copies to the travel point nearest it.
+    nearest = [int(np.argmin(np.linalg.norm(moving - s, axis=1))) if travel else -1 for s in stops]
+    for i in range(travel):
+        out.append(moving[i])
+        for j, idx in enumerate(nearest):
+            if idx == i:
+                out.extend([moving[i]] * int(per_stop[j]))
+    if not travel:
+        for j, s in enumerate(stops):
+            out.extend([s] * int(per_stop[j]))
+    # Rotate so the cycle starts right after the first GN's hover.
+    return np.roll(np.array(out), -1, axis=0)

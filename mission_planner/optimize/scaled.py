@@ -1,0 +1,93 @@
+"""The site's numbers in the units the solver sees: all O(1).
+
+Lengths are in units of ``LENGTH_UNIT_M`` (100 m), slot lengths in units of T/N (mean 1), power
+in units of P_avg. σ² cancels from the rate: with d̃ = d / 100 m and p̃ = p / P_avg,
+
+    log2(1 + β0 p / (σ² d²)) = log2(1 + ρ p̃ / d̃²),   ρ = β0 P_avg / (σ² (100 m)²).
+
+The paper's γ1 = γ2 = 100 are shifted by the constant that normalisation moves out of each
+logarithm, so the quadratic-transform surrogate is exactly the paper's (see ``gamma1``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from validator.site import Site
+
+LENGTH_UNIT_M = 100.0
+
+
+@dataclass(frozen=True)
+class Scaled:
+    """A site in solver units. ``radius`` already includes buffer and planning margin."""
+
+    num_slots: int  # N
+    num_gns: int  # K
+    num_nfzs: int  # M
+    gn: NDArray[np.float64]  # (K, 2)
+    nfz: NDArray[np.float64]  # (M, 2)
+    radius: NDArray[np.float64]  # (M,)
+    height: float  # H̃
+    speed: float  # Ṽ: distance per unit slot length at top speed
+    rho: float  # β0 P_avg / (σ² L0²)
+    peak: float  # P_peak / P_avg
+    gamma1: float
+    gamma2: float
+    period_s: float
+
+    @property
+    def slot_s(self) -> float:
+        """Seconds per unit slot length (T/N)."""
+        return self.period_s / self.num_slots
+
+
+def scale_site(site: Site, margin_m: float, gamma: float = 100.0) -> Scaled:
+    """Scale ``site``; NFZ radii become radius + buffer + ``margin_m``."""
+    n = site.slots
+    slot_s = site.period_s / n
+    # log2(σ² A_SI + β0 p) = log2(Ã + ρ p̃) + log2(σ² L0²); log2(B_SI/σ²) = log2 B̃ − log2(σ² L0²).
+    shift = float(np.log2(site.noise_w * LENGTH_UNIT_M**2))
+    return Scaled(
+        num_slots=n,
+        num_gns=site.num_gns,
+        num_nfzs=site.num_nfzs,
+        gn=site.gn_xy_m / LENGTH_UNIT_M,
+        nfz=site.nfz_xy_m.reshape(-1, 2) / LENGTH_UNIT_M,
+        radius=(site.planning_radius_m + margin_m) / LENGTH_UNIT_M,
+        height=site.altitude_m / LENGTH_UNIT_M,
+        speed=site.max_speed_mps * slot_s / LENGTH_UNIT_M,
+        rho=site.beta0 * site.p_avg_w / (site.noise_w * LENGTH_UNIT_M**2),
+        peak=site.p_peak_w / site.p_avg_w,
+        gamma1=gamma + shift,
+        gamma2=gamma - shift,
+        period_s=site.period_s,
+    )
+
+
+def distance_sq(sc: Scaled, q: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(K, N) squared 3-D distance d̃² from slot positions ``q`` (N, 2) to every GN."""
+    diff = q[None, :, :] - sc.gn[:, None, :]
+    return np.asarray(np.sum(diff * diff, axis=-1) + sc.height**2, dtype=float)
+
+
+def slot_rates(
+    sc: Scaled, q: NDArray[np.float64], delta: NDArray[np.float64], power: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """(K, N) exact rate terms δ̃ log2(1 + ρ p̃ / d̃²) / N, so that rates = Σ_n s ∘ terms."""
+    snr = sc.rho * power[None, :] / distance_sq(sc, q)
+    return np.asarray(delta[None, :] * np.log2(1.0 + snr) / sc.num_slots, dtype=float)
+
+
+def min_rate(
+    sc: Scaled,
+    q: NDArray[np.float64],
+    delta: NDArray[np.float64],
+    power: NDArray[np.float64],
+    s: NDArray[np.float64],
+) -> float:
+    """Exact objective of (P0) for a (possibly relaxed) schedule ``s`` (K, N), bps/Hz."""
+    return float(np.min(np.sum(s * slot_rates(sc, q, delta, power), axis=1)))

@@ -1,0 +1,55 @@
+"""(P1-2): relaxed scheduling with the penalty convex-concave procedure (paper §III-A).
+
+    max  r_min − η_w Σ φ_k[n]
+    s.t. Σ_k s_k[n] ≤ 1,  0 ≤ s ≤ 1,  Σ_n s_k[n] R_k[n] ≥ r_min,
+         s (1 − 2 s^r) + (s^r)² ≤ φ,  φ ≥ 0
+
+R_k[n] = δ[n] log2(1 + h_k[n] p[n] / σ²) / T are the exact rate terms at the current point.
+The paper's penalty weight is η; the default weighs it against T·r_min, i.e. η_w = η / T,
+because a rate in bps/Hz is too small for η¹ = 1 to leave the schedule free to move.
+"""
+
+from __future__ import annotations
+
+import cvxpy as cp
+import numpy as np
+from numpy.typing import NDArray
+
+
+class SchedulingProblem:
+    """(P1-2) for K GNs and N slots, built once; :meth:`solve` re-solves with new values."""
+
+    def __init__(self, num_gns: int, num_slots: int) -> None:
+        k, n = num_gns, num_slots
+        self.s = cp.Variable((k, n), nonneg=True)
+        self.phi = cp.Variable((k, n), nonneg=True)
+        self.r_min = cp.Variable()
+        self.rates = cp.Parameter((k, n), nonneg=True)
+        self.lin = cp.Parameter((k, n))  # 1 − 2 s^r
+        self.const = cp.Parameter((k, n), nonneg=True)  # (s^r)²
+        self.eta = cp.Parameter(nonneg=True)
+        constraints = [
+            cp.sum(self.s, axis=0) <= 1,
+            self.s <= 1,
+            cp.sum(cp.multiply(self.rates, self.s), axis=1) >= self.r_min,
+            cp.multiply(self.s, self.lin) + self.const <= self.phi,
+        ]
+        objective = cp.Maximize(self.r_min - self.eta * cp.sum(self.phi))
+        self.problem = cp.Problem(objective, constraints)
+        assert self.problem.is_dpp()
+
+    def solve(
+        self, rates: NDArray[np.float64], s_prev: NDArray[np.float64], eta_weight: float
+    ) -> NDArray[np.float64] | None:
+        """New relaxed schedule (K, N), or None when the solver fails."""
+        self.rates.value = np.maximum(rates, 0.0)
+        self.lin.value = 1.0 - 2.0 * s_prev
+        self.const.value = s_prev**2
+        self.eta.value = eta_weight
+        try:
+            self.problem.solve(solver=cp.CLARABEL)
+        except cp.SolverError:
+            return None
+        if self.s.value is None or self.problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
+            return None
+        return np.asarray(np.clip(self.s.value, 0.0, 1.0), dtype=float)
