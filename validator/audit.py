@@ -1,0 +1,327 @@
+"""Exact pre-flight checks of a mission's straight legs and geofence against a site.
+
+:func:`audit` proves (or refutes) continuous-path clearance: for every straight leg the vehicle
+flies (as resolved by :func:`~validator.flight.resolve_flight`: takeoff, waypoints, DO_JUMP
+repeats, RTL as a straight line home, LAND) it computes the exact minimum distance to every
+no-fly zone, and checks the geofence: each NFZ inside an exclusion fence at least as large, no
+leg entering an exclusion fence or leaving the inclusion fences, home, rally and breach-return
+points outside exclusions and inside inclusions. It also checks commanded speeds against the
+site's V, altitudes against its H, and lists what the flight model could not resolve.
+
+Clearances are metres from the NFZ boundary as published (negative = inside); the site's
+safety buffer is reported but only its breach of the published radius is a violation. A
+tolerance of :data:`CLEARANCE_TOLERANCE_M` absorbs MAVLink's 1e-7° coordinate rounding.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import shapely
+from numpy.typing import NDArray
+
+from validator.dynamics import ideal_leg_times, make_profile
+from validator.flight import Finding, Flight, resolve_flight
+from validator.geometry import leg_clearances, segment_point_closest_fraction
+from validator.plan_format import Autopilot, Cmd, Plan
+from validator.site import Site
+
+CLEARANCE_TOLERANCE_M = 0.01  # MAVLink's int32 1e-7° coordinates move a point up to ~0.6 cm
+ALTITUDE_TOLERANCE_M = 0.5
+HOME_MISMATCH_M = 1.0
+
+
+@dataclass(frozen=True)
+class NfzClosest:
+    """Where the planned legs come closest to one NFZ."""
+
+    name: str
+    clearance_m: float  # from the published radius; negative = inside
+    leg: int  # index into Flight.legs
+    from_item: int  # -1: from home
+    item: int
+    t_s: float  # mission time at the commanded speeds (ideal timing)
+    xy_m: tuple[float, float]
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"nfz": self.name, "clearance_m": self.clearance_m, "leg": self.leg,
+                "from_item": self.from_item, "item": self.item, "t_s": self.t_s,
+                "xy_m": list(self.xy_m)}
+
+
+@dataclass(frozen=True)
+class AuditReport:
+    """The audit's results. ``leg_clearance_m`` is (legs, NFZs); ``findings`` include the
+    flight resolution's findings."""
+
+    flight: Flight
+    nfz_names: tuple[str, ...]
+    leg_clearance_m: NDArray[np.float64]
+    nfz: tuple[NfzClosest, ...]
+    findings: tuple[Finding, ...]
+
+    @property
+    def violations(self) -> list[Finding]:
+        return [f for f in self.findings if f.severity == "violation"]
+
+    @property
+    def ok(self) -> bool:
+        return not self.violations
+
+    def unique_legs(self) -> list[dict[str, Any]]:
+        """Legs by (from item, to item), repeated legs (DO_JUMP) counted once."""
+        seen: dict[tuple[int, int, str], dict[str, Any]] = {}
+        for k, leg in enumerate(self.flight.legs):
+            key = (_from_item(self.flight, k), leg.item, leg.kind)
+            if key in seen:
+                seen[key]["count"] += 1
+                continue
+            seen[key] = {
+                "leg": k, "from_item": key[0], "item": leg.item, "kind": leg.kind,
+                "length_m": leg.length_m, "speed_mps": leg.speed_mps, "hold_s": leg.hold_s,
+                "clearance_m": {n: float(c) for n, c in zip(self.nfz_names,
+                                                            self.leg_clearance_m[k], strict=True)},
+                "count": 1,
+            }
+        return list(seen.values())
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "ok": self.ok,
+            "legs": self.unique_legs(),
+            "nfz": [n.as_dict() for n in self.nfz],
+            "findings": [f.as_dict() for f in self.findings],
+            "cycle": None if self.flight.cycle is None else {
+                "source": self.flight.cycle.source, "cycles": self.flight.cycle.cycles,
+                "first_leg": self.flight.cycle.start_leg, "last_leg": self.flight.cycle.end_leg,
+            },
+        }
+
+
+def _from_item(flight: Flight, k: int) -> int:
+    return flight.legs[k - 1].item if k > 0 else -1
+
+
+def _leg_name(flight: Flight, k: int) -> str:
+    leg = flight.legs[k]
+    src = _from_item(flight, k)
+    origin = "home" if src < 0 else f"item {src}"
+    return f"leg {origin} -> item {leg.item} ({leg.kind})"
+
+
+def _fence_geometry(
+    plan: Plan, site: Site
+) -> tuple[list[tuple[NDArray[np.float64], float, bool]], list[tuple[shapely.Polygon, bool]]]:
+    circles = [
+        (np.asarray(site.frame.to_local(c.lat_deg, c.lon_deg), dtype=float), c.radius_m,
+         c.inclusion)
+        for c in plan.circles
+    ]
+    polygons = []
+    for p in plan.polygons:
+        lat = np.array([v[0] for v in p.vertices_deg])
+        lon = np.array([v[1] for v in p.vertices_deg])
+        polygons.append((shapely.Polygon(site.frame.to_local(lat, lon)), p.inclusion))
+    return circles, polygons
+
+
+def _check_legs(
+    flight: Flight, site: Site, clr: NDArray[np.float64], tol: float
+) -> list[Finding]:
+    out: list[Finding] = []
+    reported: set[tuple[int, int, int]] = set()
+    rows, cols = np.nonzero(clr < site.buffer_m - tol)
+    for k, m in zip(rows.tolist(), cols.tolist(), strict=True):
+        leg = flight.legs[k]
+        key = (_from_item(flight, k), leg.item, int(m))
+        if key in reported:
+            continue
+        reported.add(key)
+        name = site.nfz_names[m]
+        c = float(clr[k, m])
+        if c < -tol:
+            out.append(Finding("violation", f"{_leg_name(flight, k)} enters {name} by "
+                               f"{-c:.2f} m", leg.item))
+        elif site.buffer_m > 0:
+            out.append(Finding("warning", f"{_leg_name(flight, k)} passes {c:.2f} m from "
+                               f"{name}, inside its {site.buffer_m:g} m safety buffer",
+                               leg.item))
+    return out
+
+
+def _check_fence(plan: Plan, flight: Flight, site: Site, tol: float) -> list[Finding]:
+    out: list[Finding] = []
+    circles, polygons = _fence_geometry(plan, site)
+    excl_c = [(c, r) for c, r, inc in circles if not inc]
+    incl_c = [(c, r) for c, r, inc in circles if inc]
+    excl_p = [p for p, inc in polygons if not inc]
+    incl_p = [p for p, inc in polygons if inc]
+    # every NFZ inside an exclusion fence at least as large
+    for m, name in enumerate(site.nfz_names):
+        centre, radius = site.nfz_xy_m[m], float(site.nfz_radius_m[m])
+        covered = any(
+            float(np.hypot(*(c - centre))) + radius <= r + tol for c, r in excl_c
+        ) or any(
+            p.buffer(tol).contains(shapely.Point(centre).buffer(radius, quad_segs=32))
+            for p in excl_p
+        )
+        if not covered:
+            if excl_c:
+                gap = min(float(np.hypot(*(c - centre))) + radius - r for c, r in excl_c)
+                detail = f" (the closest exclusion circle misses it by {gap:.2f} m)"
+            else:
+                detail = " (the plan has no exclusion fence)"
+            out.append(Finding("violation", f"{name} is not inside an exclusion fence at least "
+                               f"as large{detail}", None))
+    # legs against the fences
+    path = flight.path_xy_m
+    if flight.legs and excl_c:
+        fc = np.array([c for c, _ in excl_c])
+        fr = np.array([r for _, r in excl_c])
+        fclr = leg_clearances(path, fc, fr)
+        for j in range(fc.shape[0]):
+            bad = np.flatnonzero(fclr[:, j] < -tol)
+            if bad.size:
+                k = int(bad[0])
+                out.append(Finding("violation", f"{_leg_name(flight, k)} enters exclusion fence "
+                                   f"circle {j} by {-fclr[k, j]:.2f} m", flight.legs[k].item))
+    segments = [shapely.LineString([a, b]) if np.hypot(*(b - a)) > 0 else shapely.Point(a)
+                for a, b in zip(path[:-1], path[1:], strict=True)] if flight.legs else []
+    for j, poly in enumerate(excl_p):
+        inner = poly.buffer(-tol)
+        for k, seg in enumerate(segments):
+            if seg.intersects(inner):
+                out.append(Finding("violation", f"{_leg_name(flight, k)} enters exclusion fence "
+                                   f"polygon {j}", flight.legs[k].item))
+                break
+    all_inclusions = flight.firmware_type == Autopilot.ARDUPILOTMEGA
+    if incl_c or incl_p:
+        regions = [shapely.Point(c).buffer(r + tol, quad_segs=64) for c, r in incl_c]
+        regions += [p.buffer(tol) for p in incl_p]
+        for k, seg in enumerate(segments):
+            inside = [reg.contains(seg) for reg in regions]
+            if not (all(inside) if all_inclusions else any(inside)):
+                rule = "every inclusion fence" if all_inclusions else "an inclusion fence"
+                out.append(Finding("violation", f"{_leg_name(flight, k)} leaves {rule}",
+                                   flight.legs[k].item))
+                break
+    # home, rally and breach return
+    points: list[tuple[str, NDArray[np.float64]]] = [("home", flight.home_xy_m)]
+    points += [(f"rally point {i}", np.asarray(site.frame.to_local(lat, lon), dtype=float))
+               for i, (lat, lon, _) in enumerate(plan.rally)]
+    if plan.breach_return is not None:
+        lat, lon, _ = plan.breach_return
+        points.append(("breach return point", np.asarray(site.frame.to_local(lat, lon))))
+    for label, xy in points:
+        pt = shapely.Point(xy)
+        for m, name in enumerate(site.nfz_names):
+            if np.hypot(*(xy - site.nfz_xy_m[m])) < site.nfz_radius_m[m] - tol:
+                out.append(Finding("violation", f"{label} lies inside {name}", None))
+        for j, (c, r) in enumerate(excl_c):
+            if np.hypot(*(xy - c)) < r - tol:
+                out.append(Finding("violation", f"{label} lies inside exclusion fence circle {j}",
+                                   None))
+        for j, poly in enumerate(excl_p):
+            if poly.buffer(-tol).contains(pt):
+                out.append(Finding("violation", f"{label} lies inside exclusion fence polygon "
+                                   f"{j}", None))
+        inside = [float(np.hypot(*(xy - c))) <= r + tol for c, r in incl_c]
+        inside += [p.buffer(tol).contains(pt) for p in incl_p]
+        if inside and not (all(inside) if all_inclusions else any(inside)):
+            out.append(Finding("violation", f"{label} lies outside the inclusion fence", None))
+    return out
+
+
+def _check_items(plan: Plan, flight: Flight, site: Site) -> list[Finding]:
+    out: list[Finding] = []
+    v_max = site.max_speed_mps
+    for i, it in enumerate(plan.items):
+        if it.command == Cmd.DO_CHANGE_SPEED:
+            kind, speed = it.params[0], it.params[1]
+            if kind not in (2, 3) and not math.isnan(speed) and speed > v_max * (1 + 1e-6):
+                out.append(Finding("violation", f"DO_CHANGE_SPEED to {speed:g} m/s exceeds the "
+                                   f"site's V = {v_max:g} m/s", i))
+        if (
+            flight.is_ardupilot
+            and it.command in (Cmd.NAV_WAYPOINT, Cmd.NAV_LOITER_TIME)
+            and not math.isnan(it.params[0])
+            and it.params[0] != math.floor(it.params[0])
+        ):
+            out.append(Finding("warning", f"hold {it.params[0]:g} s: ArduCopter truncates it to "
+                               f"{math.floor(it.params[0]):g} s", i))
+    default_speed = [leg.item for leg in flight.legs
+                     if leg.kind == "waypoint" and leg.length_m > 0 and leg.speed_mps is None]
+    if default_speed:
+        out.append(Finding("note", f"{len(default_speed)} leg(s) fly at the autopilot's default "
+                           "speed (WPNAV_SPEED / MPC_XY_CRUISE): no DO_CHANGE_SPEED before them",
+                           default_speed[0]))
+    seen: set[int] = set()
+    for leg in flight.legs:
+        if leg.kind in ("waypoint", "loiter") and leg.item not in seen:
+            seen.add(leg.item)
+            if leg.end_alt_m <= 0:
+                out.append(Finding("violation", f"flies at {leg.end_alt_m:g} m above home",
+                                   leg.item))
+            elif abs(leg.end_alt_m - site.altitude_m) > ALTITUDE_TOLERANCE_M:
+                out.append(Finding("warning", f"altitude {leg.end_alt_m:g} m differs from the "
+                                   f"site's H = {site.altitude_m:g} m (the rate model assumes H)",
+                                   leg.item))
+    gap = float(np.hypot(*(flight.home_xy_m - site.home_xy_m)))
+    if gap > HOME_MISMATCH_M:
+        out.append(Finding("note", f"the plan's home is {gap:.1f} m from the site's home", None))
+    return out
+
+
+def _closest(
+    flight: Flight, site: Site, clr: NDArray[np.float64]
+) -> tuple[NfzClosest, ...]:
+    if not flight.legs or site.num_nfzs == 0:
+        return ()
+    start, reached, _ = ideal_leg_times(flight, make_profile("ideal", site))
+    out = []
+    for m, name in enumerate(site.nfz_names):
+        k = int(np.argmin(clr[:, m]))
+        leg = flight.legs[k]
+        f = float(segment_point_closest_fraction(leg.start_xy_m, leg.end_xy_m, site.nfz_xy_m[m]))
+        xy = leg.start_xy_m + f * (leg.end_xy_m - leg.start_xy_m)
+        t = float(start[k] + f * (reached[k] - start[k]))
+        out.append(NfzClosest(name, float(clr[k, m]), k, _from_item(flight, k), leg.item, t,
+                              (float(xy[0]), float(xy[1]))))
+    return tuple(out)
+
+
+def audit(
+    plan: Plan,
+    site: Site,
+    flight: Flight | None = None,
+    *,
+    tolerance_m: float = CLEARANCE_TOLERANCE_M,
+    source: str = "plan",
+) -> AuditReport:
+    """Check ``plan`` against ``site`` exactly (see the module docstring).
+
+    ``flight`` is the resolved plan (resolved here when not given). Raises
+    :class:`~validator.errors.InputError` for missions that cannot be resolved.
+    """
+    if flight is None:
+        flight = resolve_flight(plan, site, source)
+    if flight.legs and site.num_nfzs:
+        clr = leg_clearances(flight.path_xy_m, site.nfz_xy_m, site.nfz_radius_m)
+        loiter = np.array([leg.loiter_radius_m for leg in flight.legs])
+        if np.any(loiter > 0):
+            ends = flight.path_xy_m[1:]
+            circle = (np.linalg.norm(ends[:, None, :] - site.nfz_xy_m[None], axis=2)
+                      - loiter[:, None] - site.nfz_radius_m[None, :])
+            clr = np.minimum(clr, np.where(loiter[:, None] > 0, circle, np.inf))
+    else:
+        clr = np.zeros((len(flight.legs), site.num_nfzs))
+    findings = list(flight.findings)
+    findings += _check_legs(flight, site, clr, tolerance_m)
+    findings += _check_fence(plan, flight, site, tolerance_m)
+    findings += _check_items(plan, flight, site)
+    order = {"violation": 0, "warning": 1, "note": 2}
+    findings.sort(key=lambda f: (order[f.severity], -1 if f.item is None else f.item))
+    return AuditReport(flight, site.nfz_names, clr, _closest(flight, site, clr), tuple(findings))

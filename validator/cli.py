@@ -1,0 +1,286 @@
+"""``validate-mission``: audit a ``.plan`` against a site, optionally replay it in time.
+
+    validate-mission PLAN --site SITE [--json OUT] [--replay] [--profile ideal|arducopter|px4]
+                     [--param NAME=VALUE ...] [--dt SECONDS]
+
+Prints a table; ``--json OUT`` also writes the full report atomically. Exit status: 0 clear,
+1 a violation (audit or replay), 2 bad input (one line on stderr, no output file).
+``--profile`` or ``--param`` imply ``--replay``; the default profile follows the plan's
+firmware (PX4 -> ``px4``, otherwise ``arducopter``).
+
+Everything here is a thin wrapper over :func:`validate_mission`, which notebooks can call.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from validator.audit import AuditReport, audit
+from validator.dynamics import PROFILES, Profile, make_profile, parse_param_overrides
+from validator.errors import InputError
+from validator.fileio import write_atomic
+from validator.flight import Finding, Flight, resolve_flight
+from validator.plan_format import Autopilot, Plan, read_plan
+from validator.replay import TrackReport, replay, score_track
+from validator.site import Site, load_site
+
+KEY_PARAMS = {  # shown in the table; the JSON report lists every parameter
+    "ideal": ("SPEED", "VEHICLE_SPEED_MAX"),
+    "arducopter": ("WPNAV_SPEED", "WPNAV_ACCEL", "WPNAV_JERK", "WPNAV_RADIUS", "VEHICLE_SPEED_MAX"),
+    "px4": ("MPC_XY_CRUISE", "MPC_ACC_HOR", "MPC_JERK_AUTO", "NAV_ACC_RAD", "VEHICLE_SPEED_MAX"),
+}
+
+
+@dataclass
+class Validation:
+    """Everything ``validate-mission`` found about one plan on one site.
+
+    ``replay`` is the modelled flight's report (None without ``--replay``); ``sitl`` is the
+    place for a report of a flight flown by a (SITL) vehicle, scored with
+    :func:`~validator.replay.score_track` exactly like the replay.
+    """
+
+    plan_path: str
+    site_path: str
+    plan: Plan
+    site: Site
+    flight: Flight
+    audit: AuditReport
+    profile: Profile | None = None
+    dt_s: float = 0.05
+    replay: TrackReport | None = None
+    sitl: TrackReport | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def violations(self) -> list[Finding]:
+        out = list(self.audit.violations)
+        for rep in (self.replay, self.sitl):
+            if rep is not None:
+                out += rep.violations
+        return out
+
+    @property
+    def exit_status(self) -> int:
+        return 1 if self.violations else 0
+
+    def as_dict(self) -> dict[str, Any]:
+        def track(rep: TrackReport | None) -> dict[str, Any] | None:
+            if rep is None:
+                return None
+            d = rep.as_dict()
+            if rep is self.replay and self.profile is not None:
+                d = {"profile": self.profile.name, "params": dict(self.profile.params),
+                     "dt_s": self.dt_s, **d}
+            return d
+
+        return _json_safe({
+            "plan": self.plan_path,
+            "site": self.site_path,
+            "result": "violation" if self.violations else "clear",
+            "exit_status": self.exit_status,
+            "violations": [f.as_dict() for f in self.violations],
+            "audit": self.audit.as_dict(),
+            "replay": track(self.replay),
+            "sitl": track(self.sitl),
+            **self.extra,
+        })
+
+
+def _json_safe(obj: Any) -> Any:
+    """NaN and infinities become null (JSON has none)."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_json_safe(v) for v in obj]
+    return obj
+
+
+def default_profile_name(plan: Plan) -> str:
+    """The replay profile matching the plan's firmware: ``px4`` for PX4, else ``arducopter``."""
+    return "px4" if plan.firmware_type == Autopilot.PX4 else "arducopter"
+
+
+def validate_mission(
+    plan_path: str | Path,
+    site_path: str | Path,
+    *,
+    replay_flight: bool = False,
+    profile: str | None = None,
+    params: dict[str, float] | None = None,
+    dt_s: float = 0.05,
+) -> Validation:
+    """Audit ``plan_path`` against ``site_path`` and, with ``replay_flight``, replay it.
+
+    ``profile`` (default: by the plan's firmware) and ``params`` (autopilot names and units)
+    choose the flight model; the track is sampled every ``dt_s`` seconds. Raises
+    :class:`InputError` for bad input.
+    """
+    if not (dt_s > 0 and dt_s <= 0.05):
+        raise InputError(f"--dt: must be > 0 and <= 0.05 s (at least 20 Hz), got {dt_s}")
+    site = load_site(site_path)
+    plan = read_plan(plan_path)
+    flight = resolve_flight(plan, site, str(plan_path))
+    report = audit(plan, site, flight, source=str(plan_path))
+    v = Validation(str(plan_path), str(site_path), plan, site, flight, report, dt_s=dt_s)
+    if replay_flight or profile is not None or params:
+        prof = make_profile(profile or default_profile_name(plan), site, params)
+        v.profile = prof
+        if flight.legs:
+            track = replay(flight, prof, dt_s=dt_s)
+            v.replay = score_track(track, flight, site, plan)
+    return v
+
+
+# --------------------------------------------------------------------------------------------
+# the table
+
+
+def _fmt(x: float | None, spec: str = ".2f") -> str:
+    return "-" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, spec)
+
+
+def _track_lines(title: str, rep: TrackReport) -> list[str]:
+    lines = [title]
+    if rep.nfz:
+        lines.append(f"  {'NFZ':<10} {'flown clearance (m)':>20} {'t (s)':>9} {'item':>6}")
+        for p in rep.nfz:
+            lines.append(f"  {p.name:<10} {p.clearance_m:>20.2f} {p.t_s:>9.1f} {p.item:>6}")
+    c = rep.cycle
+    if c is not None:
+        per = ""
+        if len(c.flown_cycles_s) > 1:
+            per = " (" + ", ".join(f"{x:.1f}" for x in c.flown_cycles_s) + ")"
+        lines.append(
+            f"  cycle ({c.cycles} x, {c.source}): planned {c.planned_period_s:.1f} s, "
+            f"plan timing {c.ideal_cycle_s:.1f} s, flown {c.flown_cycle_s:.1f} s{per} "
+            f"= {c.ratio:.2f} x planned"
+        )
+    lags = [w for w in rep.waypoint_lag if w["lag_s"] is not None]
+    if lags:
+        worst = max(lags, key=lambda w: w["lag_s"])
+        lines.append(f"  lag behind the plan's timing: max {worst['lag_s']:.1f} s "
+                     f"(item {worst['item']}), at the last waypoint {lags[-1]['lag_s']:.1f} s")
+    lines.append(f"  cross-track deviation from the legs: max {rep.cross_track_max_m:.2f} m, "
+                 f"rms {rep.cross_track_rms_m:.2f} m; top speed {rep.speed_max_mps:.1f} m/s")
+    tp = rep.throughput
+    if tp is not None:
+        lines.append(f"  {'GN':<10} {'planned (bps/Hz)':>17} {'flown (bps/Hz)':>15} {'ratio':>7}")
+        for g, p, f in zip(tp.gn_names, tp.planned_bps_hz, tp.flown_bps_hz, strict=True):
+            lines.append(f"  {g:<10} {p:>17.4f} {f:>15.4f} {_fmt(f / p if p > 0 else None):>7}")
+        lines.append(f"  {'min':<10} {tp.planned_min:>17.4f} {tp.flown_min:>15.4f} "
+                     f"{_fmt(tp.flown_min / tp.planned_min if tp.planned_min > 0 else None):>7}")
+    return lines
+
+
+def format_report(v: Validation) -> str:
+    """The terminal table of a :class:`Validation`."""
+    flight, rep, site = v.flight, v.audit, v.site
+    kinds: dict[str, int] = {}
+    for leg in flight.legs:
+        kinds[leg.kind] = kinds.get(leg.kind, 0) + 1
+    legs = ", ".join(f"{n} {k}" for k, n in kinds.items())
+    lines = [
+        f"validate-mission: {v.plan_path} on site {site.name} ({v.site_path})",
+        f"  {len(v.plan.items)} items -> {len(flight.legs)} legs ({legs})",
+    ]
+    if flight.cycle is not None:
+        c = flight.cycle
+        lines.append(f"  service cycle: legs {c.start_leg}-{c.end_leg}, {c.cycles} cycle(s) "
+                     f"({c.source})")
+    lines += ["", f"Audit: exact clearance of every straight leg from each NFZ "
+              f"(m from the published radius; safety buffer {site.buffer_m:g} m)"]
+    if rep.nfz:
+        lines.append(f"  {'NFZ':<10} {'clearance (m)':>14} {'t (s)':>9}  leg")
+        for z in rep.nfz:
+            src = "home" if z.from_item < 0 else f"item {z.from_item}"
+            lines.append(f"  {z.name:<10} {z.clearance_m:>14.2f} {z.t_s:>9.1f}  "
+                         f"{src} -> item {z.item}")
+    else:
+        lines.append("  (the site has no NFZ)")
+    lines.append(f"  fence: {len(v.plan.circles)} circle(s), {len(v.plan.polygons)} polygon(s), "
+                 f"{len(v.plan.rally)} rally point(s)")
+    if v.replay is not None and v.profile is not None:
+        params = " ".join(f"{k}={v.profile.params[k]:g}" for k in KEY_PARAMS[v.profile.name])
+        lines += ["", *_track_lines(f"Replay ({v.profile.name}, {1 / v.dt_s:g} Hz, "
+                                    f"{v.replay.samples} samples): {params}", v.replay)]
+    if v.sitl is not None:
+        lines += ["", *_track_lines(f"Flown by a vehicle ({v.sitl.source})", v.sitl)]
+    findings = list(rep.findings)
+    for r in (v.replay, v.sitl):
+        if r is not None:
+            findings += list(r.findings)
+    if findings:
+        lines += ["", "Findings:"]
+        for f in findings:
+            where = f"item {f.item}: " if f.item is not None else ""
+            lines.append(f"  {f.severity.upper() if f.severity == 'violation' else f.severity:<9} "
+                         f"{where}{f.message}")
+    n = len(v.violations)
+    lines += ["", f"Result: {'VIOLATION (' + str(n) + ')' if n else 'CLEAR'}"]
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------------------------
+# the command
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``validate-mission`` argument parser.
+
+    ``--sitl [URL]`` (fly the mission on a MAVLink vehicle and score its telemetry into
+    ``Validation.sitl``) belongs to :mod:`validator.mavlink` and is added here by it.
+    """
+    p = argparse.ArgumentParser(
+        prog="validate-mission",
+        description="Prove a mission's continuous-path NFZ clearance: exact audit of every "
+                    "straight leg and the geofence, and a time-domain replay of how a "
+                    "multicopter flies it.",
+        epilog="Exit status: 0 clear, 1 violation, 2 bad input.",
+    )
+    p.add_argument("plan", help="QGroundControl .plan file")
+    p.add_argument("--site", required=True, help="site YAML file")
+    p.add_argument("--json", metavar="OUT", help="also write the full report as JSON")
+    p.add_argument("--replay", action="store_true", help="fly the mission in time")
+    p.add_argument("--profile", choices=PROFILES,
+                   help="flight model (default: by the plan's firmware); implies --replay")
+    p.add_argument("--param", action="append", metavar="NAME=VALUE",
+                   help="profile parameter in the autopilot's units, e.g. WPNAV_ACCEL=500 "
+                        "(repeatable); implies --replay")
+    p.add_argument("--dt", type=float, default=0.05, metavar="SECONDS",
+                   help="replay sample interval (default 0.05 = 20 Hz; at most 0.05)")
+    return p
+
+
+def validate_mission_main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``validate-mission``; returns the exit status."""
+    args = build_parser().parse_args(argv)
+    try:
+        params = parse_param_overrides(args.param)
+        v = validate_mission(args.plan, args.site, replay_flight=args.replay,
+                             profile=args.profile, params=params or None, dt_s=args.dt)
+        text = json.dumps(v.as_dict(), indent=1, allow_nan=False) + "\n" if args.json else ""
+        if args.json:
+            write_atomic(args.json, text)
+    except InputError as err:
+        print(f"validate-mission: {err}", file=sys.stderr)
+        return 2
+    except OSError as err:
+        print(f"validate-mission: {getattr(err, 'filename', '') or ''}: {err.strerror}",
+              file=sys.stderr)
+        return 2
+    print(format_report(v))
+    return v.exit_status
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(validate_mission_main())

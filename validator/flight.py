@@ -1,0 +1,615 @@
+"""A mission plan resolved into what the vehicle will do: legs, speeds, holds, jumps, RTL.
+
+:func:`resolve_flight` walks a :class:`~validator.plan_format.Plan`'s items the way ArduCopter
+executes them (PX4 agrees on everything used here) and returns a :class:`Flight`: the ordered
+straight :class:`Leg` s the vehicle flies, in the site's local east/north frame (metres),
+altitudes in metres above home.
+
+Conventions:
+
+- Items are numbered from 0 as in the ``.plan`` file. On the wire ArduPilot puts home at
+  mission sequence 0, so item ``i`` is ``seq = i + 1`` there; a DO_JUMP's param1 is that
+  sequence number (QGroundControl's ``doJumpId``), so it targets item ``param1 - 1``.
+- NAV_TAKEOFF climbs straight up where the vehicle is. NAV_WAYPOINT flies a straight leg and
+  holds param1 seconds. DO_CHANGE_SPEED (param2 m/s, param1 0/1 = horizontal) applies at once
+  and holds until changed. DO_JUMP repeats param2 times (-1: forever). RTL flies a straight leg
+  to the nearest of home and the rally points, then lands; LAND flies to its position (if
+  given) and descends. Both end the mission, as does an unlimited loiter.
+- A position of (0, 0) or NaN in an item means "where the vehicle is"; an altitude of 0 or NaN
+  in a waypoint means "the current altitude" (ArduPilot's rule).
+
+What the resolution cannot model is reported as :class:`Finding` s: unsupported navigation
+commands (the vehicle's path is unknown, so clearance cannot be proven: ``violation``),
+unknown commands without a position (``warning``) and notes.
+
+The planner's metadata (``Plan.extra``, see :data:`~validator.plan_format.EXTRA_KEY`) is read
+into a :class:`ServicePlan` by :func:`parse_service`; it and the mission's DO_JUMP structure
+decide which legs form the repeated service cycle (:class:`CycleSpan`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from validator.errors import InputError
+from validator.plan_format import Autopilot, Cmd, Frame, MissionItem, Plan
+from validator.site import Site
+
+LegKind = Literal["takeoff", "waypoint", "loiter", "rtl", "land"]
+Severity = Literal["violation", "warning", "note"]
+
+MAX_LEGS = 200_000  # a resolved mission longer than this is a runaway loop, not a flight
+FOREVER_REPEATS = 1  # a DO_JUMP that repeats forever is resolved with this many repeats
+
+# Commands that never move the vehicle (cameras, servos, gimbals, conditions, markers).
+PASSIVE_COMMANDS: dict[int, str] = {
+    112: "CONDITION_DELAY",
+    114: "CONDITION_DISTANCE",
+    115: "CONDITION_YAW",
+    176: "DO_SET_MODE",
+    181: "DO_SET_RELAY",
+    182: "DO_REPEAT_RELAY",
+    183: "DO_SET_SERVO",
+    184: "DO_REPEAT_SERVO",
+    189: "DO_LAND_START",
+    195: "DO_SET_ROI_LOCATION",
+    197: "DO_SET_ROI_NONE",
+    200: "DO_CONTROL_VIDEO",
+    201: "DO_SET_ROI",
+    202: "DO_DIGICAM_CONFIGURE",
+    203: "DO_DIGICAM_CONTROL",
+    204: "DO_MOUNT_CONFIGURE",
+    205: "DO_MOUNT_CONTROL",
+    206: "DO_SET_CAM_TRIGG_DIST",
+    211: "DO_GRIPPER",
+    214: "DO_SET_CAM_TRIGG_INTERVAL",
+    215: "DO_SET_RESUME_REPEAT_DIST",
+    218: "DO_AUX_FUNCTION",
+    1000: "DO_GIMBAL_MANAGER_PITCHYAW",
+    2000: "IMAGE_START_CAPTURE",
+    2001: "IMAGE_STOP_CAPTURE",
+    2500: "VIDEO_START_CAPTURE",
+    2501: "VIDEO_STOP_CAPTURE",
+}
+DO_SET_HOME = 179
+DO_FENCE_ENABLE = 207
+UNSUPPORTED_NAV: dict[int, str] = {
+    30: "NAV_CONTINUE_AND_CHANGE_ALT",
+    31: "NAV_LOITER_TO_ALT",
+    34: "DO_ORBIT",
+    82: "NAV_SPLINE_WAYPOINT",
+    84: "NAV_VTOL_TAKEOFF",
+    85: "NAV_VTOL_LAND",
+    92: "NAV_GUIDED_ENABLE",
+    94: "NAV_PAYLOAD_PLACE",
+    192: "DO_REPOSITION",
+}
+
+
+@dataclass(frozen=True)
+class Finding:
+    """Something the validator reports about a plan. ``item`` is a 0-based item index or None."""
+
+    severity: Severity
+    message: str
+    item: int | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"severity": self.severity, "item": self.item, "message": self.message}
+
+
+@dataclass(frozen=True)
+class Leg:
+    """One straight leg the vehicle flies toward mission item ``item`` (its destination).
+
+    Positions are metres east/north of the site origin, altitudes metres above home.
+    ``first_item`` is the first item executed as part of this leg (e.g. the DO_CHANGE_SPEED
+    that precedes the waypoint), so items ``first_item..item`` belong to it. ``speed_mps`` is
+    the commanded horizontal speed in force (None: the autopilot's default). The vehicle stays
+    ``hold_s`` seconds at the destination. ``pass_through`` is True when the autopilot may
+    blend this leg into the next one (no hold, and the next leg is another waypoint leg).
+    """
+
+    item: int
+    first_item: int
+    kind: LegKind
+    start_xy_m: NDArray[np.float64]
+    end_xy_m: NDArray[np.float64]
+    start_alt_m: float
+    end_alt_m: float
+    speed_mps: float | None
+    hold_s: float = 0.0
+    loiter_radius_m: float = 0.0
+    pass_through: bool = False
+
+    @property
+    def length_m(self) -> float:
+        """Horizontal length (m)."""
+        return float(np.hypot(*(self.end_xy_m - self.start_xy_m)))
+
+    @property
+    def label(self) -> str:
+        return f"item {self.item} ({self.kind})"
+
+
+@dataclass(frozen=True)
+class ServicePlan:
+    """The planner's metadata carried in the plan under ``nfzMission`` (format 1).
+
+    Slot n (1..N) flies ``trajectory_m[n-1] -> trajectory_m[n]`` in ``delta_s[n-1]`` seconds,
+    serving ground node ``schedule[n-1]`` (an index into the site's GNs, -1 for none) at
+    ``power_w[n-1]``. ``cycle_items`` are 0-based item indices: the first item of the first
+    service cycle and the NAV_WAYPOINT closing the last one; ``cycles`` cycles in between.
+    """
+
+    site_name: str
+    scheme: str
+    trajectory_m: NDArray[np.float64]  # (N+1, 2)
+    delta_s: NDArray[np.float64]  # (N,)
+    power_w: NDArray[np.float64]  # (N,)
+    schedule: NDArray[np.int64]  # (N,), GN index or -1
+    cycle_items: tuple[int, int]
+    cycles: int
+
+    @property
+    def period_s(self) -> float:
+        return float(np.sum(self.delta_s))
+
+    @property
+    def slots(self) -> int:
+        return int(self.delta_s.size)
+
+
+@dataclass(frozen=True)
+class CycleSpan:
+    """Which legs form the service cycles, and how the cycle time is measured.
+
+    The cycles start when the vehicle reaches the destination of ``start_leg`` (its hold
+    counts; ``start_at_arrival``) or when ``start_leg`` begins, and end when ``end_leg``'s item
+    completes (after its hold). ``source`` says where the span came from: ``"metadata"``,
+    ``"jump"`` (a DO_JUMP loop) or ``"waypoints"`` (first to last waypoint after takeoff).
+    """
+
+    start_leg: int
+    start_at_arrival: bool
+    end_leg: int
+    cycles: int
+    source: str
+
+
+@dataclass(frozen=True)
+class Flight:
+    """A plan resolved into legs (see the module docstring for conventions)."""
+
+    legs: tuple[Leg, ...]
+    home_xy_m: NDArray[np.float64]
+    firmware_type: int
+    findings: tuple[Finding, ...]
+    cycle: CycleSpan | None
+    service: ServicePlan | None
+    fence_disabled_at: tuple[int, ...] = field(default=())
+
+    @property
+    def path_xy_m(self) -> NDArray[np.float64]:
+        """The flown polyline (len(legs)+1, 2): the start of the first leg, then every leg end."""
+        if not self.legs:
+            return self.home_xy_m.reshape(1, 2).copy()
+        pts = [self.legs[0].start_xy_m] + [leg.end_xy_m for leg in self.legs]
+        return np.asarray(pts, dtype=float)
+
+    @property
+    def is_ardupilot(self) -> bool:
+        return self.firmware_type == Autopilot.ARDUPILOTMEGA
+
+
+# --------------------------------------------------------------------------------------------
+# metadata
+
+_SERVICE_KEYS = {
+    "format", "site", "scheme", "trajectory_m", "delta_s", "power_w", "schedule", "cycle_items",
+    "cycles",
+}
+
+
+def _float_array(value: Any, where: str, shape_hint: str) -> NDArray[np.float64]:
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{where}: expected {shape_hint}") from None
+    if not np.all(np.isfinite(arr)):
+        raise InputError(f"{where}: expected finite numbers")
+    return arr
+
+
+def parse_service(extra: Any, site: Site, source: str = "plan") -> ServicePlan | None:
+    """Validate the planner metadata of a plan (``Plan.extra``); None when absent.
+
+    Raises :class:`InputError` naming the field when it is present but malformed, or names
+    a ground node the site does not have.
+    """
+    if extra is None:
+        return None
+    where = f"{source}.nfzMission"
+    if not isinstance(extra, dict):
+        raise InputError(f"{where}: expected a JSON object")
+    unknown = sorted(set(extra) - _SERVICE_KEYS)
+    if unknown:
+        raise InputError(f"{where}.{unknown[0]}: unknown key")
+    missing = sorted(_SERVICE_KEYS - {"site", "scheme"} - set(extra))
+    if missing:
+        raise InputError(f"{where}.{missing[0]}: missing field")
+    if extra["format"] != 1:
+        raise InputError(f"{where}.format: expected 1, got {extra['format']!r}")
+    traj = _float_array(extra["trajectory_m"], f"{where}.trajectory_m", "[[x, y], ...]")
+    if traj.ndim != 2 or traj.shape[1] != 2 or traj.shape[0] < 2:
+        raise InputError(f"{where}.trajectory_m: expected N+1 >= 2 points [x, y]")
+    n = traj.shape[0] - 1
+    delta = _float_array(extra["delta_s"], f"{where}.delta_s", f"{n} numbers")
+    power = _float_array(extra["power_w"], f"{where}.power_w", f"{n} numbers")
+    for name, arr in (("delta_s", delta), ("power_w", power)):
+        if arr.shape != (n,):
+            raise InputError(f"{where}.{name}: expected {n} numbers (one per slot), got {arr.size}")
+    if np.any(delta <= 0):
+        raise InputError(f"{where}.delta_s[{int(np.argmax(delta <= 0))}]: must be > 0")
+    if np.any(power < 0):
+        raise InputError(f"{where}.power_w[{int(np.argmax(power < 0))}]: must be >= 0")
+    sched_raw = extra["schedule"]
+    if not isinstance(sched_raw, list) or len(sched_raw) != n:
+        raise InputError(f"{where}.schedule: expected {n} ground-node names or nulls")
+    index = {name: k for k, name in enumerate(site.gn_names)}
+    schedule = np.full(n, -1, dtype=np.int64)
+    for i, name in enumerate(sched_raw):
+        if name is None:
+            continue
+        if name not in index:
+            raise InputError(f"{where}.schedule[{i}]: ground node {name!r} is not in the site")
+        schedule[i] = index[name]
+    ci = extra["cycle_items"]
+    if (
+        not isinstance(ci, list)
+        or len(ci) != 2
+        or not all(isinstance(v, int) and not isinstance(v, bool) for v in ci)
+        or not 0 <= ci[0] <= ci[1]
+    ):
+        raise InputError(f"{where}.cycle_items: expected [first, last] item indices, first <= last")
+    cycles = extra["cycles"]
+    if not isinstance(cycles, int) or isinstance(cycles, bool) or cycles < 1:
+        raise InputError(f"{where}.cycles: expected an integer >= 1")
+    return ServicePlan(
+        site_name=str(extra.get("site", "")),
+        scheme=str(extra.get("scheme", "")),
+        trajectory_m=traj,
+        delta_s=delta,
+        power_w=power,
+        schedule=schedule,
+        cycle_items=(int(ci[0]), int(ci[1])),
+        cycles=int(cycles),
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# resolution
+
+
+def _command_name(command: int) -> str:
+    try:
+        return Cmd(command).name
+    except ValueError:
+        return PASSIVE_COMMANDS.get(command) or UNSUPPORTED_NAV.get(command) or f"command {command}"
+
+
+@dataclass
+class _State:
+    xy: NDArray[np.float64]
+    alt_m: float
+    speed_mps: float | None
+    home_xy: NDArray[np.float64]
+    airborne: bool = False
+
+
+class _Resolver:
+    """Walks the items once, emitting legs and findings (a program counter with jump counts)."""
+
+    def __init__(self, plan: Plan, site: Site, source: str) -> None:
+        self.plan = plan
+        self.site = site
+        self.source = source
+        home = site.frame.to_local(plan.home_lat_deg, plan.home_lon_deg)
+        self.home_xy = np.asarray(home, dtype=float)
+        self.state = _State(self.home_xy.copy(), 0.0, None, self.home_xy.copy())
+        self.legs: list[Leg] = []
+        self.findings: list[Finding] = []
+        self.fence_disabled: list[int] = []
+        self.pending_first: int | None = None  # first item executed since the last leg
+        self.reported: set[tuple[int, str]] = set()
+        self.rally_xy = [
+            np.asarray(site.frame.to_local(lat, lon), dtype=float) for lat, lon, _ in plan.rally
+        ]
+
+    def find(self, severity: Severity, message: str, item: int | None) -> None:
+        key = (item if item is not None else -1, message)
+        if key not in self.reported:  # DO_JUMP repeats must not repeat findings
+            self.reported.add(key)
+            self.findings.append(Finding(severity, message, item))
+
+    # -- helpers ----------------------------------------------------------------------------
+    def position(self, it: MissionItem) -> NDArray[np.float64]:
+        lat, lon = it.params[4], it.params[5]
+        if math.isnan(lat) or math.isnan(lon) or (lat == 0.0 and lon == 0.0):
+            return self.state.xy.copy()
+        if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
+            raise InputError(
+                f"{self.source}: item {self._idx}: latitude/longitude ({lat}, {lon}) out of range"
+            )
+        return np.asarray(self.site.frame.to_local(lat, lon), dtype=float)
+
+    def altitude(self, it: MissionItem, i: int, *, zero_is_current: bool) -> float:
+        alt = it.params[6]
+        if math.isnan(alt) or (zero_is_current and alt == 0.0):
+            return self.state.alt_m
+        if it.frame == Frame.GLOBAL:
+            return float(alt - self.plan.home_alt_m)
+        if it.frame == Frame.GLOBAL_TERRAIN_ALT:
+            self.find("warning", "altitude above terrain treated as above home", i)
+        elif it.frame not in (Frame.GLOBAL_RELATIVE_ALT, 6):  # 6: GLOBAL_RELATIVE_ALT_INT
+            self.find("warning", f"frame {it.frame} treated as altitude above home", i)
+        return float(alt)
+
+    def add_leg(
+        self,
+        i: int,
+        kind: LegKind,
+        end_xy: NDArray[np.float64],
+        end_alt: float,
+        hold_s: float = 0.0,
+        loiter_radius_m: float = 0.0,
+    ) -> None:
+        if len(self.legs) >= MAX_LEGS:
+            raise InputError(f"{self.source}: mission resolves to more than {MAX_LEGS} legs")
+        first = self.pending_first if self.pending_first is not None else i
+        self.legs.append(
+            Leg(
+                item=i,
+                first_item=first,
+                kind=kind,
+                start_xy_m=self.state.xy.copy(),
+                end_xy_m=np.asarray(end_xy, dtype=float).copy(),
+                start_alt_m=self.state.alt_m,
+                end_alt_m=float(end_alt),
+                speed_mps=self.state.speed_mps,
+                hold_s=max(0.0, float(hold_s)),
+                loiter_radius_m=loiter_radius_m,
+            )
+        )
+        self.pending_first = None
+        self.state.xy = np.asarray(end_xy, dtype=float).copy()
+        self.state.alt_m = float(end_alt)
+
+    def return_point(self) -> NDArray[np.float64]:
+        """ArduCopter RTL goes to the nearest of home and the rally points."""
+        candidates = [self.state.home_xy, *self.rally_xy]
+        d = [float(np.hypot(*(c - self.state.xy))) for c in candidates]
+        return candidates[int(np.argmin(d))]
+
+    # -- the walk ---------------------------------------------------------------------------
+    _idx = 0
+
+    def run(self) -> None:
+        items = self.plan.items
+        jumps_done: dict[int, int] = {}
+        pc = 0
+        while pc < len(items):
+            self._idx = pc
+            it = items[pc]
+            if self.pending_first is None:
+                self.pending_first = pc
+            cmd = it.command
+            nxt = pc + 1
+            if cmd == Cmd.DO_JUMP:
+                nxt = self.jump(pc, it, jumps_done)
+            elif cmd == Cmd.DO_CHANGE_SPEED:
+                self.change_speed(pc, it)
+            elif cmd == Cmd.NAV_TAKEOFF:
+                alt = self.altitude(it, pc, zero_is_current=False)
+                if alt <= 0:
+                    self.find("violation", f"takeoff altitude {alt:g} m is not above home", pc)
+                self.add_leg(pc, "takeoff", self.state.xy, max(alt, self.state.alt_m))
+                self.state.airborne = True
+            elif cmd in (Cmd.NAV_WAYPOINT, Cmd.NAV_LOITER_TIME):
+                self.waypoint(pc, it)
+            elif cmd == Cmd.NAV_LOITER_TURNS:
+                self.loiter_turns(pc, it)
+            elif cmd == Cmd.NAV_LOITER_UNLIM:
+                self.add_leg(pc, "loiter", self.position(it),
+                             self.altitude(it, pc, zero_is_current=True))
+                self.find("note", "the mission ends in an unlimited loiter here", pc)
+                break
+            elif cmd == Cmd.NAV_RETURN_TO_LAUNCH:
+                self.add_leg(pc, "rtl", self.return_point(), self.state.alt_m)
+                self.add_leg(pc, "land", self.state.xy, 0.0)
+                break
+            elif cmd == Cmd.NAV_LAND:
+                target = self.position(it)
+                if np.hypot(*(target - self.state.xy)) > 0.01:
+                    self.add_leg(pc, "waypoint", target, self.state.alt_m)
+                self.add_leg(pc, "land", target, 0.0)
+                break
+            elif cmd == Cmd.NAV_DELAY:
+                delay = it.params[0]
+                if math.isnan(delay) or delay < 0:
+                    self.find("warning", "NAV_DELAY until a time of day: not modelled", pc)
+                    delay = 0.0
+                self.add_leg(pc, "waypoint", self.state.xy, self.state.alt_m, hold_s=delay)
+            elif cmd == DO_SET_HOME:
+                if it.params[0] == 1:
+                    self.state.home_xy = self.state.xy.copy()
+                else:
+                    self.state.home_xy = self.position(it)
+                self.find("note", "DO_SET_HOME moves the RTL destination", pc)
+            elif cmd == DO_FENCE_ENABLE:
+                if it.params[0] == 0:
+                    self.fence_disabled.append(pc)
+                    self.find("violation", "DO_FENCE_ENABLE disables the geofence", pc)
+            elif cmd in PASSIVE_COMMANDS:
+                pass
+            elif cmd in UNSUPPORTED_NAV or 16 <= cmd < 100:
+                self.unsupported_nav(pc, it)
+            elif cmd in (
+                Cmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION,
+                Cmd.NAV_FENCE_POLYGON_VERTEX_EXCLUSION,
+                Cmd.NAV_FENCE_CIRCLE_INCLUSION,
+                Cmd.NAV_FENCE_CIRCLE_EXCLUSION,
+                Cmd.NAV_RALLY_POINT,
+            ):
+                self.find("warning", f"{_command_name(cmd)} in the mission list is ignored; "
+                          "fences and rally points belong in geoFence/rallyPoints", pc)
+            else:
+                self.find("warning", f"unknown command {cmd}: ignored (assumed not to move "
+                          "the vehicle)", pc)
+            pc = nxt
+        else:
+            if self.legs and self.legs[-1].kind not in ("land", "rtl", "loiter"):
+                self.find("note", "the mission ends without RTL or LAND: the vehicle hovers "
+                          "at its last waypoint", len(items) - 1)
+
+    def jump(self, pc: int, it: MissionItem, done: dict[int, int]) -> int:
+        target = it.params[0]
+        repeats = it.params[1]
+        if math.isnan(target) or int(target) != target or not 1 <= target <= len(self.plan.items):
+            raise InputError(
+                f"{self.source}: item {pc} (DO_JUMP): target {target} is not an item "
+                f"(1..{len(self.plan.items)})"
+            )
+        t = int(target) - 1
+        if math.isnan(repeats):
+            repeats = 0.0
+        if repeats < 0:
+            self.find("warning", f"DO_JUMP repeats forever; resolved with {FOREVER_REPEATS} "
+                      "repeat(s)", pc)
+            repeats = FOREVER_REPEATS
+        count = done.get(pc, 0)
+        if count < int(repeats):
+            done[pc] = count + 1  # like ArduPilot, counts are kept for the whole mission
+            return t
+        return pc + 1
+
+    def change_speed(self, pc: int, it: MissionItem) -> None:
+        kind, speed = it.params[0], it.params[1]
+        if math.isnan(speed) or speed <= 0:
+            return  # -1 (or 0) means "no change"
+        if kind in (2, 3):
+            self.find("note", "climb/descent speed change: ignored by the horizontal model", pc)
+            return
+        self.state.speed_mps = float(speed)
+
+    def waypoint(self, pc: int, it: MissionItem) -> None:
+        hold = it.params[0] if not math.isnan(it.params[0]) else 0.0
+        if not self.state.airborne:
+            self.find("warning", "waypoint before any takeoff: assumed airborne", pc)
+            self.state.airborne = True
+        self.add_leg(pc, "waypoint", self.position(it),
+                     self.altitude(it, pc, zero_is_current=True), hold_s=hold)
+
+    def loiter_turns(self, pc: int, it: MissionItem) -> None:
+        turns = abs(it.params[0]) if not math.isnan(it.params[0]) else 1.0
+        radius = abs(it.params[2]) if not math.isnan(it.params[2]) else 0.0
+        speed = self.state.speed_mps or self.site.max_speed_mps
+        hold = turns * 2.0 * math.pi * radius / speed if radius > 0 else 0.0
+        self.find("note", f"LOITER_TURNS: a {radius:g} m circle, replayed as a {hold:.1f} s "
+                  "hold at its centre", pc)
+        self.add_leg(pc, "loiter", self.position(it),
+                     self.altitude(it, pc, zero_is_current=True), hold_s=hold,
+                     loiter_radius_m=radius)
+
+    def unsupported_nav(self, pc: int, it: MissionItem) -> None:
+        name = _command_name(it.command)
+        self.find("violation", f"{name} is not supported: its path cannot be verified "
+                  "(replayed as a straight leg)", pc)
+        self.add_leg(pc, "waypoint", self.position(it),
+                     self.altitude(it, pc, zero_is_current=True))
+
+
+def _mark_pass_through(legs: list[Leg]) -> list[Leg]:
+    """A leg may blend into the next one when it has no hold and both are waypoint legs."""
+    out = []
+    for i, leg in enumerate(legs):
+        nxt = legs[i + 1] if i + 1 < len(legs) else None
+        blend = (
+            nxt is not None
+            and leg.hold_s == 0.0
+            and leg.kind == "waypoint"
+            and nxt.kind in ("waypoint", "loiter")
+        )
+        out.append(dataclasses.replace(leg, pass_through=blend))
+    return out
+
+
+def _cycle_from_metadata(legs: tuple[Leg, ...], service: ServicePlan) -> CycleSpan | None:
+    first, last = service.cycle_items
+    start = next((k for k, leg in enumerate(legs) if leg.first_item <= first <= leg.item), None)
+    ends = [k for k, leg in enumerate(legs) if leg.item == last]
+    if start is None or not ends or ends[-1] < start:
+        return None
+    return CycleSpan(start, legs[start].item == first, ends[-1], service.cycles, "metadata")
+
+
+def _cycle_from_plan(plan: Plan, legs: tuple[Leg, ...]) -> CycleSpan | None:
+    jumps = [
+        (i, int(it.params[1]) if not math.isnan(it.params[1]) else 0, int(it.params[0]) - 1)
+        for i, it in enumerate(plan.items)
+        if it.command == Cmd.DO_JUMP and not math.isnan(it.params[0])
+    ]
+    for i, repeats, target in jumps:
+        if target >= i:
+            continue
+        inside = [k for k, leg in enumerate(legs) if target <= leg.item < i]
+        if not inside:
+            continue
+        cycles = (repeats if repeats >= 0 else FOREVER_REPEATS) + 1
+        return CycleSpan(inside[0], False, inside[-1], cycles, "jump")
+    wps = [k for k, leg in enumerate(legs) if leg.kind == "waypoint"]
+    if len(wps) < 2:
+        return None
+    return CycleSpan(wps[0], True, wps[-1], 1, "waypoints")
+
+
+def resolve_flight(plan: Plan, site: Site, source: str = "plan") -> Flight:
+    """Resolve ``plan`` into the :class:`Flight` the vehicle will fly over ``site``.
+
+    Raises :class:`InputError` for missions no autopilot would accept (a DO_JUMP to nowhere,
+    coordinates out of range, runaway jumps) and for malformed planner metadata.
+    """
+    service = parse_service(plan.extra, site, source)
+    r = _Resolver(plan, site, source)
+    r.run()
+    if not r.legs:
+        r.find("warning", "the mission has no navigation items", None)
+    legs = tuple(_mark_pass_through(r.legs))
+    cycle = _cycle_from_metadata(legs, service) if service is not None else None
+    if service is not None and cycle is None:
+        r.find("warning", f"nfzMission.cycle_items {list(service.cycle_items)} do not match "
+               "the mission's items", None)
+    if service is not None:
+        if service.site_name and service.site_name != site.name:
+            r.find("warning", f"the plan was made for site {service.site_name!r}, "
+                   f"not {site.name!r}", None)
+        if service.cycle_items[1] >= len(plan.items):
+            raise InputError(f"{source}.nfzMission.cycle_items: item {service.cycle_items[1]} "
+                             f"does not exist ({len(plan.items)} items)")
+    if cycle is None:
+        cycle = _cycle_from_plan(plan, legs)
+    return Flight(
+        legs=legs,
+        home_xy_m=r.home_xy,
+        firmware_type=plan.firmware_type,
+        findings=tuple(r.findings),
+        cycle=cycle,
+        service=service,
+        fence_disabled_at=tuple(r.fence_disabled),
+    )
