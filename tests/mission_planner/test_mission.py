@@ -1,0 +1,298 @@
+"""Mission layout from hand-made solutions: items, speeds, holds, cycles, fence, clearance."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from mission_planner.mission import (
+    CLEARANCE_TOLERANCE_M,
+    MissionOptions,
+    build_mission,
+    flown_legs,
+    mission_summary,
+    nudge_clear,
+    plan_problems,
+    planned_cycle_s,
+    service_steps,
+    whole_second_holds,
+)
+from tests.mission_planner.solutions import circle_points, circle_tour, make_site, solution_for
+from validator.errors import InputError
+from validator.geometry import min_leg_clearance, segment_point_distance
+from validator.plan_format import EXTRA_KEY, Cmd, Frame, dumps_plan, loads_plan
+
+
+@pytest.fixture(scope="module")
+def site():
+    return make_site()
+
+
+def _commands(plan):
+    return [it.command for it in plan.items]
+
+
+def _reread(mission):
+    return loads_plan(dumps_plan(mission.plan))
+
+
+def test_layout_takeoff_transit_cycle_jump_return_land(site):
+    m = build_mission(circle_tour(site), MissionOptions(cycles=3))
+    cmds = _commands(m.plan)
+    first, last = m.cycle_items
+    assert cmds[0] == Cmd.NAV_TAKEOFF
+    assert m.plan.items[0].params[6] == site.altitude_m
+    assert m.plan.items[0].frame == Frame.GLOBAL_RELATIVE_ALT
+    assert cmds[first] == Cmd.DO_CHANGE_SPEED
+    assert cmds[last] == Cmd.NAV_WAYPOINT
+    jump = m.plan.items[last + 1]
+    assert jump.command == Cmd.DO_JUMP
+    assert jump.params[0] == first + 1  # doJumpId of the cycle's first item
+    assert jump.params[1] == 2  # three cycles = two repeats
+    assert cmds[-1] == Cmd.NAV_LAND
+    assert Cmd.NAV_RETURN_TO_LAUNCH not in cmds
+    land = m.plan.items[-1]
+    np.testing.assert_allclose(site.frame.to_local(land.lat_deg, land.lon_deg), site.home_xy_m,
+                               atol=1e-6)
+
+
+def test_single_cycle_has_no_jump(site):
+    m = build_mission(circle_tour(site), MissionOptions(cycles=1))
+    assert Cmd.DO_JUMP not in _commands(m.plan)
+
+
+def test_one_waypoint_per_moving_slot_at_its_end_point(site):
+    sol = circle_tour(site)
+    m = build_mission(sol, MissionOptions(autopilot="px4"))
+    first, last = m.cycle_items
+    wps = [it for it in m.plan.items[first:last + 1] if it.command == Cmd.NAV_WAYPOINT]
+    assert len(wps) == site.slots
+    xy = site.frame.to_local([w.lat_deg for w in wps], [w.lon_deg for w in wps])
+    np.testing.assert_allclose(xy, sol.trajectory_m[1:], atol=1e-6)
+
+
+def test_speed_is_leg_length_over_delta_and_set_only_when_it_changes(site):
+    q = circle_points((200, 200), 60, site.slots)
+    delta = np.full(site.slots, 1.0)
+    delta[25:] = 0.5 * 49 / 25 + 0.5  # second half flown at another speed, still T in total
+    delta *= site.period_s / delta.sum()
+    m = build_mission(solution_for(site, q, delta), MissionOptions(autopilot="px4"))
+    first, last = m.cycle_items
+    speeds = [it.params for it in m.plan.items[first:last + 1] if it.command == Cmd.DO_CHANGE_SPEED]
+    assert len(speeds) == 2
+    leg = float(np.linalg.norm(q[1] - q[0]))
+    assert speeds[0][:2] == [1.0, pytest.approx(leg / delta[0])]
+    assert speeds[1][1] == pytest.approx(leg / delta[-1])
+
+
+def test_every_leg_speed_is_at_most_v_and_tiny_excess_is_clipped(site):
+    q = circle_points((200, 200), 60, site.slots)
+    leg = float(np.linalg.norm(q[1] - q[0]))
+    delta = np.full(site.slots, leg / (site.max_speed_mps * (1 + 1e-6)))  # a hair too fast
+    m = build_mission(solution_for(site, q, delta))
+    speeds = [it.params[1] for it in m.plan.items if it.command == Cmd.DO_CHANGE_SPEED]
+    assert max(speeds) <= site.max_speed_mps
+    assert not m.problems
+
+
+def test_a_leg_far_faster_than_v_is_a_problem(site):
+    q = circle_points((200, 200), 60, site.slots)
+    leg = float(np.linalg.norm(q[1] - q[0]))
+    delta = np.full(site.slots, leg / (site.max_speed_mps * 1.5))
+    m = build_mission(solution_for(site, q, delta))
+    assert any("above the vehicle's" in p for p in m.problems)
+    assert max(it.params[1] for it in m.plan.items if it.command == Cmd.DO_CHANGE_SPEED) \
+        <= site.max_speed_mps
+
+
+@pytest.mark.parametrize("autopilot", ["ardupilot", "px4"])
+def test_planned_leg_times_sum_to_the_period(site, autopilot):
+    q = circle_points((200, 200), 60, site.slots)
+    q[10:14] = q[10]  # three hover slots
+    rng = np.random.default_rng(3)
+    delta = rng.uniform(0.5, 1.5, site.slots)
+    delta *= site.period_s / delta.sum()
+    m = build_mission(solution_for(site, q, delta), MissionOptions(autopilot=autopilot))
+    cycle = planned_cycle_s(_reread(m), site.frame, m.cycle_items)
+    tol = 0.5 if autopilot == "ardupilot" else 1e-6  # whole-second holds on ArduPilot
+    assert cycle == pytest.approx(site.period_s, abs=tol)
+    assert mission_summary(m)["cycle_duration_s"] == pytest.approx(cycle)
+
+
+def test_stationary_slots_merge_into_one_hold(site):
+    q = circle_points((200, 200), 60, site.slots)
+    q[10:14] = q[10]
+    m = build_mission(solution_for(site, q), MissionOptions(autopilot="px4"))
+    first, last = m.cycle_items
+    wps = [it for it in m.plan.items[first:last + 1] if it.command == Cmd.NAV_WAYPOINT]
+    assert len(wps) == site.slots - 3
+    holds = [w.params[0] for w in wps]
+    assert holds[9] == pytest.approx(3 * site.period_s / site.slots)
+    assert sum(holds) == pytest.approx(holds[9])
+
+
+def test_stationary_first_slots_hold_at_q0_first():
+    steps = service_steps(np.array([[0, 0], [0, 0], [0, 0.01], [5, 0], [0, 0]]),
+                          np.array([2.0, 3.0, 1.0, 1.0]), stationary_tol_m=0.05)
+    assert [(s.index, s.slots, s.leg_s, s.hold_s) for s in steps] == [
+        (0, (1, 2), 0.0, 5.0), (3, (3,), 1.0, 0.0), (4, (4,), 1.0, 0.0)]
+
+
+def test_ardupilot_holds_are_whole_seconds_px4_keeps_fractions(site):
+    q = circle_points((200, 200), 60, site.slots)
+    q[10:12] = q[10]
+    q[30:33] = q[30]
+    delta = np.random.default_rng(5).uniform(0.5, 1.5, site.slots)
+    ap = build_mission(solution_for(site, q, delta))
+    px = build_mission(solution_for(site, q, delta), MissionOptions(autopilot="px4"))
+    ap_holds = [it.params[0] for it in ap.plan.items if it.command == Cmd.NAV_WAYPOINT]
+    px_holds = [it.params[0] for it in px.plan.items if it.command == Cmd.NAV_WAYPOINT]
+    assert all(h == int(h) for h in ap_holds)
+    assert any(h != int(h) for h in px_holds)
+    assert abs(sum(ap_holds) - sum(px_holds)) < 0.5
+
+
+def test_whole_second_holds_diffuse_the_rounding_error():
+    holds = whole_second_holds([0.4, 0.4, 0.0, 0.4, 2.6, 0.0])
+    np.testing.assert_array_equal(holds, [0, 1, 0, 0, 3, 0])
+    assert abs(holds.sum() - 3.8) < 0.5
+
+
+def test_slow_leg_flies_at_min_speed_and_holds_the_rest(site):
+    q = circle_points((200, 200), 60, site.slots)
+    u = (q[5] - q[4]) / np.linalg.norm(q[5] - q[4])
+    q[5] = q[4] + 0.1 * u  # slot 5: 0.1 m in 1 s, below ArduCopter's 0.2 m/s minimum
+    m = build_mission(solution_for(site, q), MissionOptions(autopilot="px4"))
+    step = m.steps[4]
+    assert step.slots == (5,)
+    assert step.speed_mps == pytest.approx(0.2)
+    assert step.hold_s == pytest.approx(1.0 - 0.1 / 0.2)
+    assert min(it.params[1] for it in m.plan.items if it.command == Cmd.DO_CHANGE_SPEED) >= 0.2
+    assert planned_cycle_s(m.plan, site.frame, m.cycle_items) == pytest.approx(site.period_s)
+
+
+def test_transit_bends_around_an_nfz_between_home_and_the_cycle():
+    site = make_site(no_fly_zones=[{"name": "WALL", "x": 100.0, "y": 0.0, "radius": 30.0}],
+                     ground_nodes=[{"name": "GN1", "x": 250.0, "y": 0.0}])
+    sol = solution_for(site, circle_points((250.0, 0.0), 40.0, site.slots, phase_rad=math.pi))
+    straight = float(np.linalg.norm(sol.trajectory_m[0] - site.home_xy_m))
+    m = build_mission(sol)
+    assert not m.problems
+    assert len(m.outbound_m) > 2 and len(m.return_m) > 2
+    for path in (m.outbound_m, m.return_m):
+        assert min_leg_clearance(path, site.nfz_xy_m, site.planning_radius_m) >= 0
+    summary = mission_summary(m)
+    assert straight < summary["transit_out_m"] < straight * 1.2
+    # The bend is in the file: some transit waypoint lies off the straight line.
+    first, _ = m.cycle_items
+    xy = site.frame.to_local([it.lat_deg for it in m.plan.items[2:first]],
+                             [it.lon_deg for it in m.plan.items[2:first]])
+    assert np.max(np.abs(xy[:, 1])) > 20
+
+
+def _tangent_polygon(centre, distance_m, sides):
+    """A closed tour whose every leg passes exactly ``distance_m`` from ``centre``."""
+    return circle_points(centre, distance_m / math.cos(math.pi / sides), sides)
+
+
+def test_legs_short_of_the_buffer_by_solver_noise_are_nudged_clear_after_rounding():
+    site = make_site(uav={"altitude": 30.0, "max_speed": 30.0, "period": 40.0, "slots": 40})
+    c = site.nfz_xy_m[1]
+    r = float(site.planning_radius_m[1])
+    q = _tangent_polygon(c, r - 0.004, site.slots)  # 4 mm short on every leg
+    m = build_mission(solution_for(site, q))
+    assert not m.problems
+    assert 0.004 < m.max_nudge_m < 0.03
+    _, legs = flown_legs(_reread(m), site.frame, m.cycle_items, rounded=True)
+    d = segment_point_distance(legs[:, 0], legs[:, 1], c)
+    assert np.min(d) >= r - CLEARANCE_TOLERANCE_M
+
+
+def test_without_the_nudge_rounding_leaves_legs_inside_the_buffer():
+    site = make_site(uav={"altitude": 30.0, "max_speed": 30.0, "period": 40.0, "slots": 40})
+    c = site.nfz_xy_m[1]
+    q = _tangent_polygon(c, float(site.planning_radius_m[1]) - 0.02, site.slots)
+    m = build_mission(solution_for(site, q), MissionOptions(max_nudge_m=0.0))
+    assert m.problems and all("NFZ2" in p and "safety buffer" in p for p in m.problems)
+
+
+def test_nudge_clear_moves_only_what_is_short():
+    pts = np.array([[-10.0, 9.99], [10.0, 9.99], [10.0, 30.0], [-10.0, 30.0]])
+    out, moved = nudge_clear(pts, [[0.0, 0.0]], [10.0], target_margin_m=0.01,
+                             max_nudge_m=0.05, closed=True)
+    assert segment_point_distance(out[0], out[1], [0.0, 0.0]) >= 10.01
+    assert moved == pytest.approx(0.02, abs=1e-4)
+    np.testing.assert_allclose(out[2:], pts[2:])
+
+
+def test_a_leg_through_an_nfz_is_reported_not_hidden(site):
+    q = circle_points((200, 200), 60, site.slots)
+    q[20] = site.nfz_xy_m[2] + [0, 40]
+    q[21] = site.nfz_xy_m[2] + [0, -40]  # straight through NFZ3
+    q[22] = q[21] + [1, 0]
+    m = build_mission(solution_for(site, q, scheme="conventional"))
+    assert any("NFZ3" in p and "inside the zone itself" in p for p in m.problems)
+
+
+def test_fence_has_one_exclusion_circle_per_nfz_at_radius_plus_half_buffer(site):
+    m = build_mission(circle_tour(site))
+    assert len(m.plan.circles) == site.num_nfzs
+    for c, centre, r in zip(m.plan.circles, site.nfz_xy_m, site.nfz_radius_m, strict=True):
+        assert not c.inclusion
+        assert c.radius_m == pytest.approx(r + site.buffer_m / 2)
+        np.testing.assert_allclose(site.frame.to_local(c.lat_deg, c.lon_deg), centre, atol=1e-6)
+    assert m.plan.rally == [(m.plan.home_lat_deg, m.plan.home_lon_deg, site.altitude_m)]
+    assert m.plan.breach_return == m.plan.rally[0]
+
+
+def test_fence_margin_larger_than_the_buffer_is_refused(site):
+    with pytest.raises(InputError, match="fence_margin_m"):
+        build_mission(circle_tour(site), MissionOptions(fence_margin_m=site.buffer_m + 0.5))
+
+
+@pytest.mark.parametrize("kind", ["polygon", "circle"])
+def test_operating_area_contains_everything_flown(site, kind):
+    m = build_mission(circle_tour(site), MissionOptions(operating_area=kind))
+    assert not m.problems
+    if kind == "polygon":
+        assert len(m.plan.polygons) == 1 and m.plan.polygons[0].inclusion
+    else:
+        assert sum(c.inclusion for c in m.plan.circles) == 1
+
+
+def test_rally_point_inside_an_exclusion_circle_is_a_problem(site):
+    m = build_mission(circle_tour(site))
+    m.plan.circles[0].lat_deg, m.plan.circles[0].lon_deg = m.plan.home_lat_deg, m.plan.home_lon_deg
+    assert any("rally" in p for p in plan_problems(m.plan, site, m.cycle_items))
+
+
+def test_extra_data_has_exactly_the_agreed_shape(site):
+    sol = circle_tour(site)
+    m = build_mission(sol, MissionOptions(cycles=2))
+    extra = _reread(m).extra
+    assert set(extra) == {"format", "site", "scheme", "trajectory_m", "delta_s", "power_w",
+                          "schedule", "cycle_items", "cycles"}
+    assert extra["format"] == 1 and extra["cycles"] == 2 and extra["scheme"] == "proposed"
+    assert len(extra["trajectory_m"]) == site.slots + 1
+    assert extra["delta_s"] == sol.delta_s.tolist()
+    assert set(extra["schedule"]) <= set(site.gn_names)
+    first, last = extra["cycle_items"]
+    items = m.plan.items
+    assert items[first].command in (Cmd.DO_CHANGE_SPEED, Cmd.NAV_WAYPOINT)
+    assert items[last].command == Cmd.NAV_WAYPOINT and items[last + 1].command == Cmd.DO_JUMP
+    assert EXTRA_KEY == "nfzMission"
+
+
+def test_geometry_reread_from_the_file_clears_every_nfz(site):
+    m = build_mission(circle_tour(site), MissionOptions(cycles=2))
+    _, legs = flown_legs(_reread(m), site.frame, m.cycle_items, rounded=True)
+    d = segment_point_distance(legs[:, None, 0], legs[:, None, 1], site.nfz_xy_m[None])
+    assert np.all(d >= site.planning_radius_m - CLEARANCE_TOLERANCE_M)
+
+
+def test_same_solution_same_file(site):
+    a = dumps_plan(build_mission(circle_tour(site)).plan)
+    b = dumps_plan(build_mission(circle_tour(site)).plan)
+    assert a == b
