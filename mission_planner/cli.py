@@ -169,8 +169,12 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _print_progress(iteration: int, objective: float) -> None:
-    print(f"plan-mission: iteration {iteration}: objective {objective:.6g}", file=sys.stderr,
-          flush=True)
+    # On a terminal one line is rewritten in place; in a log every iteration gets its own line.
+    text = f"plan-mission: iteration {iteration}: objective {objective:.6g}"
+    if sys.stderr.isatty():
+        print(f"\r{text}", end="", file=sys.stderr, flush=True)
+    else:
+        print(text, file=sys.stderr, flush=True)
 
 
 def plan_mission_main(argv: Sequence[str] | None = None) -> int:
@@ -194,8 +198,12 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
             operating_area=args.operating_area,
             operating_area_margin_m=args.operating_area_margin_m,
         )
-        mission = plan_and_build(site, args.scheme, options, seed=args.seed,
-                                 progress=_print_progress)
+        try:
+            mission = plan_and_build(site, args.scheme, options, seed=args.seed,
+                                     progress=_print_progress)
+        finally:
+            if sys.stderr.isatty():
+                print(file=sys.stderr)
         if mission.problems:
             for problem in mission.problems:
                 print(f"plan-mission: unsafe: {problem}", file=sys.stderr)
@@ -212,11 +220,12 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
         print(f"plan-mission: error: {err}", file=sys.stderr)
         return 2
     summary = mission_summary(mission)
+    clearance = summary["nfz_clearance_min_m"]
     print(
         f"plan-mission: wrote {', '.join(str(p) for p in files)}: {summary['items']} items, "
         f"cycle {summary['cycle_duration_s']:.1f} s (T = {summary['period_s']:g} s), "
-        f"min rate {mission.solution.min_rate_bps_hz:.4f} bps/Hz, "
-        f"min NFZ clearance {summary['nfz_clearance_min_m']} m",
+        f"min rate {mission.solution.min_rate_bps_hz:.4f} bps/Hz, min NFZ clearance "
+        + ("none (no NFZ)" if clearance is None else f"{clearance:.3f} m"),
         file=sys.stderr,
     )
     return 0

@@ -52,6 +52,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mission_planner.optimize.solution import Solution
 from mission_planner.transit import DEFAULT_ARC_STEP_DEG, path_length_m, shortest_safe_path
+from validator.audit import audit
 from validator.errors import InputError
 from validator.geodesy import LocalFrame, round_e7
 from validator.geometry import (
@@ -455,6 +456,8 @@ def build_mission(solution: Solution, options: MissionOptions | None = None) -> 
         },
     )
     problems += plan_problems(plan, site, (first, closing))
+    # The validator's own verdict too: never emit what validate-mission would reject.
+    problems += [f"validator: {f.message}" for f in audit(plan, site).violations]
     return Mission(
         plan=plan, solution=solution, options=opt, trajectory_m=q, steps=tuple(steps),
         outbound_m=outbound, return_m=back, cycle_items=(first, closing), fence_margin_m=margin,
