@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mission_planner.optimize.initial import initial_tour
-from mission_planner.optimize.power import PowerProblem
+from mission_planner.optimize.power import power_problem
 from mission_planner.optimize.scaled import (
     LENGTH_UNIT_M,
     Scaled,
@@ -25,9 +25,9 @@ from mission_planner.optimize.scaled import (
     scale_site,
     slot_rates,
 )
-from mission_planner.optimize.scheduling import SchedulingProblem
+from mission_planner.optimize.scheduling import scheduling_problem
 from mission_planner.optimize.solution import SCHEMES, Solution
-from mission_planner.optimize.trajectory import TrajectoryProblem
+from mission_planner.optimize.trajectory import trajectory_problem
 from validator.errors import InputError
 from validator.site import Site
 
@@ -85,9 +85,9 @@ def plan(
     sc = scale_site(site, opt.nfz_margin_m, opt.gamma)
     n = sc.num_slots
 
-    traj = TrajectoryProblem(sc, scheme)
-    sched = SchedulingProblem(sc.num_gns, n)
-    pwr = PowerProblem(sc.num_gns, n, sc.peak)
+    traj = trajectory_problem(n, sc.num_gns, sc.num_nfzs, scheme)
+    sched = scheduling_problem(sc.num_gns, n)
+    pwr = power_problem(sc.num_gns, n)
 
     q, delta = initial_tour(sc)
     s = _initial_schedule(sc, q)
@@ -101,14 +101,14 @@ def plan(
     history = [objective]
     iterations = 0
     for iterations in range(1, opt.max_iterations + 1):
-        step = traj.solve(q, delta, power, s)
+        step = traj.solve(sc, q, delta, power, s)
         if step is not None and min_rate(sc, step.q, step.delta, power, s) >= objective - 1e-9:
             q, delta = step.q, _renormalise(step.delta, n)
         s_new = sched.solve(slot_rates(sc, q, delta, power), s, eta / eta_div)
         if s_new is not None:
             s = s_new
         eta = min(opt.kappa * eta, opt.eta_max)
-        p_new = pwr.solve(sc.rho / distance_sq(sc, q), s, delta)
+        p_new = pwr.solve(sc.rho / distance_sq(sc, q), s, delta, sc.peak)
         if p_new is not None:
             power = _within_budget(p_new, delta, sc.peak)
         new_objective = min_rate(sc, q, delta, power, s)
@@ -125,7 +125,7 @@ def plan(
     schedule = np.argmax(s, axis=0).astype(np.int64)
     binary = np.zeros_like(s)
     binary[schedule, np.arange(n)] = 1.0
-    p_final = pwr.solve(sc.rho / distance_sq(sc, q), binary, delta)
+    p_final = pwr.solve(sc.rho / distance_sq(sc, q), binary, delta, sc.peak)
     if p_final is not None and min_rate(
         sc, q, delta, _within_budget(p_final, delta, sc.peak), binary
     ) >= min_rate(sc, q, delta, power, binary):

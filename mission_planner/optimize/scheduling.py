@@ -11,9 +11,13 @@ because a rate in bps/Hz is too small for η¹ = 1 to leave the schedule free to
 
 from __future__ import annotations
 
+import functools
+
 import cvxpy as cp
 import numpy as np
 from numpy.typing import NDArray
+
+from mission_planner.optimize import conic
 
 
 class SchedulingProblem:
@@ -46,10 +50,12 @@ class SchedulingProblem:
         self.lin.value = 1.0 - 2.0 * s_prev
         self.const.value = s_prev**2
         self.eta.value = eta_weight
-        try:
-            self.problem.solve(solver=cp.CLARABEL)
-        except cp.SolverError:
-            return None
-        if self.s.value is None or self.problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
+        if not conic.solve(self.problem) or self.s.value is None:
             return None
         return np.asarray(np.clip(self.s.value, 0.0, 1.0), dtype=float)
+
+
+@functools.lru_cache(maxsize=16)
+def scheduling_problem(num_gns: int, num_slots: int) -> SchedulingProblem:
+    """The compiled (P1-2) for this shape, shared by every site of that shape in the process."""
+    return SchedulingProblem(num_gns, num_slots)
