@@ -1,0 +1,211 @@
+"""plan-mission end to end with the real optimiser on small sites (N = 12), plus its errors."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import yaml
+
+import mission_planner.optimize
+from mission_planner.cli import plan_mission_main
+from mission_planner.mission import CLEARANCE_TOLERANCE_M, flown_legs, planned_cycle_s
+from tests.mission_planner.mavsdk_peer import mavsdk_import
+from tests.mission_planner.solutions import circle_points, site_dict, solution_for
+from validator.audit import audit
+from validator.geometry import segment_point_distance
+from validator.plan_format import Autopilot, Cmd, read_plan
+from validator.site import load_site
+from validator.waypoints_format import read_waypoints
+
+SMALL = site_dict(
+    name="small",
+    uav={"altitude": 30.0, "max_speed": 30.0, "period": 16.0, "slots": 12},
+    ground_nodes=[{"name": "GN1", "x": 60.0, "y": 140.0}, {"name": "GN2", "x": 160.0, "y": 150.0}],
+    no_fly_zones=[{"name": "NFZ1", "x": 110.0, "y": 150.0, "radius": 20.0}],
+)
+# Home sits west of an NFZ that stands between it and the GNs: the transit must bend.
+BEHIND = site_dict(
+    name="behind",
+    uav={"altitude": 30.0, "max_speed": 20.0, "period": 20.0, "slots": 12},
+    ground_nodes=[{"name": "GN1", "x": 160.0, "y": 15.0}, {"name": "GN2", "x": 165.0, "y": -20.0}],
+    no_fly_zones=[{"name": "WALL", "x": 60.0, "y": 0.0, "radius": 25.0}],
+)
+
+
+def _write_site(tmp_path, data, name="site.yaml"):
+    path = tmp_path / name
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def _run(argv, capsys):
+    code = plan_mission_main([str(a) for a in argv])
+    out = capsys.readouterr()
+    return code, out.err
+
+
+@pytest.fixture(scope="module")
+def small_run(tmp_path_factory):
+    """One default run of the small site: (site path, plan path, report path, stderr)."""
+    tmp = tmp_path_factory.mktemp("small")
+    site = _write_site(tmp, SMALL)
+    out, report = tmp / "m.plan", tmp / "m.report.json"
+    proc = subprocess.run([sys.executable, "-m", "mission_planner.cli", str(site), "-o", str(out),
+                           "--report", str(report), "--cycles", "2"],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    return site, out, report, proc.stderr
+
+
+def test_writes_a_plan_mavsdk_imports(small_run):
+    site_path, out, _, _ = small_run
+    plan = read_plan(out)
+    data = mavsdk_import(out, int(Autopilot.ARDUPILOTMEGA))
+    assert len(data.mission_items) == len(plan.items) + 1  # + ArduPilot's home at seq 0
+    assert len(data.geofence_items) == 1 and len(data.rally_items) == 1
+    assert plan.firmware_type == Autopilot.ARDUPILOTMEGA and plan.vehicle_type == 2
+
+
+def test_progress_goes_to_stderr(small_run):
+    stderr = small_run[3]
+    assert "plan-mission: iteration 1: objective" in stderr
+    assert "plan-mission: wrote" in stderr
+
+
+def test_report_is_the_solution_report_plus_the_mission_summary(small_run):
+    _, out, report_path, _ = small_run
+    report = json.loads(report_path.read_text())
+    assert report["scheme"] == "proposed" and report["min_rate_bps_hz"] > 0
+    mission = report["mission"]
+    plan = read_plan(out)
+    assert mission["items"] == len(plan.items)
+    assert mission["cycles"] == 2
+    assert mission["fence_radii_m"] == {"NFZ1": 21.0}
+    assert mission["expanded_radius_max_m"] >= 22.0
+    assert mission["cycle_duration_s"] == pytest.approx(16.0, abs=0.5)
+    assert mission["transit_out_m"] > 0 and mission["problems"] == []
+
+
+def test_planned_leg_times_sum_to_t_and_speeds_stay_within_v(small_run):
+    site_path, out, _, _ = small_run
+    site = load_site(site_path)
+    plan = read_plan(out)
+    cycle = tuple(plan.extra["cycle_items"])
+    assert planned_cycle_s(plan, site.frame, cycle) == pytest.approx(site.period_s, abs=0.5)
+    speeds = [it.params[1] for it in plan.items if it.command == Cmd.DO_CHANGE_SPEED]
+    assert speeds and max(speeds) <= site.max_speed_mps
+
+
+def test_geometry_reread_from_the_file_clears_every_nfz(small_run):
+    site_path, out, _, _ = small_run
+    site = load_site(site_path)
+    plan = read_plan(out)
+    _, legs = flown_legs(plan, site.frame, tuple(plan.extra["cycle_items"]), rounded=True)
+    d = segment_point_distance(legs[:, None, 0], legs[:, None, 1], site.nfz_xy_m[None])
+    assert np.all(d >= site.planning_radius_m - CLEARANCE_TOLERANCE_M)
+    assert audit(plan, site).ok
+
+
+def test_home_behind_an_nfz_gets_a_bent_transit(tmp_path, capsys):
+    site_path = _write_site(tmp_path, BEHIND)
+    out, report = tmp_path / "m.plan", tmp_path / "r.json"
+    code, err = _run([site_path, "-o", out, "--report", report], capsys)
+    assert code == 0, err
+    site = load_site(site_path)
+    summary = json.loads(report.read_text())["mission"]
+    assert summary["transit_out_waypoints"] >= 2 and summary["transit_return_waypoints"] >= 2
+    plan = read_plan(out)
+    first = plan.extra["cycle_items"][0]
+    _, legs = flown_legs(plan, site.frame, None, rounded=True)
+    d = segment_point_distance(legs[:, 0], legs[:, 1], site.nfz_xy_m[0])
+    assert np.min(d) >= site.planning_radius_m[0] - CLEARANCE_TOLERANCE_M
+    # the straight line home -> q[0] would have crossed the zone
+    q0 = np.array(plan.extra["trajectory_m"][0])
+    assert segment_point_distance(site.home_xy_m, q0, site.nfz_xy_m[0]) < site.nfz_radius_m[0]
+    assert first > 3  # takeoff, speed, at least two transit waypoints
+
+
+def test_waypoints_geojson_plot_and_px4(tmp_path, capsys):
+    site_path = _write_site(tmp_path, SMALL)
+    out = tmp_path / "m.waypoints"
+    gj, png = tmp_path / "m.geojson", tmp_path / "m.png"
+    code, err = _run([site_path, "-o", out, "--autopilot", "px4", "--operating-area", "polygon",
+                      "--geojson", gj, "--plot", png, "--fence-margin-m", "0.5"], capsys)
+    assert code == 0, err
+    plan = read_waypoints(out)
+    assert plan.items[0].command == Cmd.NAV_TAKEOFF and plan.items[-1].command == Cmd.NAV_LAND
+    assert [c.radius_m for c in plan.circles] == [20.5]
+    assert len(plan.polygons) == 1 and len(plan.rally) == 1
+    assert (tmp_path / "m.fence.waypoints").exists() and (tmp_path / "m.rally.waypoints").exists()
+    kinds = {f["properties"]["kind"] for f in json.loads(gj.read_text())["features"]}
+    assert {"flown_path", "service_trajectory", "nfz", "fence_exclusion",
+            "fence_inclusion"} <= kinds
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
+
+
+@pytest.mark.parametrize("change, args, message", [
+    ({"uav": {"altitude": 30}}, [], "uav.max_speed: missing field"),
+    ({"colour": "red"}, [], "colour: unknown key"),
+    ({}, ["--buffer-m", "-1"], "buffer_m: must be >= 0"),
+    ({}, ["--cycles", "0"], "cycles: must be >= 1"),
+    ({}, ["--fence-margin-m", "5"], "larger than the planned clearance"),
+])
+def test_bad_input_is_one_line_exit_2_and_no_file(tmp_path, capsys, change, args, message):
+    site_path = _write_site(tmp_path, {**SMALL, **change})
+    out = tmp_path / "m.plan"
+    code, err = _run([site_path, "-o", out, "--report", tmp_path / "r.json", *args], capsys)
+    assert code == 2
+    assert message in err and err.count("\n") == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["site.yaml"]
+
+
+def test_malformed_yaml_and_missing_folder_exit_2(tmp_path, capsys):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: [unclosed\n")
+    assert _run([bad, "-o", tmp_path / "m.plan"], capsys)[0] == 2
+    good = _write_site(tmp_path, SMALL)
+    code, err = _run([good, "-o", tmp_path / "nowhere" / "m.plan"], capsys)
+    assert code == 2 and "does not exist" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.yaml", "site.yaml"]
+
+
+def test_unknown_option_is_one_line_exit_2(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        plan_mission_main([str(tmp_path / "s.yaml"), "-o", "x.plan", "--scheme", "fast"])
+    assert exc.value.code == 2
+    assert capsys.readouterr().err.count("\n") == 1
+
+
+@pytest.fixture()
+def unsafe_planner(monkeypatch):
+    """plan() replaced by a tour whose legs cut through NFZ1 (a conventional-scheme failure)."""
+    def fake_plan(site, scheme="proposed", *, options=None, progress=None):
+        # Corners 25 m from NFZ1's centre (outside R = 20), sides 17.7 m from it: inside.
+        corners = circle_points((110.0, 150.0), 25.0, 4, phase_rad=np.pi / 4)
+        q = corners[[0, 1, 1, 1, 2, 2, 2, 3, 3, 3, 0, 0, 0]]
+        if progress:
+            progress(1, 1.0)
+        return solution_for(site, q, scheme=scheme)
+
+    monkeypatch.setattr(mission_planner.optimize, "plan", fake_plan)
+
+
+def test_safety_gate_refuses_an_unsafe_mission(tmp_path, capsys, unsafe_planner):
+    site_path = _write_site(tmp_path, SMALL)
+    code, err = _run([site_path, "-o", tmp_path / "m.plan", "--report", tmp_path / "r.json",
+                      "--scheme", "conventional"], capsys)
+    assert code == 1
+    assert "NFZ1" in err and "refused to write" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["site.yaml"]
+
+
+def test_force_writes_the_unsafe_mission_anyway(tmp_path, capsys, unsafe_planner):
+    site_path = _write_site(tmp_path, SMALL)
+    out = tmp_path / "m.plan"
+    code, err = _run([site_path, "-o", out, "--force"], capsys)
+    assert code == 0 and "--force" in err
+    assert not audit(read_plan(out), load_site(site_path)).ok
