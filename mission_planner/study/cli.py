@@ -1,8 +1,9 @@
 """``nfz-study``: reproduce the paper's Fig. 3 and Fig. 4 (thin wrapper over fig3/fig4).
 
-    nfz-study fig3 SITE -o DIR [--buffer-m B]
+    nfz-study fig3 SITE -o DIR [--buffer-m B] [--max-iterations I]
     nfz-study fig4 -o DIR [--trials N] [--radii 10,20,30,40,50] [--counts 1,2,3,4,5] [--seed S]
-                   [--slots N] [--workers W | --scheduler tcp://HOST:PORT] [--format csv|parquet]
+                   [--slots N] [--max-iterations I] [--workers W | --scheduler tcp://HOST:PORT]
+                   [--format csv|parquet] [--retry-errors] [--no-progress]
 
 Bad input: one line on stderr, exit 2, no output. Interrupted: exit 130; run the same command
 again to resume. Any failed trials: listed in the table, a warning on stderr, exit 0 (exit 1
@@ -14,7 +15,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Callable, Sequence
-from typing import TypeVar
+from typing import Any, TypeVar
 
 from validator.errors import InputError
 
@@ -50,6 +51,8 @@ def build_parser() -> argparse.ArgumentParser:
     p3.add_argument("-o", "--out", required=True, help="output directory")
     p3.add_argument("--buffer-m", type=float, default=None,
                     help="replace the site's safety buffer, m (0 reproduces the paper)")
+    p3.add_argument("--max-iterations", type=int, default=None,
+                    help="cap on Algorithm 1's iterations (planner default)")
 
     p4 = sub.add_parser("fig4", help="Monte-Carlo sweeps of NFZ radius and count (Fig. 4)")
     p4.add_argument("-o", "--out", required=True, help="output directory (re-run to resume)")
@@ -67,6 +70,8 @@ def build_parser() -> argparse.ArgumentParser:
     p4.add_argument("--buffer-m", type=float, default=0.0,
                     help="safety buffer added to every NFZ when planning, m (0, as the paper); "
                          "outage is always judged against the published radius")
+    p4.add_argument("--max-iterations", type=int, default=None,
+                    help="cap on Algorithm 1's iterations (planner default)")
     p4.add_argument("--workers", type=int, default=None,
                     help="local worker processes (all CPUs); 1 runs in this process")
     p4.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
@@ -79,12 +84,24 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _options(args: argparse.Namespace) -> Any:
+    """PlannerOptions from the command line (the planner's defaults where not given)."""
+    from mission_planner.optimize import PlannerOptions
+
+    if args.max_iterations is None:
+        return PlannerOptions()
+    if args.max_iterations < 1:
+        raise InputError(f"--max-iterations: must be >= 1, got {args.max_iterations}")
+    return PlannerOptions(max_iterations=args.max_iterations)
+
+
 def _fig3(args: argparse.Namespace) -> int:
     from mission_planner.study.fig3 import run_fig3
     from validator.site import load_site
 
+    options = _options(args)
     site = load_site(args.site)
-    result = run_fig3(site, args.out, buffer_m=args.buffer_m)
+    result = run_fig3(site, args.out, options=options, buffer_m=args.buffer_m)
     for sol in result.solutions:
         print(f"{sol.scheme}: min rate {sol.min_rate_bps_hz:.4f} bps/Hz, "
               f"min leg clearance {sol.nfz_clearance_min_m:.2f} m")
@@ -102,7 +119,7 @@ def _fig4(args: argparse.Namespace) -> int:
         radius_m=args.radius, num_nfzs=args.count, buffer_m=args.buffer_m,
     )
     result = run_fig4(
-        args.out, config, workers=args.workers, scheduler=args.scheduler,
+        args.out, config, options=_options(args), workers=args.workers, scheduler=args.scheduler,
         progress=False if args.no_progress else None, table_format=args.table_format,
         retry_errors=args.retry_errors,
     )

@@ -17,6 +17,7 @@ import functools
 import multiprocessing
 import os
 import re
+import socket
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
@@ -27,6 +28,7 @@ from mission_planner.study.store import TrialLog, check_manifest, read_log
 from mission_planner.study.trials import TrialSpec, is_failed, run_trial
 from validator.errors import InputError
 
+CONNECT_TIMEOUT_S = 10
 SCHEDULER_RE = re.compile(r"^tcp://[^\s:/]+:\d{1,5}$")
 # Worker processes fork from a server that has already imported the planner (cvxpy), so each
 # starts in milliseconds; forking the caller itself is unsafe once it runs threads (Dask, tqdm).
@@ -79,6 +81,7 @@ def _process_context() -> multiprocessing.context.BaseContext:
 def _map_processes(fn: Callable[[TrialSpec], dict[str, Any]], specs: Sequence[TrialSpec],
                    workers: int) -> Iterator[dict[str, Any]]:
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=_process_context())
+    finished = False
     try:
         pending: set[Future[dict[str, Any]]] = {pool.submit(fn, s) for s in specs}
         while pending:
@@ -88,9 +91,22 @@ def _map_processes(fn: Callable[[TrialSpec], dict[str, Any]], specs: Sequence[Tr
                     yield fut.result()
                 except Exception as err:
                     raise ExecutorError(f"a worker process failed: {err!r}") from err
+        finished = True
     finally:
-        # On an interrupt or error, drop the queued trials instead of waiting for them.
+        if not finished:
+            _terminate(pool)
         pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _terminate(pool: ProcessPoolExecutor) -> None:
+    """Stop the workers now. Cancelling is not enough: the pool hands each worker its next trial
+    ahead of time, and a worker interrupted by Ctrl-C would go on to run it."""
+    terminate = getattr(pool, "terminate_workers", None)  # Python >= 3.14
+    if terminate is not None:
+        terminate()
+        return
+    for process in list((getattr(pool, "_processes", None) or {}).values()):
+        process.terminate()
 
 
 def _connect(address: str) -> Any:
@@ -100,8 +116,11 @@ def _connect(address: str) -> Any:
     except ImportError:
         raise InputError("--scheduler: needs dask distributed (pip install 'nfz-mission[study]')"
                          ) from None
+    host, port = address.removeprefix("tcp://").rsplit(":", 1)
     try:
-        return Client(address, timeout="10s", set_as_default=False)
+        # A plain connect first: refused or unknown hosts fail at once, not after the timeout.
+        socket.create_connection((host, int(port)), timeout=CONNECT_TIMEOUT_S).close()
+        return Client(address, timeout=f"{CONNECT_TIMEOUT_S}s", set_as_default=False)
     except OSError as err:
         raise InputError(f"--scheduler: cannot reach {address} ({err})") from None
 
@@ -113,7 +132,7 @@ def _map_dask(fn: Callable[[TrialSpec], dict[str, Any]], specs: Sequence[TrialSp
     try:
         # pure=False: never reuse a result the cluster may hold from another study.
         futures = client.map(fn, list(specs), pure=False)
-        for fut in as_completed(futures):
+        for fut in as_completed(futures, loop=client.loop):
             try:
                 yield fut.result()
             except Exception as err:

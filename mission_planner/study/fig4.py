@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from mission_planner.study.executors import StudyRun, run_trials
+from mission_planner.study.executors import StudyRun, check_scheduler, run_trials
 from mission_planner.study.sites import PAPER_AREA_M
 from mission_planner.study.stats import mean_interval, proportion_interval
 from mission_planner.study.store import check_table_format, write_table
@@ -176,6 +176,10 @@ def run_fig4(
     config = config or Fig4Config()
     config.check()
     check_table_format(table_format)
+    if workers is not None and workers < 1:
+        raise InputError(f"--workers: must be >= 1, got {workers}")
+    if scheduler is not None:
+        check_scheduler(scheduler)
     out_dir = Path(out_dir)
     run = run_trials(config.specs(), out_dir, options=options, workers=workers,
                      scheduler=scheduler, progress=progress, retry_errors=retry_errors,

@@ -1,0 +1,85 @@
+"""nfz-study: bad input is one line and exit 2 with no output; a small study runs."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import pytest
+import yaml
+
+from mission_planner.study.cli import main
+from mission_planner.study.sites import random_site
+from validator.site import site_to_dict
+
+SMALL = ["--trials", "1", "--radii", "50", "--counts", "3", "--radius", "50", "--slots", "10",
+         "--workers", "1", "--no-progress"]
+FAST = ["--max-iterations", "10"]
+
+
+@pytest.mark.parametrize(
+    ("args", "named"),
+    [
+        (["--trials", "0"], "--trials"),
+        (["--radii", "10,x"], "--radii"),
+        (["--counts", "-1"], "--counts"),
+        (["--slots", "1"], "--slots"),
+        (["--workers", "0"], "--workers"),
+        (["--scheduler", "localhost:8786"], "--scheduler"),
+        (["--format", "xlsx"], "--format"),
+        (["--max-iterations", "0"], "--max-iterations"),
+        (["--bogus"], "--bogus"),
+    ],
+)
+def test_fig4_bad_option_is_one_line_exit_2_and_no_output(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], args: list[str], named: str
+) -> None:
+    out = tmp_path / "out"
+    assert main(["fig4", "-o", str(out), *args]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and named in err
+    assert not out.exists()
+
+
+def test_unreachable_scheduler_is_exit_2_and_no_output(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "out"
+    # Port 9 (discard) on loopback: nothing listens there.
+    assert main(["fig4", "-o", str(out), *SMALL, *FAST, "--scheduler", "tcp://127.0.0.1:9"]) == 2
+    assert "--scheduler" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_fig3_bad_site_file_is_exit_2_and_no_output(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    site = tmp_path / "site.yaml"
+    data = site_to_dict(random_site(0, slots=10))
+    data["no_fly_zones"][1]["radius"] = -3.0
+    site.write_text(yaml.safe_dump(data))
+    out = tmp_path / "out"
+    assert main(["fig3", str(site), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no_fly_zones[1]" in err
+    assert not out.exists()
+
+
+def test_fig4_runs_and_a_rerun_resumes(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "out"
+    assert main(["fig4", "-o", str(out), *SMALL, *FAST]) == 0
+    assert "2 run now, 0 from" in capsys.readouterr().out
+    with (out / "trials.csv").open() as f:
+        assert sorted(r["scheme"] for r in csv.DictReader(f)) == ["conventional", "proposed"]
+    assert main(["fig4", "-o", str(out), *SMALL, *FAST]) == 0
+    assert "0 run now, 2 from" in capsys.readouterr().out
+
+
+def test_fig4_refuses_to_mix_planner_settings_in_one_directory(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "out"
+    assert main(["fig4", "-o", str(out), *SMALL, *FAST]) == 0
+    capsys.readouterr()
+    assert main(["fig4", "-o", str(out), *SMALL, "--max-iterations", "11"]) == 2
+    assert "planner_options" in capsys.readouterr().err
