@@ -48,7 +48,7 @@ class PlannerOptions:
     kappa: float = 1.2
     eta_max: float = 1e6
     epsilon: float = 1e-4
-    max_iterations: int = 200
+    max_iterations: int = 40
     eta_scale: str = "per-period"
     binary_tolerance: float = 1e-3
     nfz_margin_m: float = 0.02

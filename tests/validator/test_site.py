@@ -1,0 +1,159 @@
+"""The site file: what it accepts, and one test per input it must reject (naming the field)."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+
+from validator.errors import InputError
+from validator.site import load_site, parse_site, site_to_dict
+
+SAMPLE = Path(__file__).resolve().parents[2] / "samples" / "paper-default.yaml"
+
+
+def _base() -> dict[str, Any]:
+    return {
+        "name": "t",
+        "origin": {"lat": 37.5585, "lon": 126.999, "alt": 40.0},
+        "home": {"x": 0.0, "y": 0.0},
+        "uav": {"altitude": 30.0, "max_speed": 30.0, "period": 50.0, "slots": 50},
+        "radio": {"p_avg_dbm": 20.0, "p_peak_dbm": 26.0206, "beta0_db": -30.0, "noise_dbm": -70.0},
+        "ground_nodes": [
+            {"name": "GN1", "x": 60.0, "y": 340.0},
+            {"name": "GN2", "x": 300, "y": 50},
+        ],
+        "no_fly_zones": [{"name": "NFZ1", "x": 150.0, "y": 200.0, "radius": 30.0}],
+    }
+
+
+def _rejects(data: Any, *words: str) -> str:
+    with pytest.raises(InputError) as err:
+        parse_site(data, "site.yaml")
+    msg = str(err.value)
+    assert "\n" not in msg
+    for word in words:
+        assert word in msg, msg
+    return msg
+
+
+def test_sample_site_loads_in_si_units() -> None:
+    site = load_site(SAMPLE)
+    assert site.num_gns == 4 and site.num_nfzs == 3
+    assert site.p_avg_w == pytest.approx(0.1)
+    assert site.p_peak_w == pytest.approx(0.4, rel=1e-4)
+    assert site.noise_w == pytest.approx(1e-10)
+    assert site.beta0 == pytest.approx(1e-3)
+    assert site.buffer_m == 2.0
+    assert site.max_accel_mps2 == 2.5 and site.max_jerk_mps3 == 1.0
+
+
+def test_geodetic_point_is_resolved_into_the_local_frame() -> None:
+    data = _base()
+    site = parse_site(data)
+    lat, lon = site.frame.to_geodetic(np.array([60.0, 340.0]))
+    data["ground_nodes"][0] = {"name": "GN1", "lat": float(lat), "lon": float(lon)}
+    again = parse_site(data)
+    assert np.allclose(again.gn_xy_m[0], [60.0, 340.0], atol=1e-6)
+
+
+def test_site_round_trips_through_its_dict() -> None:
+    site = load_site(SAMPLE)
+    again = parse_site(site_to_dict(site))
+    assert np.allclose(again.gn_xy_m, site.gn_xy_m)
+    assert again.p_peak_w == pytest.approx(site.p_peak_w)
+
+
+def test_rejects_unknown_key() -> None:
+    data = _base()
+    data["uav"]["top_speed"] = 3
+    _rejects(data, "uav.top_speed", "unknown key")
+
+
+def test_rejects_missing_field() -> None:
+    data = _base()
+    del data["radio"]["noise_dbm"]
+    _rejects(data, "radio.noise_dbm", "missing")
+
+
+@pytest.mark.parametrize("field", ["altitude", "max_speed", "period", "slots"])
+def test_rejects_non_positive_uav_numbers(field: str) -> None:
+    data = _base()
+    data["uav"][field] = 0
+    _rejects(data, f"uav.{field}")
+
+
+def test_rejects_negative_radius() -> None:
+    data = _base()
+    data["no_fly_zones"][0]["radius"] = -5
+    _rejects(data, "no_fly_zones[0] (NFZ1).radius")
+
+
+def test_rejects_overlapping_nfzs() -> None:
+    data = _base()
+    data["no_fly_zones"].append({"name": "NFZ2", "x": 190.0, "y": 200.0, "radius": 30.0})
+    _rejects(data, "NFZ2", "overlaps", "NFZ1")
+
+
+def test_rejects_gn_inside_nfz() -> None:
+    data = _base()
+    data["ground_nodes"][1] = {"name": "GN2", "x": 160.0, "y": 200.0}
+    _rejects(data, "ground_nodes[1] (GN2)", "inside NFZ1")
+
+
+def test_rejects_home_inside_nfz_or_its_buffer() -> None:
+    data = _base()
+    data["home"] = {"x": 150.0, "y": 231.0}  # 1 m outside the zone, inside the 2 m buffer
+    _rejects(data, "home", "NFZ1")
+
+
+def test_rejects_peak_power_below_average() -> None:
+    data = _base()
+    data["radio"]["p_peak_dbm"] = 19.0
+    _rejects(data, "radio", "p_peak_dbm")
+
+
+def test_rejects_point_given_both_ways() -> None:
+    data = _base()
+    data["ground_nodes"][0]["lat"] = 37.5
+    data["ground_nodes"][0]["lon"] = 127.0
+    _rejects(data, "ground_nodes[0] (GN1)", "not both")
+
+
+def test_rejects_point_given_neither_way() -> None:
+    data = _base()
+    data["ground_nodes"][0] = {"name": "GN1"}
+    _rejects(data, "ground_nodes[0] (GN1)", "x/y or as lat/lon")
+
+
+def test_rejects_duplicate_names() -> None:
+    data = _base()
+    data["ground_nodes"][1]["name"] = "GN1"
+    _rejects(data, "ground_nodes[1] (GN1)", "duplicate")
+
+
+def test_rejects_unreadable_yaml(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: x\nuav: {altitude: 30\n")
+    with pytest.raises(InputError, match="unreadable YAML"):
+        load_site(bad)
+
+
+def test_rejects_a_list_at_top_level() -> None:
+    _rejects([1, 2], "mapping")
+
+
+def test_negative_buffer_is_refused() -> None:
+    site = parse_site(_base())
+    with pytest.raises(InputError, match="buffer_m"):
+        site.with_buffer(-1.0)
+
+
+def test_file_and_dict_agree(tmp_path: Path) -> None:
+    path = tmp_path / "s.yaml"
+    path.write_text(yaml.safe_dump(copy.deepcopy(_base())))
+    assert np.array_equal(load_site(path).nfz_xy_m, parse_site(_base()).nfz_xy_m)
