@@ -296,3 +296,21 @@ def test_same_solution_same_file(site):
     a = dumps_plan(build_mission(circle_tour(site)).plan)
     b = dumps_plan(build_mission(circle_tour(site)).plan)
     assert a == b
+
+
+def test_a_site_without_nfzs_gets_straight_transits_and_no_exclusion_fence():
+    site = make_site(no_fly_zones=[])
+    m = build_mission(circle_tour(site))
+    assert not m.problems and m.plan.circles == []
+    assert len(m.outbound_m) == 2 and len(m.return_m) == 2
+    assert mission_summary(m)["expanded_radius_max_m"] is None
+
+
+def test_a_cycle_starting_at_home_still_flies_to_q0_first():
+    site = make_site()
+    q = circle_points((0.0, 60.0), 60.0, site.slots, phase_rad=-math.pi / 2)  # q[0] = home
+    m = build_mission(solution_for(site, q))
+    first, _ = m.cycle_items
+    assert [it.command for it in m.plan.items[:first]] == [Cmd.NAV_TAKEOFF, Cmd.DO_CHANGE_SPEED,
+                                                           Cmd.NAV_WAYPOINT]
+    assert not m.problems

@@ -1,0 +1,36 @@
+"""Fig. 3 of a solution: what the map and the slot panel draw."""
+
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.collections import LineCollection
+from matplotlib.patches import Circle
+
+from mission_planner.figure import figure_png, solution_figure
+from mission_planner.mission import build_mission
+from tests.mission_planner.solutions import circle_tour, make_site
+
+
+def test_map_colours_each_leg_by_its_gn_and_draws_three_circles_per_nfz():
+    site = make_site()
+    sol = circle_tour(site)
+    fig = solution_figure(sol, build_mission(sol))
+    ax, bx = fig.axes[0], fig.axes[1]
+    legs = [c for c in ax.collections if isinstance(c, LineCollection)]
+    assert len(legs) == 1 and len(legs[0].get_segments()) == site.slots
+    colours = legs[0].get_colors()
+    # slots served to the same GN share a colour, different GNs differ
+    same = sol.schedule[:, None] == sol.schedule[None, :]
+    equal = np.all(np.isclose(colours[:, None, :], colours[None, :, :]), axis=2)
+    np.testing.assert_array_equal(same, equal)
+    circles = [p for p in ax.patches if isinstance(p, Circle)]
+    assert len(circles) == 3 * site.num_nfzs
+    radii = sorted({round(c.get_radius(), 6) for c in circles})
+    assert radii[0] == 30.0 and radii[1] == 32.0 and radii[2] > 32.0
+    assert len(bx.get_lines()) == 1 and len(fig.axes) == 3  # δ and its twin axis with p
+
+
+def test_png_bytes():
+    site = make_site()
+    png = figure_png(solution_figure(circle_tour(site)))
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
