@@ -8,6 +8,7 @@ turn before a step is given up.
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import cvxpy as cp
@@ -25,7 +26,12 @@ def solve(problem: cp.Problem) -> bool:
     """Solve ``problem`` with Clarabel; True when a (possibly inaccurate) optimum was found."""
     for settings in _ATTEMPTS:
         try:
-            problem.solve(solver=cp.CLARABEL, **settings)
+            with warnings.catch_warnings():
+                # The status is judged below; cvxpy's "may be inaccurate" warning adds nothing.
+                warnings.simplefilter("ignore", UserWarning)
+                # warm_start=False: cvxpy would otherwise update the previous Clarabel instance
+                # in place, whose results then depend on what it solved before.
+                problem.solve(solver=cp.CLARABEL, warm_start=False, **settings)
         except cp.SolverError:
             continue
         if problem.status in _ACCEPTED:

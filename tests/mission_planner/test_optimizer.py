@@ -1,0 +1,153 @@
+"""Algorithm 1 on real sites: the constraints of (P0), NFZ safety of both schemes, determinism."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mission_planner.optimize import PlannerOptions, Solution, plan
+from mission_planner.optimize.scaled import scale_site, slot_rates
+from mission_planner.study.sites import random_site
+from validator.channel import hover_upper_bound, spectral_efficiency
+from validator.errors import InputError
+from validator.site import Site, parse_site
+
+FAST = PlannerOptions(max_iterations=15)
+
+
+def _site(
+    ground_nodes: list[dict],
+    zones: list[dict],
+    *,
+    slots: int,
+    period: float,
+    speed: float = 30.0,
+    buffer_m: float = 0.0,
+) -> Site:
+    return parse_site(
+        {
+            "name": "crafted",
+            "origin": {"lat": 37.5585, "lon": 126.999, "alt": 40.0},
+            "home": {"x": 0.0, "y": -100.0},
+            "uav": {"altitude": 30.0, "max_speed": speed, "period": period, "slots": slots},
+            "radio": {
+                "p_avg_dbm": 20.0,
+                "p_peak_dbm": 26.0206,
+                "beta0_db": -30.0,
+                "noise_dbm": -70.0,
+            },
+            "ground_nodes": ground_nodes,
+            "no_fly_zones": zones,
+            "safety": {"buffer_m": buffer_m},
+        }
+    )
+
+
+@pytest.fixture(scope="module")
+def solution() -> Solution:
+    return plan(random_site(3, slots=16, buffer_m=2.0), "proposed", options=FAST)
+
+
+def test_slot_lengths_are_positive_and_sum_to_the_period(solution: Solution) -> None:
+    assert np.all(solution.delta_s > 0)
+    assert solution.delta_s.sum() == pytest.approx(solution.site.period_s, rel=1e-12)
+
+
+def test_every_leg_respects_the_top_speed(solution: Solution) -> None:
+    speed = solution.leg_length_m / solution.delta_s
+    assert np.all(speed <= solution.site.max_speed_mps * (1 + 1e-6))
+
+
+def test_the_cycle_is_closed(solution: Solution) -> None:
+    assert np.array_equal(solution.trajectory_m[0], solution.trajectory_m[-1])
+    assert solution.trajectory_m.shape == (solution.site.slots + 1, 2)
+
+
+def test_average_and_peak_power_hold(solution: Solution) -> None:
+    site = solution.site
+    assert np.all(solution.power_w >= 0)
+    assert np.all(solution.power_w <= site.p_peak_w * (1 + 1e-9))
+    average_w = float(solution.delta_s @ solution.power_w) / site.period_s
+    assert average_w <= site.p_avg_w * (1 + 1e-9)
+
+
+def test_one_ground_node_per_slot(solution: Solution) -> None:
+    assert solution.schedule.shape == (solution.site.slots,)
+    assert set(solution.schedule.tolist()) <= set(range(solution.site.num_gns))
+
+
+def test_reported_rates_come_from_the_exact_formula(solution: Solution) -> None:
+    site = solution.site
+    for k in range(site.num_gns):
+        served = solution.schedule == k
+        se = spectral_efficiency(
+            solution.trajectory_m[1:][served],
+            site.gn_xy_m[k],
+            site.altitude_m,
+            solution.power_w[served],
+            site.beta0,
+            site.noise_w,
+        )
+        expected = float(np.sum(solution.delta_s[served] * se)) / site.period_s
+        assert solution.rates_bps_hz[k] == pytest.approx(expected, rel=1e-12)
+
+
+def test_min_rate_is_below_the_hover_bound_and_well_above_zero(solution: Solution) -> None:
+    site = solution.site
+    bound = hover_upper_bound(site.num_gns, site.altitude_m, site.p_avg_w, site.beta0, site.noise_w)
+    assert 0.5 * bound < solution.min_rate_bps_hz <= bound
+
+
+def test_optimiser_improves_on_its_start(solution: Solution) -> None:
+    assert solution.history[-1] > solution.history[0]
+
+
+def test_scaled_rates_match_si_rates() -> None:
+    site = random_site(5, slots=8)
+    sc = scale_site(site, 0.0)
+    rng = np.random.default_rng(0)
+    q = rng.uniform(0, 400, (8, 2))
+    delta = rng.uniform(0.5, 1.5, 8)
+    power = rng.uniform(0, 2, 8)
+    scaled = slot_rates(sc, q / 100.0, delta, power).sum(axis=1)
+    for k in range(site.num_gns):
+        si = spectral_efficiency(
+            q, site.gn_xy_m[k], site.altitude_m, power * site.p_avg_w, site.beta0, site.noise_w
+        )
+        assert scaled[k] == pytest.approx(float(np.sum(delta * si)) / 8, rel=1e-12)
+
+
+def test_planning_is_deterministic() -> None:
+    site = random_site(7, slots=12)
+    a = plan(site, "proposed", options=FAST)
+    b = plan(site, "proposed", options=FAST)
+    assert np.array_equal(a.trajectory_m, b.trajectory_m)
+    assert np.array_equal(a.power_w, b.power_w)
+    assert np.array_equal(a.schedule, b.schedule)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_proposed_scheme_never_enters_an_nfz(seed: int) -> None:
+    # Large zones and few, long slots make cutting corners tempting.
+    site = random_site(seed, slots=10, radius_m=45.0, num_nfzs=4)
+    solution = plan(site, "proposed", options=FAST)
+    assert solution.nfz_clearance_min_m >= 0.0
+
+
+def test_conventional_scheme_cuts_through_an_nfz_the_proposed_one_avoids() -> None:
+    # Two GNs on either side of a zone, few slots: waypoints can hop across the zone.
+    site = _site(
+        [{"name": "W", "x": 0.0, "y": 0.0}, {"name": "E", "x": 240.0, "y": 0.0}],
+        [{"name": "MID", "x": 120.0, "y": 0.0, "radius": 40.0}],
+        slots=6,
+        period=30.0,
+    )
+    conventional = plan(site, "conventional", options=FAST)
+    proposed = plan(site, "proposed", options=FAST)
+    assert conventional.nfz_clearance_min_m < -1.0
+    assert proposed.nfz_clearance_min_m >= 0.0
+
+
+def test_unknown_scheme_is_refused() -> None:
+    with pytest.raises(InputError, match="scheme"):
+        plan(random_site(1, slots=8), "shortest")
