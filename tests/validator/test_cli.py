@@ -1,0 +1,111 @@
+import json
+import math
+
+import numpy as np
+import pytest
+import yaml
+
+from tests.validator.builders import make_site, service_plan, waypoint_plan
+from validator.cli import validate_mission, validate_mission_main
+from validator.plan_format import write_plan
+from validator.site import site_to_dict
+
+
+@pytest.fixture()
+def files(tmp_path):
+    site = make_site()
+    site_path = tmp_path / "site.yaml"
+    site_path.write_text(yaml.safe_dump(site_to_dict(site)))
+    good = tmp_path / "good.plan"
+    q = [(0, 60), (60, 60), (60, 100), (0, 60)]
+    write_plan(service_plan(site, q, [6.0, 4.0, 8.0], [0.1] * 3, ["GN1", None, "GN2"]), good)
+    bad = tmp_path / "bad.plan"
+    write_plan(waypoint_plan(site, [(0, -15), (75, -15), (125, -15), (200, -15)], end="none"),
+               bad)
+    return tmp_path, site_path, good, bad
+
+
+def test_clear_plan_exits_0_and_prints_the_table(files, capsys):
+    _, site, good, _ = files
+    assert validate_mission_main([str(good), "--site", str(site)]) == 0
+    out = capsys.readouterr().out
+    assert "Result: CLEAR" in out and "NFZ1" in out
+
+
+def test_violating_plan_exits_1_naming_the_leg(files, capsys):
+    _, site, _, bad = files
+    assert validate_mission_main([str(bad), "--site", str(site)]) == 1
+    assert "leg item 3 -> item 4 (waypoint) enters NFZ1 by 5.00 m" in capsys.readouterr().out
+
+
+def test_json_report_is_written(files):
+    tmp, site, good, _ = files
+    out = tmp / "report.json"
+    status = validate_mission_main([str(good), "--site", str(site), "--replay", "--json",
+                                    str(out)])
+    assert status == 0
+    data = json.loads(out.read_text())
+    assert data["result"] == "clear" and data["exit_status"] == 0
+    assert data["replay"]["profile"] == "arducopter"
+    assert data["replay"]["throughput"]["per_gn"][0]["gn"] == "GN1"
+    assert data["audit"]["nfz"][0]["nfz"] == "NFZ1"
+
+
+@pytest.mark.parametrize(
+    "mutate, message",
+    [
+        (lambda p: p.write_text("{not json"), "not valid JSON"),
+        (lambda p: p.write_text('{"fileType": "Plan"}'), "mission: missing field"),
+    ],
+)
+def test_bad_plan_exits_2_with_one_line_and_no_output(files, capsys, mutate, message):
+    tmp, site, good, _ = files
+    mutate(good)
+    out = tmp / "report.json"
+    assert validate_mission_main([str(good), "--site", str(site), "--json", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
+    assert not out.exists()
+
+
+def test_bad_site_exits_2(files, capsys):
+    tmp, site, good, _ = files
+    site.write_text("name: x\norigin: {lat: 1, lon: 2}\n")
+    assert validate_mission_main([str(good), "--site", str(site)]) == 2
+    assert "uav: missing field" in capsys.readouterr().err
+
+
+def test_bad_param_exits_2(files, capsys):
+    _, site, good, _ = files
+    assert validate_mission_main([str(good), "--site", str(site), "--param", "WPNAV_X=1"]) == 2
+    assert "--param WPNAV_X: unknown parameter" in capsys.readouterr().err
+
+
+def test_slower_than_20_hz_is_refused(files, capsys):
+    _, site, good, _ = files
+    assert validate_mission_main([str(good), "--site", str(site), "--replay", "--dt",
+                                  "0.1"]) == 2
+    assert "--dt" in capsys.readouterr().err
+
+
+def test_param_implies_replay_and_follows_the_plan_firmware(files):
+    _, site, good, _ = files
+    v = validate_mission(good, site, params={"WPNAV_ACCEL": 500.0})
+    assert v.replay is not None and v.profile is not None
+    assert v.profile.name == "arducopter" and v.profile.params["WPNAV_ACCEL"] == 500.0
+
+
+def test_replay_violation_alone_makes_exit_1(tmp_path, capsys):
+    site = make_site(nfz=((100.0, 0.0, 20.0),), buffer_m=0.0)
+    site_path = tmp_path / "site.yaml"
+    site_path.write_text(yaml.safe_dump(site_to_dict(site)))
+    a = math.asin(20.05 / 20.6)
+    v = np.array([100.0, -20.6])
+    pts = [v + 60.0 * np.array([-math.sin(a), math.cos(a)]), v,
+           v + 60.0 * np.array([math.sin(a), math.cos(a)])]
+    plan = tmp_path / "corner.plan"
+    write_plan(waypoint_plan(site, pts, v=8.0, end="none"), plan)
+    assert validate_mission_main([str(plan), "--site", str(site_path)]) == 0
+    capsys.readouterr()
+    assert validate_mission_main([str(plan), "--site", str(site_path), "--replay"]) == 1
+    assert "flown track enters NFZ1" in capsys.readouterr().out

@@ -1,0 +1,183 @@
+"""Hand-computed cases for the multicopter profiles."""
+
+import math
+
+import numpy as np
+import pytest
+
+from tests.validator.builders import make_site, nav, plan_of, speed
+from validator.dynamics import (
+    LegGeometry,
+    corner_overlaps_s,
+    fly,
+    make_profile,
+    parse_param_overrides,
+    scurve_peak_speed,
+    scurve_rest_to_rest,
+)
+from validator.errors import InputError
+from validator.flight import resolve_flight
+from validator.plan_format import Cmd
+
+
+def one(x: float) -> np.ndarray:
+    return np.array([x], dtype=float)
+
+
+def sampled(prof, n=20001):
+    t = np.linspace(0.0, float(prof.total_s[0]), n)
+    p, v, a = prof.state(np.zeros(n, dtype=np.int64), t)
+    return t, p, v, a
+
+
+def test_long_move_lasts_L_over_V_plus_V_over_A_plus_A_over_J():
+    # 100 m at V = 10, A = 2.5, J = 1: 10 + 4 + 2.5 = 16.5 s
+    prof = scurve_rest_to_rest(one(100.0), one(10.0), one(2.5), one(1.0))
+    assert prof.total_s[0] == pytest.approx(16.5, abs=1e-9)
+    t, p, v, a = sampled(prof)
+    assert p[-1] == pytest.approx(100.0, abs=1e-9)
+    assert v.max() == pytest.approx(10.0, abs=1e-6)
+    assert np.abs(a).max() == pytest.approx(2.5, abs=1e-3)
+    jerk = np.diff(a) / np.diff(t)
+    assert np.abs(jerk).max() <= 1.0 + 1e-6
+
+
+def test_jerk_ramps_add_their_duration_once():
+    # snap-limited jerk changes (ramp 0.3 s) lengthen the long move by exactly 0.3 s
+    prof = scurve_rest_to_rest(one(100.0), one(10.0), one(2.5), one(1.0), 0.3)
+    assert prof.total_s[0] == pytest.approx(16.8, abs=1e-9)
+    t, p, v, _ = sampled(prof)
+    assert p[-1] == pytest.approx(100.0, abs=1e-9)
+    assert v.max() == pytest.approx(10.0, abs=1e-6)
+
+
+def test_short_leg_never_reaches_its_speed():
+    # 26 m with J = 1 (A = 2.5 is never reached): peak (L·sqrt(J)/2)^(2/3) = 13^(2/3) m/s,
+    # duration 4·sqrt(v/J)
+    v = 13.0 ** (2.0 / 3.0)
+    assert scurve_peak_speed(26.0, 30.0, 2.5, 1.0)[0] == pytest.approx(v, rel=1e-9)
+    prof = scurve_rest_to_rest(one(26.0), one(30.0), one(2.5), one(1.0))
+    assert prof.total_s[0] == pytest.approx(4.0 * math.sqrt(v), rel=1e-9)
+
+
+def test_distance_needed_to_reach_v_is_v2_over_A_plus_vA_over_J():
+    # the notes' rule: ~65 m to reach 10 m/s at A = 2.5, J = 1 (40 + 25)
+    assert scurve_peak_speed(65.0, 10.0, 2.5, 1.0)[0] == pytest.approx(10.0, rel=1e-9)
+    assert scurve_peak_speed(64.0, 10.0, 2.5, 1.0)[0] < 10.0
+    assert scurve_peak_speed(30.0, 10.0, 5.0, 5.0)[0] == pytest.approx(10.0, rel=1e-9)
+
+
+def test_corner_overlap_keeps_the_blend_inside_the_waypoint_radius():
+    # 90° corner between two long legs, R = 2 m, J = 1, A = 2.5, no jerk ramps. The blended
+    # target at mid-overlap sits at sqrt(2)·D(τ/2) from the corner with D(t) = J t³/6, so the
+    # next leg starts with τ = 2·(6·R/(sqrt(2)·J))^(1/3) s left on this one.
+    geom = LegGeometry(np.array([[0.0, 0, 0], [100.0, 0, 0]]),
+                       np.array([[100.0, 0, 0], [0.0, 100, 0]]))
+    prof = scurve_rest_to_rest(geom.length_m, np.full(2, 10.0), np.full(2, 2.5), np.ones(2))
+    tau = corner_overlaps_s(geom, prof, np.array([0]), np.full(2, 10.0), 2.0, 5.0)[0]
+    expected = 2.0 * (6.0 * 2.0 / (math.sqrt(2.0) * 1.0)) ** (1.0 / 3.0)
+    assert tau == pytest.approx(expected, abs=0.005)
+
+
+def corner_mission(site, radius_cm: float):
+    items = [nav(site, Cmd.NAV_TAKEOFF, (0, 0)), speed(10.0),
+             nav(site, Cmd.NAV_WAYPOINT, (0, 0)), nav(site, Cmd.NAV_WAYPOINT, (100, 0)),
+             nav(site, Cmd.NAV_WAYPOINT, (100, 100))]
+    flight = resolve_flight(plan_of(site, items, fence=False), site)
+    prof = make_profile("arducopter", site, {"WPNAV_RADIUS": radius_cm, "WPNAV_SPEED": 1000})
+    return fly(flight, prof, dt_s=0.01)
+
+
+@pytest.fixture(scope="module")
+def open_site():
+    return make_site(nfz=(), max_speed=10.0)
+
+
+@pytest.mark.parametrize("radius_cm", [200.0, 50.0])
+def test_arducopter_cuts_the_corner_inside_the_turn_within_wpnav_radius(open_site, radius_cm):
+    path = corner_mission(open_site, radius_cm)
+    xy = path.xyz_m[:, :2]
+    d = np.hypot(xy[:, 0] - 100.0, xy[:, 1])
+    closest = int(np.argmin(d))
+    r = radius_cm / 100.0
+    assert d[closest] == pytest.approx(r, abs=0.03)  # the blend starts as soon as it may
+    # inside the turn: west of the second leg and north of the first
+    assert xy[closest, 0] < 100.0 and xy[closest, 1] > 0.0
+    # it does not stop at the corner
+    speed_at = np.hypot(*path.vel_mps[closest, :2])
+    assert speed_at > 1.0
+
+
+def test_arducopter_speed_never_exceeds_its_limits(open_site):
+    path = corner_mission(open_site, 200.0)
+    v = np.hypot(path.vel_mps[:, 0], path.vel_mps[:, 1])
+    assert v.max() <= 10.0 + 1e-6
+    acc = np.diff(path.vel_mps[:, :2], axis=0) / 0.01
+    # legs add up in the corner: ArduCopter bounds that by the corner acceleration 2·WPNAV_ACCEL
+    assert np.hypot(acc[:, 0], acc[:, 1]).max() <= 5.0 + 0.05
+
+
+def test_arducopter_speed_change_follows_wpnav_accel_and_jerk(open_site):
+    # from rest to 10 m/s along a 200 m leg: S-curve with A = 2.5 (WPNAV_ACCEL 250) and
+    # J = 1, jerk ramps of 2·ATC_INPUT_TC = 0.3 s: 200/10 + 10/2.5 + 2.5/1 + 0.3 = 26.8 s
+    items = [nav(open_site, Cmd.NAV_TAKEOFF, (0, 0)), speed(10.0),
+             nav(open_site, Cmd.NAV_WAYPOINT, (0, 0), p1=1.0),
+             nav(open_site, Cmd.NAV_WAYPOINT, (200, 0), p1=1.0)]
+    flight = resolve_flight(plan_of(open_site, items, fence=False), open_site)
+    path = fly(flight, make_profile("arducopter", open_site), dt_s=0.01)
+    leg = 2
+    assert path.reached_s[leg] - path.start_s[leg] == pytest.approx(26.8, abs=1e-6)
+    moving = (path.t_s >= path.start_s[leg]) & (path.t_s <= path.reached_s[leg])
+    v = np.hypot(path.vel_mps[moving, 0], path.vel_mps[moving, 1])
+    a = np.diff(v) / 0.01
+    assert v.max() == pytest.approx(10.0, abs=1e-3)
+    assert np.abs(a).max() <= 2.5 + 1e-3
+    assert np.abs(np.diff(a) / 0.01).max() <= 1.0 + 0.01
+
+
+def test_ideal_profile_flies_the_commanded_speed_exactly(open_site):
+    items = [nav(open_site, Cmd.NAV_TAKEOFF, (0, 0)), speed(4.0),
+             nav(open_site, Cmd.NAV_WAYPOINT, (0, 0)), nav(open_site, Cmd.NAV_WAYPOINT, (40, 30)),
+             speed(5.0), nav(open_site, Cmd.NAV_WAYPOINT, (40, 80), p1=2.0)]
+    flight = resolve_flight(plan_of(open_site, items, fence=False), open_site)
+    path = fly(flight, make_profile("ideal", open_site))
+    assert path.reached_s[2] - path.start_s[2] == pytest.approx(50.0 / 4.0)
+    assert path.done_s[3] - path.start_s[3] == pytest.approx(50.0 / 5.0 + 2.0)
+
+
+def test_px4_rounds_corners_inside_nav_acc_rad(open_site):
+    items = [nav(open_site, Cmd.NAV_TAKEOFF, (0, 0)), speed(8.0),
+             nav(open_site, Cmd.NAV_WAYPOINT, (0, 0)), nav(open_site, Cmd.NAV_WAYPOINT, (100, 0)),
+             nav(open_site, Cmd.NAV_WAYPOINT, (100, 100))]
+    flight = resolve_flight(plan_of(open_site, items, fence=False), open_site)
+    prof = make_profile("px4", open_site, {"NAV_ACC_RAD": 5.0, "MPC_ACC_HOR": 3.0,
+                                           "MPC_JERK_AUTO": 4.0})
+    path = fly(flight, prof, dt_s=0.01)
+    xy = path.xyz_m[:, :2]
+    d = np.hypot(xy[:, 0] - 100.0, xy[:, 1])
+    k = int(np.argmin(d))
+    # arc tangent 5 m before and after the corner: radius 5 m, apex 5·(sqrt(2) − 1) m away
+    assert d[k] == pytest.approx(5.0 * (math.sqrt(2.0) - 1.0), abs=0.05)
+    # corner speed sqrt(A·r) = sqrt(15)
+    assert np.hypot(*path.vel_mps[k, :2]) == pytest.approx(math.sqrt(15.0), rel=0.05)
+
+
+def test_unknown_parameter_is_bad_input(open_site):
+    with pytest.raises(InputError, match="--param WPNAV_SPED"):
+        make_profile("arducopter", open_site, {"WPNAV_SPED": 500})
+    with pytest.raises(InputError, match="--param NAV_ACC_RAD: must be a number > 0"):
+        make_profile("px4", open_site, {"NAV_ACC_RAD": -1})
+
+
+def test_param_overrides_parse_name_value_pairs():
+    assert parse_param_overrides(["wpnav_accel=500", "WPNAV_JERK=5"]) == {
+        "WPNAV_ACCEL": 500.0, "WPNAV_JERK": 5.0}
+    with pytest.raises(InputError, match="--param WPNAV_JERK: 'fast' is not a number"):
+        parse_param_overrides(["WPNAV_JERK=fast"])
+
+
+def test_defaults_come_from_the_site_limits():
+    site = make_site(nfz=(), max_accel=4.0, max_jerk=3.0)
+    prof = make_profile("arducopter", site)
+    assert prof.si("WPNAV_ACCEL") == 4.0 and prof.si("WPNAV_JERK") == 3.0
+    assert make_profile("px4", site).si("MPC_JERK_AUTO") == 3.0

@@ -1,0 +1,132 @@
+import re
+
+import numpy as np
+import pytest
+
+from tests.validator.builders import (
+    jump,
+    make_site,
+    nav,
+    plan_of,
+    service_plan,
+    speed,
+    waypoint_plan,
+)
+from validator.errors import InputError
+from validator.flight import parse_service, resolve_flight
+from validator.plan_format import Cmd, Frame, MissionItem
+
+
+@pytest.fixture(scope="module")
+def site():
+    return make_site()
+
+
+def test_waypoints_become_straight_legs_from_home(site):
+    flight = resolve_flight(waypoint_plan(site, [(50, -40), (150, -40)]), site)
+    kinds = [leg.kind for leg in flight.legs]
+    assert kinds == ["takeoff", "waypoint", "waypoint", "waypoint", "land"]
+    np.testing.assert_allclose(flight.legs[1].start_xy_m, site.home_xy_m, atol=1e-6)
+    np.testing.assert_allclose(flight.legs[2].end_xy_m, [150, -40], atol=1e-3)
+    assert flight.legs[3].end_alt_m == 30.0 and flight.legs[4].end_alt_m == 0.0
+
+
+def test_do_change_speed_holds_until_changed(site):
+    items = [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), speed(3.0),
+             nav(site, Cmd.NAV_WAYPOINT, (10, 0)), nav(site, Cmd.NAV_WAYPOINT, (20, 0)),
+             speed(7.0), nav(site, Cmd.NAV_WAYPOINT, (30, 0))]
+    legs = resolve_flight(plan_of(site, items), site).legs
+    assert [leg.speed_mps for leg in legs[1:]] == [3.0, 3.0, 7.0]
+    assert legs[3].first_item == 4  # the speed change belongs to the leg it governs
+
+
+def test_do_jump_repeats_the_block(site):
+    items = [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), nav(site, Cmd.NAV_WAYPOINT, (10, 0)),
+             nav(site, Cmd.NAV_WAYPOINT, (10, 10)), jump(1, 2),
+             nav(site, Cmd.NAV_WAYPOINT, (0, 10))]
+    flight = resolve_flight(plan_of(site, items), site)
+    assert [leg.item for leg in flight.legs] == [0, 1, 2, 1, 2, 1, 2, 4]
+    assert flight.cycle is not None and flight.cycle.cycles == 3
+
+
+def test_do_jump_to_a_missing_item_is_bad_input(site):
+    items = [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), jump(40, 1)]
+    with pytest.raises(InputError, match=r"item 1 \(DO_JUMP\): target 41"):
+        resolve_flight(plan_of(site, items), site)
+
+
+def test_rtl_flies_straight_to_the_nearest_of_home_and_rally(site):
+    plan = waypoint_plan(site, [(150, 30)], end="rtl", rally=[(160, 60)])
+    flight = resolve_flight(plan, site)
+    rtl = [leg for leg in flight.legs if leg.kind == "rtl"][0]
+    np.testing.assert_allclose(rtl.start_xy_m, [150, 30], atol=1e-3)
+    np.testing.assert_allclose(rtl.end_xy_m, [160, 60], atol=1e-3)
+    assert flight.legs[-1].kind == "land"
+
+
+def test_holds_and_loiter_time_are_kept(site):
+    items = [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m),
+             nav(site, Cmd.NAV_WAYPOINT, (10, 0), p1=2.5),
+             nav(site, Cmd.NAV_LOITER_TIME, (10, 10), p1=4.0)]
+    legs = resolve_flight(plan_of(site, items), site).legs
+    assert [leg.hold_s for leg in legs[1:]] == [2.5, 4.0]
+    assert not legs[1].pass_through  # a hold stops the vehicle
+
+
+def test_zero_position_means_here(site):
+    items = [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), nav(site, Cmd.NAV_WAYPOINT, (10, 5)),
+             MissionItem(int(Cmd.NAV_WAYPOINT), [3.0, 0, 0, 0, 0.0, 0.0, 30.0],
+                         int(Frame.GLOBAL_RELATIVE_ALT))]
+    legs = resolve_flight(plan_of(site, items), site).legs
+    np.testing.assert_allclose(legs[2].end_xy_m, [10, 5], atol=1e-3)
+
+
+def test_unknown_command_is_listed_as_a_warning(site):
+    items = [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m),
+             MissionItem(31337, [0.0] * 7, int(Frame.MISSION)),
+             nav(site, Cmd.NAV_WAYPOINT, (10, 0))]
+    findings = resolve_flight(plan_of(site, items), site).findings
+    assert any(f.item == 1 and f.severity == "warning" and "31337" in f.message
+               for f in findings)
+
+
+def test_unsupported_navigation_command_is_a_violation(site):
+    spline = nav(site, 82, (40, 40))
+    items = [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), spline]
+    findings = resolve_flight(plan_of(site, items), site).findings
+    assert any(f.item == 1 and f.severity == "violation" and "SPLINE" in f.message
+               for f in findings)
+
+
+def test_metadata_defines_the_service_cycle(site):
+    q = [(0, 60), (40, 60), (40, 60), (80, 60), (0, 60)]
+    plan = service_plan(site, q, [4, 4, 2, 4], [0.1] * 4, ["GN1", None, "GN2", "GN1"],
+                        cycles=2)
+    flight = resolve_flight(plan, site)
+    c = flight.cycle
+    assert c is not None and c.source == "metadata" and c.cycles == 2
+    assert flight.legs[c.end_leg].item == plan.extra["cycle_items"][1]
+    assert flight.service is not None and flight.service.period_s == 14.0
+
+
+@pytest.mark.parametrize(
+    "patch, field",
+    [
+        ({"delta_s": [1.0, 2.0]}, "delta_s"),
+        ({"schedule": ["GN9", None, None, None]}, "schedule[0]"),
+        ({"cycles": 0}, "cycles"),
+        ({"surprise": 1}, "surprise"),
+        ({"format": 2}, "format"),
+    ],
+)
+def test_bad_metadata_names_the_field(site, patch, field):
+    extra = {"format": 1, "site": "x", "scheme": "proposed",
+             "trajectory_m": [[0, 0], [1, 0], [2, 0], [3, 0], [0, 0]],
+             "delta_s": [1.0] * 4, "power_w": [0.1] * 4, "schedule": [None] * 4,
+             "cycle_items": [1, 3], "cycles": 1, **patch}
+    with pytest.raises(InputError, match=re.escape(f"nfzMission.{field}")):
+        parse_service(extra, site)
+
+
+def test_no_metadata_is_none(site):
+    assert parse_service(None, site) is None

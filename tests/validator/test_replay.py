@@ -1,0 +1,121 @@
+import math
+
+import numpy as np
+import pytest
+
+from tests.validator.builders import ALT_M, make_site, service_plan, waypoint_plan
+from validator.audit import audit
+from validator.dynamics import make_profile
+from validator.flight import resolve_flight
+from validator.replay import replay, score_track, track_from_samples
+
+
+@pytest.fixture(scope="module")
+def site():
+    return make_site()  # NFZ of 20 m at (100, 0); GN1 (0, 50), GN2 (200, 50); V = 10 m/s
+
+
+@pytest.fixture(scope="module")
+def service(site):
+    # 60 m east at 10 m/s, a 3 s hover, 40 m north, 72 m back at 9 m/s: T = 21 s
+    q = [(0, 60), (60, 60), (60, 60), (60, 100), (0, 60)]
+    return service_plan(site, q, [6.0, 3.0, 4.0, 8.0], [0.1, 0.2, 0.1, 0.1],
+                        ["GN1", "GN1", None, "GN2"], cycles=3)
+
+
+def test_ideal_profile_reproduces_the_planned_cycle_time(site, service):
+    flight = resolve_flight(service, site)
+    rep = score_track(replay(flight, make_profile("ideal", site)), flight, site, service)
+    assert rep.cycle is not None
+    assert rep.cycle.planned_period_s == pytest.approx(21.0)
+    assert rep.cycle.flown_cycle_s == pytest.approx(21.0, rel=0.01)
+    assert rep.cycle.flown_cycles_s == pytest.approx((21.0, 21.0, 21.0), rel=0.01)
+
+
+def test_arducopter_cycle_is_longer_than_planned(site, service):
+    flight = resolve_flight(service, site)
+    rep = score_track(replay(flight, make_profile("arducopter", site)), flight, site, service)
+    assert rep.cycle is not None and rep.cycle.ratio > 1.2
+    assert len(rep.cycle.flown_cycles_s) == 3
+    assert rep.max_lag_s > 0
+
+
+def test_track_is_sampled_at_20_hz_by_default(site, service):
+    track = replay(resolve_flight(service, site), make_profile("arducopter", site))
+    assert np.diff(track.t_s).max() <= 0.05 + 1e-9
+    assert track.mission_seq.min() >= 0
+
+
+def test_hover_slots_get_exactly_the_planned_rate(site):
+    q = [(60, 60)] * 5
+    plan = service_plan(site, q, [2.0, 3.0, 1.0, 4.0], [0.1, 0.3, 0.2, 0.1],
+                        ["GN1", "GN2", "GN1", None])
+    flight = resolve_flight(plan, site)
+    for name in ("ideal", "arducopter"):
+        rep = score_track(replay(flight, make_profile(name, site), dt_s=0.01), flight, site, plan)
+        assert rep.throughput is not None
+        np.testing.assert_allclose(rep.throughput.flown_bps_hz, rep.throughput.planned_bps_hz,
+                                   rtol=2e-3)
+
+
+def test_flown_rate_is_the_rate_integrated_along_the_leg(site):
+    # out 100 m east at 10 m/s serving GN1, back serving GN2: T = 20 s
+    q = [(0, 60), (100, 60), (0, 60)]
+    p = 0.1
+    plan = service_plan(site, q, [10.0, 10.0], [p, p], ["GN1", "GN2"])
+    flight = resolve_flight(plan, site)
+    rep = score_track(replay(flight, make_profile("ideal", site)), flight, site, plan)
+    t = np.linspace(0.0, 10.0, 200001)
+    snr0 = site.beta0 * p / site.noise_w
+
+    def bits(x, gn):
+        d2 = (x - site.gn_xy_m[gn, 0]) ** 2 + (60 - site.gn_xy_m[gn, 1]) ** 2 + ALT_M**2
+        return np.trapezoid(np.log2(1 + snr0 / d2), t)
+
+    expected = np.array([bits(10.0 * t, 0), bits(100.0 - 10.0 * t, 1)]) / 20.0
+    assert rep.throughput is not None
+    np.testing.assert_allclose(rep.throughput.flown_bps_hz, expected, rtol=2e-3)
+    # the paper's discrete model scores slot n at its end point q[n]: not the same number
+    assert not np.allclose(rep.throughput.planned_bps_hz, expected, rtol=2e-3)
+
+
+def test_throughput_is_skipped_without_metadata(site):
+    plan = waypoint_plan(site, [(0, -40), (200, -40)], end="none")
+    flight = resolve_flight(plan, site)
+    rep = score_track(replay(flight, make_profile("arducopter", site)), flight, site, plan)
+    assert rep.throughput is None
+    assert any("throughput not scored" in f.message for f in rep.findings)
+
+
+def test_corner_cut_enters_an_nfz_the_straight_legs_clear():
+    # two legs tangent to a 20 m NFZ (0.05 m clear) meeting 0.6 m outside it in a 26.6° turn
+    # toward it: ArduCopter cuts inside the turn, up to WPNAV_RADIUS (2 m) from the waypoint,
+    # less where the corner speed rule binds first
+    site = make_site(nfz=((100.0, 0.0, 20.0),), buffer_m=0.0)
+    a = math.asin(20.05 / 20.6)
+    v = np.array([100.0, -20.6])
+    p1 = v + 60.0 * np.array([-math.sin(a), math.cos(a)])
+    p2 = v + 60.0 * np.array([math.sin(a), math.cos(a)])
+    plan = waypoint_plan(site, [p1, v, p2], v=8.0, end="none")
+    assert audit(plan, site).ok
+    flight = resolve_flight(plan, site)
+    ideal = score_track(replay(flight, make_profile("ideal", site)), flight, site, plan)
+    assert ideal.nfz[0].clearance_m == pytest.approx(0.05, abs=1e-3)
+    ardu = score_track(replay(flight, make_profile("arducopter", site)), flight, site, plan)
+    assert -1.41 < ardu.nfz[0].clearance_m < -1.0
+    assert any("flown track enters NFZ1" in f.message for f in ardu.violations)
+
+
+def test_recorded_track_is_scored_like_the_replay(site, service):
+    flight = resolve_flight(service, site)
+    track = replay(flight, make_profile("arducopter", site))
+    rep = score_track(track, flight, site, service)
+    recorded = track_from_samples(flight, track.t_s, track.xy_m, track.mission_seq,
+                                  alt_m=track.alt_m)
+    rec = score_track(recorded, flight, site, service)
+    assert rec.cycle is not None and rep.cycle is not None
+    assert rec.cycle.flown_cycle_s == pytest.approx(rep.cycle.flown_cycle_s, abs=0.1)
+    assert rec.nfz[0].clearance_m == pytest.approx(rep.nfz[0].clearance_m, abs=1e-9)
+    assert rec.throughput is not None and rep.throughput is not None
+    np.testing.assert_allclose(rec.throughput.flown_bps_hz, rep.throughput.flown_bps_hz,
+                               rtol=0.02)
