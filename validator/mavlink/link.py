@@ -1,0 +1,615 @@
+"""A ground station's side of a MAVLink link: mission and parameter protocols over pymavlink.
+
+:class:`Link` opens a connection string as pymavlink takes it (``udpin:HOST:PORT``,
+``udpout:HOST:PORT``, ``tcp:HOST:PORT``, a serial port), waits for the vehicle's HEARTBEAT and
+then speaks the MAVLink 2 mission protocol (MISSION_COUNT -> MISSION_REQUEST_INT ->
+MISSION_ITEM_INT -> MISSION_ACK, and the reverse for downloads) for mission, fence and rally
+lists, the parameter protocol (PARAM_SET / PARAM_VALUE) and COMMAND_LONG.
+
+Timing: every request is repeated after ``retry_s`` without an answer, and a transfer whose
+vehicle has not answered for ``timeout_s`` fails with :class:`LinkError`; nothing waits longer.
+A rejected transfer (MISSION_ACK with an error) fails at once with the MAV_MISSION_RESULT name.
+
+:func:`upload_plan` and :func:`download_plan` are what ``upload-mission`` and
+``download-mission`` do. An upload is reported as a success only when all three lists read
+back from the vehicle are identical, item by item, to what was sent.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import select
+import struct
+import time
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from validator.errors import InputError
+from validator.mavlink.wire import (
+    MissionType,
+    WireItem,
+    WireLists,
+    first_difference,
+    mavlink,
+    mavutil,
+    mission_result_name,
+    plan_to_wire,
+    wire_to_plan,
+)
+from validator.plan_format import Autopilot, Plan
+
+GCS_SYSTEM_ID = 255
+GCS_COMPONENT_ID = 190  # MAV_COMP_ID_MISSIONPLANNER, as ground stations use
+DEFAULT_TIMEOUT_S = 10.0
+DEFAULT_RETRY_S = 0.5
+TRANSFER_ATTEMPTS = 5  # whole-transfer restarts when the vehicle loses its place
+RESENDS_BEFORE_RESTART = 4  # of the last item, waiting for the final ACK
+# Silence mid-upload after which the vehicle has given up re-requesting and MISSION_COUNT
+# starts the transfer again (MAVSDK gives up after 5 requests 0.5 s apart, ArduPilot later).
+RESTART_AFTER_S = 3.0
+
+_MISSION_REQUESTS = ("MISSION_REQUEST_INT", "MISSION_REQUEST")
+# Results after which starting the transfer again can succeed (lost or duplicated packets).
+_RESTARTABLE = {
+    mavlink.MAV_MISSION_INVALID_SEQUENCE,
+    mavlink.MAV_MISSION_OPERATION_CANCELLED,
+}
+
+
+class LinkError(InputError):
+    """The link or the vehicle failed: no heartbeat, silence, a NACK, a read-back mismatch.
+
+    A subclass of :class:`InputError` so commands report it on one line with exit status 2.
+    """
+
+
+@dataclass(frozen=True)
+class VehicleInfo:
+    """Who answered: from the vehicle's HEARTBEAT."""
+
+    system_id: int
+    component_id: int
+    autopilot: int  # MAV_AUTOPILOT
+    vehicle_type: int  # MAV_TYPE
+
+    @property
+    def is_ardupilot(self) -> bool:
+        return self.autopilot == mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
+
+    @property
+    def is_px4(self) -> bool:
+        return self.autopilot == mavlink.MAV_AUTOPILOT_PX4
+
+    @property
+    def autopilot_name(self) -> str:
+        return {3: "ArduPilot", 12: "PX4"}.get(self.autopilot, f"MAV_AUTOPILOT {self.autopilot}")
+
+
+@dataclass(frozen=True)
+class ParamValue:
+    """A parameter as the vehicle reports it (value decoded, MAV_PARAM_TYPE)."""
+
+    name: str
+    value: float
+    param_type: int
+
+
+@dataclass
+class UploadReport:
+    """What :func:`upload_plan` sent and verified."""
+
+    vehicle: VehicleInfo
+    counts: dict[str, int]  # items per list as sent (mission includes ArduPilot's home item)
+    params: dict[str, float] = field(default_factory=dict)  # as read back from the vehicle
+
+    def summary(self) -> str:
+        c = self.counts
+        text = (f"uploaded and verified {c['mission']} mission, {c['fence']} fence and "
+                f"{c['rally']} rally items on system {self.vehicle.system_id} "
+                f"({self.vehicle.autopilot_name})")
+        if self.params:
+            text += f"; {len(self.params)} parameters set"
+        return text
+
+
+def _check_url(url: str) -> None:
+    """Refuse strings pymavlink would open as a log file to replay, a classic slip."""
+    if re.match(r"^(udp|udpin|udpout|udpbcast|tcp|tcpin|mcast|ws|wss|wsserver):", url):
+        return
+    path = Path(url.split(",")[0])
+    if path.is_file():
+        raise LinkError(f"--connect {url}: is a file, not a connection (e.g. udpin:0.0.0.0:14550)")
+
+
+def open_connection(url: str, *, source_system: int, source_component: int,
+                    timeout_s: float) -> Any:
+    """A pymavlink connection for ``url``; failures to open raise :class:`LinkError`."""
+    _check_url(url)
+    try:
+        return mavutil.mavlink_connection(
+            url,
+            source_system=source_system,
+            source_component=source_component,
+            autoreconnect=False,
+            retries=max(0, int(timeout_s) - 1),
+        )
+    except Exception as err:  # pymavlink raises OSError, ValueError, SerialException...
+        raise LinkError(f"--connect {url}: cannot open ({err})") from None
+
+
+def _decode_param(value: float, param_type: int, bytewise: bool) -> float:
+    """PARAM_VALUE's float field as the parameter's value (PX4 packs integers bytewise)."""
+    if not bytewise or param_type in (mavlink.MAV_PARAM_TYPE_REAL32, mavlink.MAV_PARAM_TYPE_REAL64):
+        return float(value)
+    raw = struct.pack("<f", value)
+    fmt = {1: "<B3x", 2: "<b3x", 3: "<H2x", 4: "<h2x", 5: "<I", 6: "<i"}.get(param_type, "<i")
+    return float(struct.unpack(fmt, raw)[0])
+
+
+def _encode_param(value: float, param_type: int, bytewise: bool) -> float:
+    if not bytewise or param_type in (mavlink.MAV_PARAM_TYPE_REAL32, mavlink.MAV_PARAM_TYPE_REAL64):
+        return float(value)
+    fmt = {1: "<B3x", 2: "<b3x", 3: "<H2x", 4: "<h2x", 5: "<I", 6: "<i"}.get(param_type, "<i")
+    return float(struct.unpack("<f", struct.pack(fmt, int(round(value))))[0])
+
+
+def _same_param(a: float, b: float, param_type: int) -> bool:
+    if param_type in (mavlink.MAV_PARAM_TYPE_REAL32, mavlink.MAV_PARAM_TYPE_REAL64):
+        return struct.pack("<f", a) == struct.pack("<f", b)
+    return int(round(a)) == int(round(b))
+
+
+class Link:
+    """A connection to one vehicle, from the ground station's side.
+
+    ``target_system`` picks the vehicle by MAVLink system id; None takes the first autopilot
+    heard. Opening waits up to ``timeout_s`` for its HEARTBEAT. Use as a context manager.
+    """
+
+    def __init__(
+        self,
+        url: str,
+        *,
+        timeout_s: float = DEFAULT_TIMEOUT_S,
+        target_system: int | None = None,
+        retry_s: float = DEFAULT_RETRY_S,
+        source_system: int = GCS_SYSTEM_ID,
+        source_component: int = GCS_COMPONENT_ID,
+    ) -> None:
+        if not timeout_s > 0:
+            raise InputError(f"--timeout: must be > 0, got {timeout_s}")
+        if target_system is not None and not 1 <= target_system <= 255:
+            raise InputError(f"--sysid: must be 1..255, got {target_system}")
+        self.url = url
+        self.timeout_s = float(timeout_s)
+        self.retry_s = min(float(retry_s), self.timeout_s / 4)
+        self.conn = open_connection(url, source_system=source_system,
+                                    source_component=source_component, timeout_s=timeout_s)
+        self.mav = self.conn.mav
+        self._last_gcs_heartbeat = 0.0
+        self._confirmation = 0
+        try:
+            self.vehicle = self._wait_vehicle(target_system)
+        except BaseException:
+            self.close()
+            raise
+
+    # -- plumbing --------------------------------------------------------------------------
+
+    def close(self) -> None:
+        try:
+            self.conn.close()
+        except Exception:  # closing twice or a serial port gone: nothing left to do
+            pass
+
+    def __enter__(self) -> Link:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    @property
+    def target(self) -> tuple[int, int]:
+        return self.vehicle.system_id, self.vehicle.component_id
+
+    def _heartbeat_if_due(self) -> None:
+        """Send our GCS heartbeat once a second: udpout peers learn our address from it."""
+        now = time.monotonic()
+        if now - self._last_gcs_heartbeat >= 1.0:
+            self._last_gcs_heartbeat = now
+            self.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+
+    def recv(self, types: Iterable[str], deadline: float,
+             accept: Callable[[Any], bool] | None = None) -> Any | None:
+        """The next message of one of ``types`` from our vehicle before ``deadline``
+        (``time.monotonic()``), or None. Others are dropped."""
+        wanted = set(types)
+        while True:
+            self._heartbeat_if_due()
+            msg = self.conn.recv_msg()
+            if msg is None:
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    return None
+                fd = self.conn.fd if getattr(self.conn, "fd", None) is not None else None
+                if fd is not None:
+                    select.select([fd], [], [], min(remaining, 0.05))
+                else:
+                    time.sleep(min(remaining, 0.01))
+                continue
+            if msg.get_type() not in wanted:
+                continue
+            if hasattr(self, "vehicle") and msg.get_srcSystem() != self.vehicle.system_id:
+                continue
+            target = getattr(msg, "target_system", 0)
+            if target not in (0, self.conn.source_system):
+                continue
+            if accept is None or accept(msg):
+                return msg
+
+    def _wait_vehicle(self, target_system: int | None) -> VehicleInfo:
+        deadline = time.monotonic() + self.timeout_s
+        heard: set[int] = set()
+        while True:
+            msg = self.recv(["HEARTBEAT"], deadline)
+            if msg is None:
+                if heard:
+                    raise LinkError(
+                        f"--connect {self.url}: no vehicle with system id {target_system} "
+                        f"within {self.timeout_s:g} s (heard system id "
+                        f"{', '.join(str(s) for s in sorted(heard))})"
+                    )
+                raise LinkError(f"--connect {self.url}: no heartbeat within {self.timeout_s:g} s "
+                                "(is the vehicle running and sending to this address?)")
+            if msg.type == mavlink.MAV_TYPE_GCS or msg.autopilot == mavlink.MAV_AUTOPILOT_INVALID:
+                continue
+            sysid = msg.get_srcSystem()
+            if target_system is not None and sysid != target_system:
+                heard.add(sysid)
+                continue
+            return VehicleInfo(sysid, msg.get_srcComponent(), int(msg.autopilot), int(msg.type))
+
+    # -- mission protocol ------------------------------------------------------------------
+
+    def upload_list(self, items: tuple[WireItem, ...], mission_type: MissionType) -> bool:
+        """Upload one list. Returns True once the vehicle ACKs it as accepted, False when every
+        item was requested and sent but the final ACK never came (the caller's read-back then
+        decides). Raises :class:`LinkError` on a NACK or when the vehicle falls silent.
+
+        The vehicle drives the transfer and re-requests what it misses; we only repeat
+        MISSION_COUNT until the first request, and the last item until the ACK. (Repeating
+        items mid-transfer would keep resetting the vehicle's own re-request timer.)
+        """
+        label = mission_type.label
+        count = len(items)
+        ts, tc = self.target
+        last_progress = time.monotonic()
+        for _attempt in range(TRANSFER_ATTEMPTS):
+            self.mav.mission_count_send(ts, tc, count, int(mission_type))
+            last_send = time.monotonic()
+            last_sent: int | None = None
+            final_resends = 0
+            highest = -1
+            while True:
+                now = time.monotonic()
+                if now - last_progress > self.timeout_s:
+                    where = (f"after item {highest} of {count}" if highest >= 0
+                             else "to MISSION_COUNT")
+                    raise LinkError(f"{label} upload: vehicle stopped answering {where} "
+                                    f"(no reply for {self.timeout_s:g} s); upload incomplete")
+                if last_sent is not None and highest < count - 1 and (
+                    now - last_progress > RESTART_AFTER_S
+                ):
+                    break  # the vehicle gave up re-requesting (MAVSDK: after 5): start again
+                if now - last_send >= self.retry_s:
+                    if last_sent is None:
+                        self.mav.mission_count_send(ts, tc, count, int(mission_type))
+                    elif highest == count - 1:
+                        if final_resends >= RESENDS_BEFORE_RESTART:
+                            return False
+                        items[count - 1].send(self.mav, ts, tc)
+                        final_resends += 1
+                    last_send = now
+                msg = self.recv(
+                    (*_MISSION_REQUESTS, "MISSION_ACK"),
+                    min(last_send + self.retry_s, last_progress + self.timeout_s),
+                    lambda m: getattr(m, "mission_type", 0) == int(mission_type),
+                )
+                if msg is None:
+                    continue
+                if msg.get_type() == "MISSION_ACK":
+                    if msg.type == mavlink.MAV_MISSION_ACCEPTED:
+                        if highest == count - 1:
+                            return True
+                        continue  # a stale ACK from an earlier attempt
+                    name = mission_result_name(msg.type)
+                    if msg.type in _RESTARTABLE:
+                        last_progress = time.monotonic()
+                        break  # start the transfer again
+                    at = f" at item {last_sent}" if last_sent is not None else ""
+                    raise LinkError(f"{label} upload: vehicle rejected it with {name}{at}")
+                seq = int(msg.seq)
+                if seq >= count:
+                    continue
+                items[seq].send(self.mav, ts, tc)
+                last_sent, highest = seq, max(highest, seq)
+                last_progress = last_send = time.monotonic()
+        raise LinkError(f"{label} upload: gave up after {TRANSFER_ATTEMPTS} attempts; "
+                        "the link loses too many packets")
+
+    def download_list(self, mission_type: MissionType) -> tuple[WireItem, ...]:
+        """Download one list from the vehicle (we drive: one request per item, repeated
+        after ``retry_s``; after ``RESTART_AFTER_S`` of silence the vehicle has given up on the
+        transfer and MISSION_REQUEST_LIST opens it again)."""
+        label = mission_type.label
+        ts, tc = self.target
+        mtype = int(mission_type)
+        count: int | None = None
+        out: list[WireItem] = []
+        last_progress = last_open = time.monotonic()
+        opened = False
+        while count is None or len(out) < count:
+            now = time.monotonic()
+            if now - last_progress > self.timeout_s:
+                what = ("MISSION_REQUEST_LIST" if count is None
+                        else f"item {len(out)} of {count}")
+                raise LinkError(f"{label} download: no answer to {what} within "
+                                f"{self.timeout_s:g} s")
+            if count is None or (now - max(last_progress, last_open) > RESTART_AFTER_S):
+                self.mav.mission_request_list_send(ts, tc, mtype)
+                last_open = now
+                opened = True
+            if count is not None:
+                self.mav.mission_request_int_send(ts, tc, len(out), mtype)
+            msg = self.recv(
+                ("MISSION_COUNT", "MISSION_ITEM_INT", "MISSION_ACK"),
+                min(time.monotonic() + self.retry_s, last_progress + self.timeout_s),
+                _answer_to(mtype, len(out)),
+            )
+            if msg is None:
+                continue
+            kind = msg.get_type()
+            if kind == "MISSION_ACK":
+                if msg.type == mavlink.MAV_MISSION_ACCEPTED:
+                    continue  # a late ACK to something else
+                if opened and msg.type in _RESTARTABLE:
+                    out.clear()  # the vehicle wants the transfer from the start
+                    continue
+                raise LinkError(f"{label} download: vehicle refused it with "
+                                f"{mission_result_name(msg.type)}")
+            if kind == "MISSION_COUNT":
+                if count is not None and int(msg.count) != count:
+                    raise LinkError(f"{label} download: the list changed during the download "
+                                    f"({count} then {msg.count} items)")
+                count = int(msg.count)
+                last_progress = time.monotonic()
+                opened = False
+                continue
+            out.append(WireItem.from_msg(msg))
+            last_progress = time.monotonic()
+        self.mav.mission_ack_send(ts, tc, mavlink.MAV_MISSION_ACCEPTED, mtype)
+        return tuple(out)
+
+    def upload(self, lists: WireLists) -> None:
+        """Upload mission, fence and rally lists, in that order."""
+        for mtype in MissionType:
+            self.upload_list(lists.of(mtype), mtype)
+
+    def download(self) -> WireLists:
+        """Download all three lists."""
+        return WireLists(*(self.download_list(t) for t in MissionType))
+
+    # -- commands --------------------------------------------------------------------------
+
+    def command(self, command: int, *params: float, accept_in_progress: bool = True) -> int:
+        """Send COMMAND_LONG (repeated on silence) and return the MAV_RESULT of its ACK."""
+        p = [float(v) for v in params] + [0.0] * (7 - len(params))
+        ts, tc = self.target
+        start = time.monotonic()
+        confirmation = 0
+        while True:
+            self.mav.command_long_send(ts, tc, command, confirmation, *p)
+            confirmation = min(confirmation + 1, 255)
+            msg = self.recv(["COMMAND_ACK"], min(time.monotonic() + 3 * self.retry_s,
+                                                 start + self.timeout_s),
+                            lambda m: int(m.command) == int(command))
+            if msg is not None:
+                if msg.result == mavlink.MAV_RESULT_IN_PROGRESS and accept_in_progress:
+                    start = time.monotonic()
+                    continue
+                return int(msg.result)
+            if time.monotonic() - start > self.timeout_s:
+                raise LinkError(f"command {command_name(command)}: no COMMAND_ACK within "
+                                f"{self.timeout_s:g} s")
+
+    def command_ok(self, command: int, *params: float) -> None:
+        """:meth:`command`, raising :class:`LinkError` unless the vehicle accepts it."""
+        result = self.command(command, *params)
+        if result != mavlink.MAV_RESULT_ACCEPTED:
+            name = mavlink.enums["MAV_RESULT"][result].name if result in mavlink.enums[
+                "MAV_RESULT"] else str(result)
+            raise LinkError(f"command {command_name(command)}: vehicle answered {name}")
+
+    # -- parameters ------------------------------------------------------------------------
+
+    @property
+    def _bytewise(self) -> bool:
+        return self.vehicle.is_px4
+
+    def read_param(self, name: str) -> ParamValue:
+        """Read one parameter by name (PARAM_REQUEST_READ -> PARAM_VALUE)."""
+        ts, tc = self.target
+        start = time.monotonic()
+        while True:
+            self.mav.param_request_read_send(ts, tc, name.encode("ascii"), -1)
+            msg = self.recv(["PARAM_VALUE"], min(time.monotonic() + self.retry_s,
+                                                 start + self.timeout_s),
+                            lambda m: m.param_id == name)
+            if msg is not None:
+                return ParamValue(name, _decode_param(msg.param_value, msg.param_type,
+                                                      self._bytewise), int(msg.param_type))
+            if time.monotonic() - start > self.timeout_s:
+                raise LinkError(f"parameter {name}: vehicle did not report it within "
+                                f"{self.timeout_s:g} s (unknown parameter?)")
+
+    def set_param(self, name: str, value: float) -> float:
+        """Set one parameter and return the value the vehicle reports back; raises
+        :class:`LinkError` unless it equals ``value`` (in the parameter's type)."""
+        current = self.read_param(name)
+        ts, tc = self.target
+        start = time.monotonic()
+        encoded = _encode_param(value, current.param_type, self._bytewise)
+        while True:
+            self.mav.param_set_send(ts, tc, name.encode("ascii"), encoded, current.param_type)
+            msg = self.recv(["PARAM_VALUE"], min(time.monotonic() + self.retry_s,
+                                                 start + self.timeout_s),
+                            lambda m: m.param_id == name)
+            if msg is not None:
+                got = _decode_param(msg.param_value, msg.param_type, self._bytewise)
+                if _same_param(got, value, current.param_type):
+                    return got
+                # An answer to an earlier request may still carry the old value: ask again.
+                if time.monotonic() - start > self.timeout_s:
+                    raise LinkError(f"parameter {name}: set {value:g}, vehicle holds {got:g}")
+                continue
+            if time.monotonic() - start > self.timeout_s:
+                raise LinkError(f"parameter {name}: vehicle did not confirm {value:g} within "
+                                f"{self.timeout_s:g} s")
+
+    def set_params(self, params: Mapping[str, float]) -> dict[str, float]:
+        """Set and read back each parameter in order; the values read back."""
+        return {name: self.set_param(name, value) for name, value in params.items()}
+
+
+def _answer_to(mission_type: int, seq: int) -> Callable[[Any], bool]:
+    """Accepts download answers of ``mission_type``; items only when they are ``seq``."""
+
+    def accept(m: Any) -> bool:
+        if getattr(m, "mission_type", 0) != mission_type:
+            return False
+        return bool(m.get_type() != "MISSION_ITEM_INT" or int(m.seq) == seq)
+
+    return accept
+
+
+def command_name(command: int) -> str:
+    entry = mavlink.enums["MAV_CMD"].get(int(command))
+    return entry.name if entry is not None else str(command)
+
+
+# -- parameter files -----------------------------------------------------------------------
+
+_PARAM_NAME = re.compile(r"^[A-Za-z0-9_]{1,16}$")
+
+
+def parse_params(text: str, source: str = "params") -> dict[str, float]:
+    """Parameters from a ``.param`` / ``.parm`` file (``NAME VALUE`` or ``NAME,VALUE`` per line,
+    as ArduPilot tools write) or a QGroundControl parameter file (``SYSID COMPID NAME VALUE
+    TYPE``, tab-separated, as PX4 users save). ``#`` starts a comment."""
+    out: dict[str, float] = {}
+    for lineno, raw in enumerate(text.splitlines(), start=1):
+        line = raw.split("#", 1)[0].strip()
+        if not line:
+            continue
+        parts = [p for p in re.split(r"[\s,]+", line) if p]
+        if len(parts) == 5 and parts[0].isdigit() and parts[1].isdigit():
+            parts = parts[2:4]
+        if len(parts) != 2:
+            raise InputError(f"{source}:{lineno}: expected 'NAME VALUE', got {raw.strip()!r}")
+        name, value_text = parts
+        if not _PARAM_NAME.match(name):
+            raise InputError(f"{source}:{lineno}: {name!r} is not a parameter name "
+                             "(letters, digits, _; at most 16)")
+        try:
+            value = float(value_text)
+        except ValueError:
+            raise InputError(f"{source}:{lineno}: {name}: {value_text!r} is not a number") from None
+        if not math.isfinite(value):
+            raise InputError(f"{source}:{lineno}: {name}: value must be finite")
+        out[name] = value
+    return out
+
+
+def read_params(path: str | Path) -> dict[str, float]:
+    """Read a parameter file (see :func:`parse_params`)."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        raise InputError(f"{path}: cannot read parameter file ({err})") from None
+    return parse_params(text, str(path))
+
+
+# -- what the commands do ------------------------------------------------------------------
+
+
+def verify_lists(link: Link, sent: WireLists) -> None:
+    """Download all three lists and raise :class:`LinkError` at the first difference."""
+    held = link.download()
+    for mtype in MissionType:
+        diff = first_difference(sent.of(mtype), held.of(mtype), mtype,
+                                skip_seq0=mtype == MissionType.MISSION
+                                and link.vehicle.is_ardupilot)
+        if diff is not None:
+            raise LinkError(f"read-back differs from the upload: {diff}")
+
+
+def upload_to(link: Link, plan: Plan, params: Mapping[str, float] | None = None) -> UploadReport:
+    """Set ``params`` (read back), upload ``plan``'s three lists and verify them by
+    downloading them again; raises :class:`LinkError` on any failure or difference."""
+    sent = plan_to_wire(plan, home_item=link.vehicle.is_ardupilot)
+    got_params = link.set_params(params) if params else {}
+    link.upload(sent)
+    verify_lists(link, sent)
+    return UploadReport(
+        link.vehicle,
+        {t.label: len(sent.of(t)) for t in MissionType},
+        got_params,
+    )
+
+
+def upload_plan(
+    plan: Plan,
+    url: str,
+    *,
+    timeout_s: float = DEFAULT_TIMEOUT_S,
+    sysid: int | None = None,
+    params: Mapping[str, float] | None = None,
+) -> UploadReport:
+    """Upload ``plan`` to the vehicle at ``url`` and verify it (``upload-mission``)."""
+    with Link(url, timeout_s=timeout_s, target_system=sysid) as link:
+        return upload_to(link, plan, params)
+
+
+def home_of(link: Link) -> tuple[float, float, float] | None:
+    """The vehicle's home (lat, lon, alt AMSL) from HOME_POSITION, or None if not told."""
+    link.command(mavlink.MAV_CMD_REQUEST_MESSAGE, float(mavlink.MAVLINK_MSG_ID_HOME_POSITION))
+    msg = link.recv(["HOME_POSITION"], time.monotonic() + min(link.timeout_s, 2.0))
+    if msg is None:
+        return None
+    return msg.latitude / 1e7, msg.longitude / 1e7, msg.altitude / 1000.0
+
+
+def download_from(link: Link) -> Plan:
+    """The three lists the vehicle holds, as a :class:`Plan`."""
+    lists = link.download()
+    home = None if link.vehicle.is_ardupilot else home_of(link)
+    firmware = {3: int(Autopilot.ARDUPILOTMEGA), 12: int(Autopilot.PX4)}.get(
+        link.vehicle.autopilot, int(Autopilot.GENERIC))
+    return wire_to_plan(lists, home_item=link.vehicle.is_ardupilot, home=home,
+                        firmware_type=firmware)
+
+
+def download_plan(url: str, *, timeout_s: float = DEFAULT_TIMEOUT_S,
+                  sysid: int | None = None) -> Plan:
+    """What the vehicle at ``url`` holds, as a plan (``download-mission``)."""
+    with Link(url, timeout_s=timeout_s, target_system=sysid) as link:
+        return download_from(link)
+
+
+def env_flag(name: str) -> bool:  # pragma: no cover - tiny helper for CLI debugging
+    return os.environ.get(name, "") not in ("", "0")
