@@ -1,0 +1,380 @@
+"""Fly a plan on any MAVLink vehicle and record what it reports.
+
+:func:`fly_mission` drives a vehicle whose mission is already uploaded (see
+:func:`validator.mavlink.link.upload_to`) the way a pilot would: GUIDED-like mode, arm,
+NAV_TAKEOFF, wait for the altitude, AUTO and MISSION_START; then it records
+GLOBAL_POSITION_INT with the current mission item (MISSION_CURRENT), mode, arming and fence
+breach status until the mission ends (last item reached, mission complete, or landed and
+disarmed) or ``time_limit_s`` of vehicle time has passed. Mode numbers are each autopilot's
+own: ArduCopter's custom modes, or PX4's main/sub modes.
+
+:func:`fly_and_score` is ``validate-mission --sitl``: upload with read-back, fly, and score the
+recorded track against the site exactly as the replay is scored
+(:func:`validator.replay.score_track`). :func:`builtin_vehicle` starts the SITL vehicle for it.
+
+Times are vehicle seconds (``time_boot_ms``), so a sped-up SITL vehicle's track is in its own
+simulated time; altitudes metres above home.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from validator.dynamics import Profile
+from validator.flight import Finding, Flight
+from validator.mavlink.link import Link, LinkError, command_name, upload_to
+from validator.mavlink.wire import mavlink, mavutil
+from validator.plan_format import Cmd, Plan
+from validator.replay import Track, TrackReport, replay, score_track, track_from_geodetic
+from validator.site import Site
+
+TAKEOFF_REACHED_FRACTION = 0.95
+TELEMETRY_HZ = 20.0
+
+
+@dataclass(frozen=True)
+class ModeNumbers:
+    """HEARTBEAT.custom_mode values of the modes the driver uses, and how to ask for them."""
+
+    hold: int  # a position-holding mode the vehicle can arm and take off in
+    auto: int  # mission mode
+    px4: bool = False
+
+    def set_mode_params(self, custom_mode: int) -> tuple[float, float, float]:
+        """DO_SET_MODE param1..3 for ``custom_mode``."""
+        base = float(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED)
+        if self.px4:  # PX4 takes main and sub mode apart
+            return base, float((custom_mode >> 16) & 0xFF), float((custom_mode >> 24) & 0xFF)
+        return base, float(custom_mode), 0.0
+
+
+def _px4_mode(main: int, sub: int = 0) -> int:
+    return (main << 16) | (sub << 24)
+
+
+ARDUCOPTER_MODES = ModeNumbers(
+    hold=mavutil.mode_mapping_byname(mavlink.MAV_TYPE_QUADROTOR)["GUIDED"],
+    auto=mavutil.mode_mapping_byname(mavlink.MAV_TYPE_QUADROTOR)["AUTO"],
+)
+PX4_MODES = ModeNumbers(
+    hold=_px4_mode(mavutil.PX4_CUSTOM_MAIN_MODE_AUTO, mavutil.PX4_CUSTOM_SUB_MODE_AUTO_LOITER),
+    auto=_px4_mode(mavutil.PX4_CUSTOM_MAIN_MODE_AUTO, mavutil.PX4_CUSTOM_SUB_MODE_AUTO_MISSION),
+    px4=True,
+)
+
+
+def modes_for(link: Link) -> ModeNumbers:
+    """The mode numbers of the connected vehicle's autopilot."""
+    return PX4_MODES if link.vehicle.is_px4 else ARDUCOPTER_MODES
+
+
+@dataclass
+class Telemetry:
+    """What the vehicle reported, one row per GLOBAL_POSITION_INT.
+
+    ``t_s`` vehicle seconds since boot; ``lat_deg``/``lon_deg``; ``rel_alt_m`` above home;
+    ``vel_mps`` (n, 3) north, east, down; ``mission_seq`` the vehicle's current mission item
+    (its own numbering: ArduPilot counts home as 0); ``armed``; ``fence_breach``. ``reached``
+    lists (t_s, seq) of MISSION_ITEM_REACHED; ``mission_start_s`` when MISSION_START was
+    accepted; ``end_reason`` why recording stopped.
+    """
+
+    t_s: NDArray[np.float64]
+    lat_deg: NDArray[np.float64]
+    lon_deg: NDArray[np.float64]
+    rel_alt_m: NDArray[np.float64]
+    vel_mps: NDArray[np.float64]
+    mission_seq: NDArray[np.int64]
+    armed: NDArray[np.bool_]
+    fence_breach: NDArray[np.bool_]
+    reached: list[tuple[float, int]] = field(default_factory=list)
+    mission_start_s: float = math.nan
+    end_reason: str = ""
+
+    @property
+    def samples(self) -> int:
+        return int(self.t_s.size)
+
+
+class _Recorder:
+    """Accumulates telemetry rows while the driver waits for things."""
+
+    def __init__(self, link: Link) -> None:
+        self.link = link
+        self.rows: list[tuple[Any, ...]] = []
+        self.seq = -1
+        self.armed = False
+        self.custom_mode: int | None = None
+        self.breach = False
+        self.mission_state = 0
+        self.reached: list[tuple[float, int]] = []
+        self.t_s = math.nan
+        self.last_heard = time.monotonic()
+
+    def pump(self, until: float, stop: Callable[[], bool]) -> bool:
+        """Record until ``stop()`` holds (True) or ``until`` (monotonic) passes (False);
+        :class:`LinkError` when the vehicle stays silent for the link's timeout."""
+        types = ("GLOBAL_POSITION_INT", "HEARTBEAT", "MISSION_CURRENT", "MISSION_ITEM_REACHED",
+                 "FENCE_STATUS")
+        while True:
+            if stop():
+                return True
+            now = time.monotonic()
+            if now >= until:
+                return False
+            if now - self.last_heard > self.link.timeout_s:
+                raise LinkError(f"the vehicle stopped reporting for {self.link.timeout_s:g} s "
+                                "during the flight")
+            msg = self.link.recv(types, min(until, now + 0.2))
+            if msg is not None:
+                self.last_heard = time.monotonic()
+                self.take(msg)
+
+    def take(self, m: Any) -> None:
+        """Fold one pymavlink message into the state (fields are its attributes)."""
+        kind = m.get_type()
+        if kind == "GLOBAL_POSITION_INT":
+            self.t_s = m.time_boot_ms / 1000.0
+            self.rows.append((self.t_s, m.lat / 1e7, m.lon / 1e7, m.relative_alt / 1000.0,
+                              m.vx / 100.0, m.vy / 100.0, m.vz / 100.0,
+                              self.seq, self.armed, self.breach))
+        elif kind == "HEARTBEAT":
+            self.armed = bool(m.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+            self.custom_mode = int(m.custom_mode)
+        elif kind == "MISSION_CURRENT":
+            self.seq = int(m.seq)
+            self.mission_state = int(getattr(m, "mission_state", 0))
+        elif kind == "MISSION_ITEM_REACHED":
+            self.reached.append((self.t_s, int(m.seq)))
+        elif kind == "FENCE_STATUS":
+            self.breach = bool(m.breach_status)
+
+    def telemetry(self, mission_start_s: float, end_reason: str) -> Telemetry:
+        rows = self.rows or [(math.nan,) * 7 + (-1, False, False)]
+        cols = list(zip(*rows, strict=True))
+        return Telemetry(
+            t_s=np.asarray(cols[0], dtype=float),
+            lat_deg=np.asarray(cols[1], dtype=float),
+            lon_deg=np.asarray(cols[2], dtype=float),
+            rel_alt_m=np.asarray(cols[3], dtype=float),
+            vel_mps=np.column_stack([cols[4], cols[5], cols[6]]).astype(float),
+            mission_seq=np.asarray(cols[7], dtype=np.int64),
+            armed=np.asarray(cols[8], dtype=bool),
+            fence_breach=np.asarray(cols[9], dtype=bool),
+            reached=list(self.reached),
+            mission_start_s=mission_start_s,
+            end_reason=end_reason,
+        )
+
+
+def takeoff_altitude(plan: Plan, default_m: float = 10.0) -> float:
+    """The altitude (m above home) to take off to: the plan's first NAV_TAKEOFF, else its
+    first waypoint, else ``default_m``."""
+    for cmd in (Cmd.NAV_TAKEOFF, Cmd.NAV_WAYPOINT):
+        for it in plan.items:
+            if it.command == cmd and math.isfinite(it.alt_m) and it.alt_m > 0:
+                return float(it.alt_m)
+    return default_m
+
+
+def _request_streams(link: Link) -> None:
+    """Ask for position at 20 Hz and mission/fence status at 2 Hz; vehicles that stream
+    these anyway may refuse, which is fine."""
+    interval = {
+        mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 1e6 / TELEMETRY_HZ,
+        mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: 5e5,
+        mavlink.MAVLINK_MSG_ID_FENCE_STATUS: 5e5,
+    }
+    for msg_id, us in interval.items():
+        link.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, float(msg_id), us)
+
+
+def _until_accepted(link: Link, rec: _Recorder, command: int, *params: float) -> None:
+    """Repeat ``command`` until accepted; autopilots refuse arming while pre-arm checks run."""
+    start = time.monotonic()
+    while True:
+        result = link.command(command, *params)
+        if result == mavlink.MAV_RESULT_ACCEPTED:
+            return
+        if time.monotonic() - start > link.timeout_s:
+            name = mavlink.enums["MAV_RESULT"][result].name
+            raise LinkError(f"command {command_name(command)}: vehicle answered {name} for "
+                            f"{link.timeout_s:g} s")
+        rec.pump(time.monotonic() + 1.0, lambda: False)
+
+
+def _set_mode(link: Link, rec: _Recorder, modes: ModeNumbers, custom_mode: int) -> None:
+    _until_accepted(link, rec, mavlink.MAV_CMD_DO_SET_MODE, *modes.set_mode_params(custom_mode))
+
+
+def fly_mission(
+    link: Link,
+    plan: Plan,
+    *,
+    time_limit_s: float,
+    takeoff_alt_m: float | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> Telemetry:
+    """Fly the mission the vehicle holds (uploaded from ``plan``) and record it.
+
+    ``time_limit_s`` bounds the mission in vehicle seconds from MISSION_START. Raises
+    :class:`LinkError` when the vehicle refuses a step or falls silent for ``link.timeout_s``.
+    """
+    say = progress or (lambda _text: None)
+    modes = modes_for(link)
+    rec = _Recorder(link)
+    alt = takeoff_alt_m if takeoff_alt_m is not None else takeoff_altitude(plan)
+    _request_streams(link)
+    rec.pump(time.monotonic() + 0.5, lambda: rec.custom_mode is not None and rec.rows != [])
+    say("mode hold / arm")
+    _set_mode(link, rec, modes, modes.hold)
+    _until_accepted(link, rec, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0)
+    say(f"takeoff to {alt:g} m")
+    _until_accepted(link, rec, mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, 0, 0, alt)
+
+    def at_altitude() -> bool:
+        return bool(rec.rows) and rec.rows[-1][3] >= TAKEOFF_REACHED_FRACTION * alt
+
+    if not _pump_vehicle_time(rec, 120.0 + alt / 0.5, at_altitude):
+        raise LinkError(f"takeoff: the vehicle did not reach {alt:g} m")
+    say("AUTO, MISSION_START")
+    _set_mode(link, rec, modes, modes.auto)
+    _until_accepted(link, rec, mavlink.MAV_CMD_MISSION_START, 0, 0)
+    start_s = rec.t_s
+    rec.reached.clear()
+    nav = [i for i, it in enumerate(plan.items) if 16 <= it.command < 100]
+    last_seq = (nav[-1] if nav else len(plan.items) - 1) + (1 if link.vehicle.is_ardupilot else 0)
+    flown = {"airborne": False}
+
+    def finished() -> bool:
+        if rec.armed:
+            flown["airborne"] = True
+        if flown["airborne"] and not rec.armed:
+            return True  # landed and disarmed
+        if rec.mission_state == mavlink.MISSION_STATE_COMPLETE:
+            return True
+        return any(seq == last_seq for _, seq in rec.reached)
+
+    if _pump_vehicle_time(rec, time_limit_s, finished, since_s=start_s):
+        reason = "landed" if not rec.armed else "mission complete"
+    else:
+        reason = f"time limit ({time_limit_s:g} s)"
+    say(f"recorded {len(rec.rows)} samples: {reason}")
+    return rec.telemetry(start_s, reason)
+
+
+def _pump_vehicle_time(rec: _Recorder, limit_s: float, stop: Callable[[], bool],
+                       since_s: float | None = None) -> bool:
+    """Record until ``stop()`` or until ``limit_s`` vehicle seconds have passed."""
+    t0 = rec.t_s if since_s is None else since_s
+
+    def done() -> bool:
+        if stop():
+            return True
+        return math.isfinite(t0) and math.isfinite(rec.t_s) and rec.t_s - t0 >= limit_s
+
+    rec.pump(math.inf, done)
+    return bool(stop())
+
+
+def telemetry_track(telemetry: Telemetry, flight: Flight, site: Site, *, ardupilot: bool,
+                    source: str) -> Track:
+    """The recorded flight from MISSION_START on, as a :class:`Track` aligned with ``flight``
+    (ArduPilot's seq converted to plan item indices)."""
+    keep = telemetry.t_s >= telemetry.mission_start_s
+    if not math.isfinite(telemetry.mission_start_s):
+        keep = np.ones(telemetry.t_s.size, dtype=bool)
+    seq = telemetry.mission_seq[keep] - (1 if ardupilot else 0)
+    return track_from_geodetic(
+        flight, site, telemetry.t_s[keep], telemetry.lat_deg[keep], telemetry.lon_deg[keep],
+        seq, alt_m=telemetry.rel_alt_m[keep], source=source,
+    )
+
+
+@dataclass
+class SitlResult:
+    """What :func:`fly_and_score` measured: the scored track, the raw telemetry and how the
+    upload went."""
+
+    report: TrackReport
+    telemetry: Telemetry
+    upload_summary: str
+    vehicle: str
+
+
+def default_time_limit_s(flight: Flight, profile: Profile) -> float:
+    """Twice the replayed mission time plus two minutes (vehicle seconds)."""
+    if not flight.legs:
+        return 120.0
+    return 2.0 * float(replay(flight, profile, dt_s=0.5).t_s[-1]) + 120.0
+
+
+def fly_and_score(
+    plan: Plan,
+    site: Site,
+    flight: Flight,
+    url: str,
+    *,
+    time_limit_s: float,
+    timeout_s: float = 10.0,
+    sysid: int | None = None,
+    params: Mapping[str, float] | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> SitlResult:
+    """Upload ``plan`` to the vehicle at ``url`` (verified by read-back, ``params`` set
+    first), fly it and score the recorded track with :func:`score_track`."""
+    with Link(url, timeout_s=timeout_s, target_system=sysid) as link:
+        up = upload_to(link, plan, params)
+        if progress:
+            progress(up.summary())
+        telemetry = fly_mission(link, plan, time_limit_s=time_limit_s, progress=progress)
+        vehicle = f"{link.vehicle.autopilot_name} system {link.vehicle.system_id}"
+        ardupilot = link.vehicle.is_ardupilot
+    if telemetry.samples < 2:
+        raise LinkError("the vehicle sent no position during the flight")
+    track = telemetry_track(telemetry, flight, site, ardupilot=ardupilot,
+                            source=f"sitl:{url}")
+    report = score_track(track, flight, site, plan)
+    if telemetry.end_reason.startswith("time limit"):
+        cut = Finding("warning", f"the flight was cut at the {telemetry.end_reason}", None)
+        report = dataclasses.replace(report, findings=(*report.findings, cut))
+    return SitlResult(report, telemetry, up.summary(), vehicle)
+
+
+@contextmanager
+def builtin_vehicle(
+    plan: Plan,
+    *,
+    profile: Profile,
+    speedup: float,
+    loss: float = 0.0,
+    seed: int = 0,
+) -> Iterator[str]:
+    """Run the SITL vehicle at ``plan``'s home on a free loopback port for the duration of a
+    ``with`` block; yields the connection string to reach it. Its flight model is
+    ``profile`` with all its parameters, so it flies as the replay does."""
+    from validator.mavlink.vehicle import SitlVehicle, VehicleConfig
+
+    config = VehicleConfig(
+        home=(plan.home_lat_deg, plan.home_lon_deg, plan.home_alt_m),
+        speedup=speedup,
+        loss=loss,
+        seed=seed,
+        profile=profile.name,
+        params=dict(profile.params),
+        max_speed_mps=float(profile.si("VEHICLE_SPEED_MAX")),
+    )
+    vehicle = SitlVehicle("udpin:127.0.0.1:0", config).start()
+    try:
+        yield f"udpout:127.0.0.1:{vehicle.address[1]}"
+    finally:
+        vehicle.stop()
