@@ -27,6 +27,7 @@ from validator.dynamics import PROFILES, Profile, make_profile, parse_param_over
 from validator.errors import InputError
 from validator.fileio import write_atomic
 from validator.flight import Finding, Flight, resolve_flight
+from validator.mavlink.cli import add_sitl_arguments, run_sitl
 from validator.plan_format import Autopilot, Plan, read_plan
 from validator.replay import TrackReport, replay, score_track
 from validator.site import Site, load_site
@@ -258,6 +259,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "(repeatable); implies --replay")
     p.add_argument("--dt", type=float, default=0.05, metavar="SECONDS",
                    help="replay sample interval (default 0.05 = 20 Hz; at most 0.05)")
+    add_sitl_arguments(p)
     return p
 
 
@@ -268,6 +270,8 @@ def validate_mission_main(argv: Sequence[str] | None = None) -> int:
         params = parse_param_overrides(args.param)
         v = validate_mission(args.plan, args.site, replay_flight=args.replay,
                              profile=args.profile, params=params or None, dt_s=args.dt)
+        if args.sitl is not None:
+            run_sitl(v, args)
         text = json.dumps(v.as_dict(), indent=1, allow_nan=False) + "\n" if args.json else ""
         if args.json:
             write_atomic(args.json, text)

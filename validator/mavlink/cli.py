@@ -1,0 +1,313 @@
+"""Commands: ``upload-mission``, ``download-mission``, ``sitl-vehicle``, and ``--sitl`` for
+``validate-mission``.
+
+    upload-mission PLAN --connect URL [--timeout S] [--sysid N] [--set-params FILE]
+                   [--site SITE [--force]]
+    download-mission --connect URL -o PLAN [--timeout S] [--sysid N]
+    sitl-vehicle --listen URL --home LAT,LON,ALT [--speedup X] [--loss P] [--seed N]
+                 [--profile NAME] [--param NAME=VALUE ...] [--sysid N]
+
+Exit status: 0 success, 1 a plan the validator rejects (upload refused), 2 bad input or a
+failed link (one line on stderr; no output file). Each command is a thin wrapper over a
+documented function: :func:`validator.mavlink.link.upload_plan`,
+:func:`~validator.mavlink.link.download_plan`, :class:`validator.mavlink.vehicle.SitlVehicle`,
+:func:`validator.mavlink.driver.fly_and_score`. pymavlink and MAVSDK are imported only when a
+command needs them, so ``validate-mission`` without ``--sitl`` starts as fast as before.
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+from validator.errors import InputError
+
+if TYPE_CHECKING:
+    from validator.cli import Validation
+
+DEFAULT_SITL_SPEEDUP = 20.0
+# Profile parameters that are the model's, not an autopilot's: never sent with PARAM_SET.
+MODEL_ONLY_PARAMS = frozenset({"VEHICLE_SPEED_MAX", "SPEED", "SPEED_UP", "SPEED_DN"})
+
+
+def _fail(prog: str, err: Exception) -> int:
+    print(f"{prog}: {err}", file=sys.stderr)
+    return 2
+
+
+def _positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+    return value
+
+
+def _sysid(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if not 1 <= value <= 255:
+        raise argparse.ArgumentTypeError(f"must be 1..255, got {text}")
+    return value
+
+
+def _link_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--connect", required=True, metavar="URL",
+                   help="pymavlink connection string: udpin:0.0.0.0:14550, udpout:HOST:PORT, "
+                        "tcp:HOST:PORT, or a serial port such as /dev/ttyACM0")
+    p.add_argument("--timeout", type=_positive, default=10.0, metavar="S",
+                   help="give up when the vehicle does not answer for S seconds (default 10)")
+    p.add_argument("--sysid", type=_sysid, metavar="N",
+                   help="MAVLink system id of the vehicle (default: the first one heard)")
+
+
+# --------------------------------------------------------------------------------------------
+# upload-mission
+
+
+def upload_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="upload-mission",
+        description="Upload a .plan's mission, geofence and rally points over MAVLink 2, then "
+                    "download all three again and compare them item by item.",
+        epilog="Exit status: 0 uploaded and identical on read-back, 1 refused (the plan fails "
+               "the audit against --site), 2 bad input or a failed link.",
+    )
+    p.add_argument("plan", help="QGroundControl .plan file")
+    _link_args(p)
+    p.add_argument("--set-params", metavar="FILE",
+                   help="parameter file (NAME VALUE per line, .param/.parm or QGC format) to set "
+                        "and read back before the mission")
+    p.add_argument("--site", metavar="SITE",
+                   help="audit the plan against this site first and refuse a violating plan")
+    p.add_argument("--force", action="store_true", help="upload even if the audit fails")
+    return p
+
+
+def upload_mission_main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``upload-mission``; returns the exit status."""
+    args = upload_parser().parse_args(argv)
+    try:
+        from validator.mavlink.link import read_params, upload_plan
+        from validator.plan_format import read_plan
+
+        plan = read_plan(args.plan)
+        params = read_params(args.set_params) if args.set_params else None
+        if args.site:
+            refused = _audit_refusal(args.plan, args.site)
+            if refused and not args.force:
+                print(f"upload-mission: {refused}; --force uploads it anyway", file=sys.stderr)
+                return 1
+        report = upload_plan(plan, args.connect, timeout_s=args.timeout, sysid=args.sysid,
+                             params=params)
+    except InputError as err:
+        return _fail("upload-mission", err)
+    print(report.summary())
+    return 0
+
+
+def _audit_refusal(plan_path: str, site_path: str) -> str | None:
+    """Why the validator rejects the plan (one line), or None."""
+    from validator.cli import validate_mission
+
+    v = validate_mission(plan_path, site_path)
+    if not v.violations:
+        return None
+    first = v.violations[0]
+    where = f"item {first.item}: " if first.item is not None else ""
+    return (f"{plan_path} fails the audit against {site_path} ({len(v.violations)} "
+            f"violation(s), first: {where}{first.message})")
+
+
+# --------------------------------------------------------------------------------------------
+# download-mission
+
+
+def download_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="download-mission",
+        description="Download the mission, geofence and rally points a vehicle holds and write "
+                    "them as a QGroundControl .plan (to audit with validate-mission).",
+        epilog="Exit status: 0 written, 2 bad input or a failed link (no file written).",
+    )
+    _link_args(p)
+    p.add_argument("-o", "--output", required=True, metavar="PLAN", help="the .plan to write")
+    return p
+
+
+def download_mission_main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``download-mission``; returns the exit status."""
+    args = download_parser().parse_args(argv)
+    try:
+        from validator.mavlink.link import download_plan
+        from validator.plan_format import write_plan
+
+        plan = download_plan(args.connect, timeout_s=args.timeout, sysid=args.sysid)
+        write_plan(plan, args.output)
+    except InputError as err:
+        return _fail("download-mission", err)
+    except OSError as err:
+        return _fail("download-mission", InputError(f"{args.output}: {err.strerror}"))
+    print(f"wrote {args.output}: {len(plan.items)} mission items, {len(plan.circles)} fence "
+          f"circle(s), {len(plan.polygons)} polygon(s), {len(plan.rally)} rally point(s)")
+    return 0
+
+
+# --------------------------------------------------------------------------------------------
+# sitl-vehicle
+
+
+def parse_home(text: str) -> tuple[float, float, float]:
+    """``LAT,LON,ALT`` (degrees, degrees, metres AMSL) from the command line."""
+    parts = text.split(",")
+    try:
+        lat, lon, alt = (float(p) for p in parts)
+    except ValueError:
+        raise InputError(f"--home {text}: expected LAT,LON,ALT (degrees, degrees, m AMSL)"
+                         ) from None
+    if not (-90 <= lat <= 90 and -180 <= lon <= 180):
+        raise InputError(f"--home {text}: latitude or longitude out of range")
+    return lat, lon, alt
+
+
+def _glue_home(argv: list[str]) -> list[str]:
+    """``--home -35.36,149.16,584`` as ``--home=...``: argparse takes a value starting with
+    '-' for an option unless it is a plain number."""
+    out: list[str] = []
+    it = iter(argv)
+    for a in it:
+        if a == "--home":
+            value = next(it, None)
+            out.append(a if value is None else f"--home={value}")
+        else:
+            out.append(a)
+    return out
+
+
+def sitl_parser() -> argparse.ArgumentParser:
+    from validator.dynamics import PROFILES
+
+    p = argparse.ArgumentParser(
+        prog="sitl-vehicle",
+        description="A simulated multicopter that speaks MAVLink 2 as ArduCopter does and flies "
+                    "uploaded missions in AUTO with the validator's flight model. Runs until "
+                    "interrupted.",
+    )
+    p.add_argument("--listen", required=True, metavar="URL",
+                   help="where to listen, e.g. udpin:127.0.0.1:14550 (port 0: any free port)")
+    p.add_argument("--home", required=True, metavar="LAT,LON,ALT",
+                   help="home position: degrees, degrees, metres AMSL")
+    p.add_argument("--speedup", type=_positive, default=1.0, metavar="X",
+                   help="simulated seconds per wall second (default 1)")
+    p.add_argument("--loss", type=float, default=0.0, metavar="P",
+                   help="drop this fraction of packets at random, each way (default 0)")
+    p.add_argument("--seed", type=int, default=0, help="random seed for --loss (default 0)")
+    p.add_argument("--profile", choices=PROFILES, default="arducopter",
+                   help="flight model in AUTO (default arducopter)")
+    p.add_argument("--param", action="append", metavar="NAME=VALUE",
+                   help="initial parameter value, e.g. WPNAV_ACCEL=500 (repeatable)")
+    p.add_argument("--sysid", type=_sysid, default=1, help="MAVLink system id (default 1)")
+    return p
+
+
+def sitl_vehicle_main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``sitl-vehicle``; runs until SIGINT or SIGTERM, then returns 0."""
+    args = sitl_parser().parse_args(_glue_home(list(sys.argv[1:] if argv is None else argv)))
+    try:
+        from validator.dynamics import parse_param_overrides
+        from validator.mavlink.vehicle import SitlVehicle, VehicleConfig
+
+        if not 0.0 <= args.loss < 1.0:
+            raise InputError(f"--loss: must be in [0, 1), got {args.loss}")
+        config = VehicleConfig(
+            home=parse_home(args.home),
+            system_id=args.sysid,
+            speedup=args.speedup,
+            loss=args.loss,
+            seed=args.seed,
+            profile=args.profile,
+            params=parse_param_overrides(args.param),
+        )
+        try:
+            vehicle = SitlVehicle(args.listen, config)
+        except (OSError, ValueError) as err:
+            raise InputError(f"--listen {args.listen}: cannot listen ({err})") from None
+    except InputError as err:
+        return _fail("sitl-vehicle", err)
+    host, port = vehicle.address
+    scheme = args.listen.split(":", 1)[0]
+    print(f"sitl-vehicle: listening on {scheme}:{host}:{port} (ArduCopter, system "
+          f"{args.sysid}, {args.profile}, x{args.speedup:g})", flush=True)
+
+    def stop(_sig: int, _frame: Any) -> None:
+        vehicle.stop()
+
+    signal.signal(signal.SIGTERM, stop)
+    try:
+        vehicle.run()
+    except KeyboardInterrupt:
+        pass
+    return 0
+
+
+# --------------------------------------------------------------------------------------------
+# validate-mission --sitl
+
+
+def add_sitl_arguments(p: argparse.ArgumentParser) -> None:
+    """Add ``--sitl [URL]`` and its options to ``validate-mission``'s parser."""
+    g = p.add_argument_group("flight on a MAVLink vehicle")
+    g.add_argument("--sitl", nargs="?", const="", default=None, metavar="URL",
+                   help="upload, fly and score the mission on a vehicle: without URL the "
+                        "built-in SITL vehicle on a free loopback port; with URL an external "
+                        "autopilot (ArduPilot or PX4 SITL) at that pymavlink address")
+    g.add_argument("--sitl-speedup", type=_positive, default=DEFAULT_SITL_SPEEDUP, metavar="X",
+                   help=f"built-in vehicle: simulated seconds per wall second "
+                        f"(default {DEFAULT_SITL_SPEEDUP:g})")
+    g.add_argument("--sitl-timeout", type=_positive, default=10.0, metavar="S",
+                   help="give up when the vehicle does not answer for S seconds (default 10)")
+    g.add_argument("--sitl-time-limit", type=_positive, metavar="S",
+                   help="longest mission to record, vehicle seconds (default: twice the "
+                        "replayed mission plus 120 s)")
+    g.add_argument("--sitl-sysid", type=_sysid, metavar="N",
+                   help="external vehicle's system id (default: the first one heard)")
+
+
+def run_sitl(v: Validation, args: argparse.Namespace) -> None:
+    """Fly ``v``'s plan as ``args`` say and put the scored track into ``v.sitl``."""
+    from validator.cli import default_profile_name
+    from validator.dynamics import make_profile, parse_param_overrides
+    from validator.mavlink.driver import builtin_vehicle, default_time_limit_s, fly_and_score
+
+    overrides = parse_param_overrides(getattr(args, "param", None))
+    profile = v.profile or make_profile(getattr(args, "profile", None)
+                                        or default_profile_name(v.plan), v.site, overrides)
+    limit = args.sitl_time_limit or default_time_limit_s(v.flight, profile)
+    if not v.flight.legs:
+        raise InputError(f"{v.plan_path}: nothing to fly (no navigation items)")
+    if args.sitl:
+        sent = {k: x for k, x in overrides.items() if k not in MODEL_ONLY_PARAMS}
+        result = fly_and_score(v.plan, v.site, v.flight, args.sitl, time_limit_s=limit,
+                               timeout_s=args.sitl_timeout, sysid=args.sitl_sysid,
+                               params=sent or None)
+    else:
+        with builtin_vehicle(v.plan, profile=profile, speedup=args.sitl_speedup) as url:
+            result = fly_and_score(v.plan, v.site, v.flight, url, time_limit_s=limit,
+                                   timeout_s=args.sitl_timeout)
+    v.sitl = result.report
+    v.extra["sitl_flight"] = {
+        "vehicle": result.vehicle,
+        "builtin": not args.sitl,
+        "profile": profile.name if not args.sitl else None,
+        "upload": result.upload_summary,
+        "samples": result.telemetry.samples,
+        "end": result.telemetry.end_reason,
+        "fence_breach_samples": int(result.telemetry.fence_breach.sum()),
+    }
