@@ -59,9 +59,18 @@ def _binary_gap(s: NDArray[np.float64]) -> float:
 
 
 def _initial_schedule(sc: Scaled, q: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Each slot to the nearest GN: the tour's natural service order."""
-    s = np.zeros((sc.num_gns, sc.num_slots))
-    s[np.argmin(distance_sq(sc, q), axis=0), np.arange(sc.num_slots)] = 1.0
+    """Each slot to the nearest GN: the tour's natural service order.
+
+    A GN left with (almost) no slot would pin the min rate at zero, and the scheduling penalty
+    then outweighs the gain of giving all starved GNs slots at once; so if nearest-GN leaves
+    any GN fewer than N/(4K) slots, the cycle is cut into K equal blocks instead.
+    """
+    k, n = sc.num_gns, sc.num_slots
+    nearest = np.argmin(distance_sq(sc, q), axis=0)
+    if np.min(np.bincount(nearest, minlength=k)) < max(1, n // (4 * k)):
+        nearest = np.minimum(np.arange(n) * k // n, k - 1)
+    s = np.zeros((k, n))
+    s[nearest, np.arange(n)] = 1.0
     return s
 
 

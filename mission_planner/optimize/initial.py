@@ -14,12 +14,15 @@ import itertools
 
 import numpy as np
 from numpy.typing import NDArray
+from shapely.geometry import LineString, Point, Polygon
+from shapely.geometry.base import BaseGeometry
+from shapely.ops import nearest_points, unary_union
 
 from mission_planner.optimize.scaled import Scaled
-from validator.geometry import expanded_radius, segment_point_distance
+from validator.geometry import expanded_radius
 
-DETOUR_STEP_RAD = np.deg2rad(10.0)
-CLEAR_FACTOR = 1.08  # how far outside the expanded radius the tour is laid
+QUAD_SEGS = 16  # polygon segments per quarter circle
+CLEAR_FACTOR = 1.05  # how far outside the expanded radius the tour is laid
 
 
 def visiting_order(points: NDArray[np.float64]) -> list[int]:
@@ -48,58 +51,69 @@ def visiting_order(points: NDArray[np.float64]) -> list[int]:
     return order
 
 
-def _push_out(
-    p: NDArray[np.float64], centres: NDArray[np.float64], radii: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """Move a point radially out of every circle it lies in (a few passes for neighbours)."""
-    p = p.copy()
-    for _ in range(4):
-        moved = False
-        for c, r in zip(centres, radii, strict=True):
-            v = p - c
-            d = float(np.hypot(*v))
-            if d < r:
-                u = v / d if d > 1e-12 else np.array([1.0, 0.0])
-                p, moved = c + u * r * (1 + 1e-6), True
-        if not moved:
-            break
+def _zones(centres: NDArray[np.float64], radii: NDArray[np.float64]) -> BaseGeometry:
+    """Union of the circles as polygons whose edges stay outside the true circles."""
+    step = np.pi / (2 * QUAD_SEGS)
+    return unary_union(
+        [
+            Point(c).buffer(r / np.cos(step / 2), quad_segs=QUAD_SEGS)
+            for c, r in zip(centres, radii, strict=True)
+        ]
+    )
+
+
+def _push_out(p: NDArray[np.float64], zones: BaseGeometry) -> NDArray[np.float64]:
+    """The point itself if outside ``zones``, else the nearest point just outside them."""
+    pt = Point(p)
+    if zones.is_empty or not zones.contains(pt):
+        return p
+    for poly in getattr(zones, "geoms", [zones]):
+        if poly.contains(pt):
+            edge = np.asarray(nearest_points(poly.exterior, pt)[0].coords[0])
+            out = edge - p
+            return np.asarray(edge + 1e-6 * out / max(float(np.hypot(*out)), 1e-12), dtype=float)
     return p
 
 
-def _detour(
-    a: NDArray[np.float64], b: NDArray[np.float64], c: NDArray[np.float64], r: float
+def _around(
+    a: NDArray[np.float64], b: NDArray[np.float64], poly: Polygon
 ) -> list[NDArray[np.float64]]:
-    """Points on an arc around circle (c, r) that replace a chord a→b cutting through it."""
-    ang_a = np.arctan2(*(a - c)[::-1])
-    ang_b = np.arctan2(*(b - c)[::-1])
-    sweep = (ang_b - ang_a + np.pi) % (2 * np.pi) - np.pi  # shorter way round
-    steps = max(int(np.ceil(abs(sweep) / DETOUR_STEP_RAD)), 1)
-    radius = r / np.cos(abs(sweep) / steps / 2)  # chords between arc points stay outside r
-    return [
-        c + radius * np.array([np.cos(t), np.sin(t)])
-        for t in ang_a + sweep * np.arange(1, steps) / steps
-    ]
+    """Boundary vertices of ``poly`` that replace a chord a→b through it, the shorter way."""
+    ring = LineString(poly.exterior.coords)
+    hits = LineString([a, b]).intersection(poly.exterior)
+    pts = [np.asarray(g.coords[0]) for g in getattr(hits, "geoms", [hits]) if not g.is_empty]
+    if len(pts) < 2:
+        return []
+    pts.sort(key=lambda x: float(np.hypot(*(x - a))))
+    s0, s1 = ring.project(Point(pts[0])), ring.project(Point(pts[-1]))
+    total = ring.length
+    coords = np.asarray(ring.coords)[:-1]
+    at = np.array([ring.project(Point(c)) for c in coords])
+    fwd = (s1 - s0) % total
+    if fwd <= total / 2:
+        rel = (at - s0) % total
+        chosen = coords[np.argsort(rel)][np.sort(rel) < fwd]
+    else:
+        rel = (s0 - at) % total
+        chosen = coords[np.argsort(rel)][np.sort(rel) < total - fwd]
+    return [pts[0], *chosen, pts[-1]]
 
 
-def _bend(
-    loop: list[NDArray[np.float64]], centres: NDArray[np.float64], radii: NDArray[np.float64]
-) -> list[NDArray[np.float64]]:
-    """Closed polyline with every leg that cuts a circle replaced by an arc around it."""
-    for _ in range(3 * len(radii) + 1):
-        out: list[NDArray[np.float64]] = []
-        changed = False
-        for i, a in enumerate(loop):
-            b = loop[(i + 1) % len(loop)]
-            out.append(a)
-            d = segment_point_distance(a, b, centres) - radii
-            if np.any(d < -1e-9):
-                m = int(np.argmin(d))
-                out.extend(_detour(a, b, centres[m], radii[m]))
-                changed = True
-        loop = out
-        if not changed:
-            break
-    return loop
+def _bend(loop: list[NDArray[np.float64]], zones: BaseGeometry) -> list[NDArray[np.float64]]:
+    """Closed polyline with every leg that cuts a zone replaced by a walk round its boundary."""
+    if zones.is_empty:
+        return loop
+    polys = list(getattr(zones, "geoms", [zones]))
+    out: list[NDArray[np.float64]] = []
+    for i, a in enumerate(loop):
+        b = loop[(i + 1) % len(loop)]
+        out.append(a)
+        leg = LineString([a, b])
+        crossed = [p for p in polys if leg.crosses(p) or leg.within(p)]
+        crossed.sort(key=lambda p: leg.project(p.centroid))
+        for poly in crossed:
+            out.extend(_around(a, b, poly))
+    return out
 
 
 def _resample(loop: list[NDArray[np.float64]], count: int) -> NDArray[np.float64]:
@@ -113,8 +127,8 @@ def _resample(loop: list[NDArray[np.float64]], count: int) -> NDArray[np.float64
     return np.stack([x, y], axis=1)
 
 
-def _hub(sc: Scaled, radii: NDArray[np.float64]) -> NDArray[np.float64]:
-    """A point outside every circle, as close as possible to the GNs' centroid."""
+def _hub(sc: Scaled, zones: BaseGeometry) -> NDArray[np.float64]:
+    """A point outside the zones, as close as possible to the GNs' centroid."""
     centre = sc.gn.mean(axis=0)
     for ring in range(0, 400):
         cands = (
@@ -126,7 +140,7 @@ def _hub(sc: Scaled, radii: NDArray[np.float64]) -> NDArray[np.float64]:
             ]
         )
         for p in cands:
-            if np.all(np.linalg.norm(sc.nfz - p, axis=1) >= radii):
+            if zones.is_empty or not zones.intersects(Point(p)):
                 return np.asarray(p, dtype=float)
     raise RuntimeError("no point outside the no-fly zones near the ground nodes")
 
@@ -147,11 +161,12 @@ def initial_tour(sc: Scaled) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     delta = np.ones(n)
     r_exp = expanded_radius(sc.radius, sc.speed) if sc.num_nfzs else np.zeros(0)
     lay = r_exp * CLEAR_FACTOR
-    hub = _hub(sc, lay)
+    zones = _zones(sc.nfz, lay)
+    hub = _hub(sc, zones)
     order = visiting_order(sc.gn) if sc.num_gns > 1 else [0]
     for shrink in (1.0, 0.75, 0.5, 0.3, 0.15):
-        stops = [_push_out(hub + shrink * (sc.gn[j] - hub), sc.nfz, lay) for j in order]
-        loop = _bend(stops, sc.nfz, lay) if sc.num_nfzs else stops
+        stops = [_push_out(hub + shrink * (sc.gn[j] - hub), zones) for j in order]
+        loop = _bend(stops, zones)
         pts = np.array([*loop, loop[0]])
         length = float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
         travel = int(np.ceil(1.15 * length / sc.speed)) if length > 0 else 0
@@ -161,7 +176,7 @@ def initial_tour(sc: Scaled) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         per_stop = np.full(len(stops), hover // len(stops))
         per_stop[: hover % len(stops)] += 1
         q = _build(loop, stops, travel, per_stop)
-        q = np.array([_push_out(p, sc.nfz, r_exp * 1.001) for p in q]) if sc.num_nfzs else q
+        q = np.array([_push_out(p, zones) for p in q])
         if _feasible(sc, q, 1.0, r_exp):
             return q, delta
     return np.tile(hub, (n, 1)), delta
