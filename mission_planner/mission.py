@@ -27,7 +27,8 @@ Decisions where autopilots and the plan disagree (all in :class:`MissionOptions`
   every leg clears; shortfalls above ``max_nudge_m`` (5 cm) are not solver noise and are left
   for the safety check to refuse. Transits are planned around R + buffer + the same margin.
   The plan is then re-read from rounded coordinates and every leg must stay at least
-  R + buffer − 1 mm from each centre.
+  R + buffer − 1 mm from each centre; :func:`validator.audit.audit` must find no violation
+  either. What fails is listed in ``Mission.problems`` (plan-mission's safety gate).
 - **Whole-second holds.** ArduCopter stores a waypoint hold as whole seconds (it truncates).
   For ArduPilot holds are rounded by error diffusion along the cycle (each hold is the
   rounded running sum minus the previous rounded running sum), so no hold is off by a second
