@@ -331,6 +331,7 @@ class _Resolver:
         self.rally_xy = [
             np.asarray(site.frame.to_local(lat, lon), dtype=float) for lat, lon, _ in plan.rally
         ]
+        self._idx = 0  # the item being resolved, for error messages
 
     def find(self, severity: Severity, message: str, item: int | None) -> None:
         key = (item if item is not None else -1, message)
@@ -398,8 +399,6 @@ class _Resolver:
         return candidates[int(np.argmin(d))]
 
     # -- the walk ---------------------------------------------------------------------------
-    _idx = 0
-
     def run(self) -> None:
         items = self.plan.items
         jumps_done: dict[int, int] = {}
@@ -413,6 +412,8 @@ class _Resolver:
             nxt = pc + 1
             if cmd == Cmd.DO_JUMP:
                 nxt = self.jump(pc, it, jumps_done)
+                if nxt != pc + 1:
+                    self.pending_first = None  # the leg after a jump starts at its target
             elif cmd == Cmd.DO_CHANGE_SPEED:
                 self.change_speed(pc, it)
             elif cmd == Cmd.NAV_TAKEOFF:
@@ -586,6 +587,9 @@ def resolve_flight(plan: Plan, site: Site, source: str = "plan") -> Flight:
     coordinates out of range, runaway jumps) and for malformed planner metadata.
     """
     service = parse_service(plan.extra, site, source)
+    if service is not None and service.cycle_items[1] >= len(plan.items):
+        raise InputError(f"{source}.nfzMission.cycle_items: item {service.cycle_items[1]} "
+                         f"does not exist ({len(plan.items)} items)")
     r = _Resolver(plan, site, source)
     r.run()
     if not r.legs:
@@ -599,9 +603,6 @@ def resolve_flight(plan: Plan, site: Site, source: str = "plan") -> Flight:
         if service.site_name and service.site_name != site.name:
             r.find("warning", f"the plan was made for site {service.site_name!r}, "
                    f"not {site.name!r}", None)
-        if service.cycle_items[1] >= len(plan.items):
-            raise InputError(f"{source}.nfzMission.cycle_items: item {service.cycle_items[1]} "
-                             f"does not exist ({len(plan.items)} items)")
     if cycle is None:
         cycle = _cycle_from_plan(plan, legs)
     return Flight(

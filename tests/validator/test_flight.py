@@ -130,3 +130,19 @@ def test_bad_metadata_names_the_field(site, patch, field):
 
 def test_no_metadata_is_none(site):
     assert parse_service(None, site) is None
+
+
+def test_legs_after_a_jump_start_at_its_target(site):
+    items = [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), speed(4.0),
+             nav(site, Cmd.NAV_WAYPOINT, (10, 0)), nav(site, Cmd.NAV_WAYPOINT, (10, 10)),
+             jump(1, 1)]
+    legs = resolve_flight(plan_of(site, items), site).legs
+    assert [(leg.first_item, leg.item) for leg in legs[1:]] == [(1, 2), (3, 3), (1, 2), (3, 3)]
+
+
+def test_cycle_items_beyond_the_mission_are_bad_input(site):
+    q = [(0, 60), (40, 60), (0, 60)]
+    plan = service_plan(site, q, [4, 4], [0.1] * 2, ["GN1", "GN2"])
+    plan.extra["cycle_items"] = [3, 99]
+    with pytest.raises(InputError, match=r"nfzMission\.cycle_items: item 99 does not exist"):
+        resolve_flight(plan, site)
