@@ -141,9 +141,10 @@ def plot_fig3_map(solutions: Sequence[Solution]) -> Figure:
                 continue
             seen.add(zone)
             insets.append((sol, leg, zone))
+    size = 0.2  # of the map's height; the gap leaves room for each inset's title
     for i, (sol, leg, zone) in enumerate(insets):
         centre, half = _zoom_window(sol, leg, zone)
-        inset = ax.inset_axes((1.05, 1.0 - (i + 1) * 0.25 + 0.01, 0.23, 0.23))
+        inset = ax.inset_axes((1.06, 1.0 - size - i * (size + 0.06), size, size))
         _draw_site(inset, sol, gn_colors, labels=False)
         for s in solutions:
             _draw_trajectory(inset, s, gn_colors, marker_size=14)
@@ -152,7 +153,7 @@ def plot_fig3_map(solutions: Sequence[Solution]) -> Figure:
         inset.set_aspect("equal")
         inset.tick_params(labelsize=6)
         inset.set_title(f"{sol.site.nfz_names[zone]}, {sol.scheme} slot {leg + 1}", fontsize=7)
-        ax.indicate_inset_zoom(inset, edgecolor=VIOLATION_COLOR)
+        ax.indicate_inset_zoom(inset, edgecolor=VIOLATION_COLOR, alpha=0.5)
     return fig
 
 
