@@ -153,8 +153,10 @@ def build_auto_track(
     sub = dataclasses.replace(flight, legs=tuple(legs), cycle=None, service=None)
     track = replay(sub, profile, dt_s=dt_s)
     reached = [(0.0, i) for i in done_at_start]
+    # An item flown as several legs (LAND's transit and descent, RTL) is reached at its end.
     reached += [(float(track.leg_done_s[k]), leg.item) for k, leg in enumerate(legs)
-                if not np.isnan(track.leg_done_s[k])]
+                if not np.isnan(track.leg_done_s[k])
+                and (k + 1 == len(legs) or legs[k + 1].item != leg.item)]
     last = legs[-1]
     unlimited = plan.items[last.item].command == Cmd.NAV_LOITER_UNLIM
     return AutoTrack(

@@ -38,6 +38,8 @@ from validator.replay import Track, TrackReport, replay, score_track, track_from
 from validator.site import Site
 
 TAKEOFF_REACHED_FRACTION = 0.95
+LANDING_COMMANDS = (Cmd.NAV_LAND, Cmd.NAV_RETURN_TO_LAUNCH)
+DISARM_WAIT_S = 15.0  # vehicle seconds from the last item's completion to the disarm
 TELEMETRY_HZ = 20.0
 
 
@@ -265,6 +267,9 @@ def fly_mission(
         return any(seq == last_seq for _, seq in rec.reached)
 
     if _pump_vehicle_time(rec, time_limit_s, finished, since_s=start_s):
+        if rec.armed and plan.items[nav[-1] if nav else -1].command in LANDING_COMMANDS:
+            # the last item lands: its completion comes just before the disarm
+            _pump_vehicle_time(rec, DISARM_WAIT_S, lambda: not rec.armed)
         reason = "landed" if not rec.armed else "mission complete"
     else:
         reason = f"time limit ({time_limit_s:g} s)"

@@ -463,20 +463,20 @@ class Link:
         ts, tc = self.target
         start = time.monotonic()
         encoded = _encode_param(value, current.param_type, self._bytewise)
+        held: float | None = None
         while True:
             self.mav.param_set_send(ts, tc, name.encode("ascii"), encoded, current.param_type)
             msg = self.recv(["PARAM_VALUE"], min(time.monotonic() + self.retry_s,
                                                  start + self.timeout_s),
                             lambda m: m.param_id == name)
             if msg is not None:
-                got = _decode_param(msg.param_value, msg.param_type, self._bytewise)
-                if _same_param(got, value, current.param_type):
-                    return got
+                held = _decode_param(msg.param_value, msg.param_type, self._bytewise)
+                if _same_param(held, value, current.param_type):
+                    return held
                 # An answer to an earlier request may still carry the old value: ask again.
-                if time.monotonic() - start > self.timeout_s:
-                    raise LinkError(f"parameter {name}: set {value:g}, vehicle holds {got:g}")
-                continue
             if time.monotonic() - start > self.timeout_s:
+                if held is not None:
+                    raise LinkError(f"parameter {name}: set {value:g}, vehicle holds {held:g}")
                 raise LinkError(f"parameter {name}: vehicle did not confirm {value:g} within "
                                 f"{self.timeout_s:g} s")
 

@@ -20,6 +20,7 @@ has no ``mission_type``, so fences and rally points would be lost).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import struct
@@ -243,6 +244,8 @@ def mission_to_wire(plan: Plan, *, home_item: bool) -> tuple[WireItem, ...]:
                 autocontinue=int(bool(it.autocontinue)),
             )
         )
+    if out:  # QGroundControl and MAVSDK flag the first item as current; ArduPilot ignores it
+        out[0] = dataclasses.replace(out[0], current=1)
     return tuple(out)
 
 

@@ -1,0 +1,159 @@
+"""Fixtures for the MAVLink tests: SITL vehicles on free loopback ports, small plans, and a
+misbehaving fake vehicle. Every vehicle binds port 0, so tests run in parallel (xdist)."""
+
+from __future__ import annotations
+
+import socket
+import threading
+import time
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import numpy as np
+import pytest
+
+from tests.validator.builders import jump, make_site, nav, plan_of, speed
+from validator.mavlink.vehicle import SitlVehicle, VehicleConfig
+from validator.mavlink.wire import WireItem, mavlink, mavutil
+from validator.plan_format import Cmd, FencePolygon, Frame, MissionItem, Plan
+from validator.site import Site
+
+
+def url_of(vehicle: SitlVehicle) -> str:
+    return f"udpout:127.0.0.1:{vehicle.address[1]}"
+
+
+def home_of(plan: Plan) -> tuple[float, float, float]:
+    return plan.home_lat_deg, plan.home_lon_deg, plan.home_alt_m
+
+
+@pytest.fixture()
+def site() -> Site:
+    return make_site(nfz=((100.0, 0.0, 20.0),))
+
+
+@pytest.fixture()
+def plan(site: Site) -> Plan:
+    """Every kind of item the wire carries: takeoff, speed, waypoints with a hold, a DO_JUMP,
+    LAND; fence circle, polygon and return point; rally points."""
+    items = [
+        nav(site, Cmd.NAV_TAKEOFF, (0, 0)),
+        speed(6.0),
+        nav(site, Cmd.NAV_WAYPOINT, (60, 40)),
+        nav(site, Cmd.NAV_WAYPOINT, (140, 40), p1=2.0),
+        jump(2, 1),
+        nav(site, Cmd.NAV_LAND, (0, 0), 0.0),
+    ]
+    p = plan_of(site, items, rally=[(10.0, -10.0), (-20.0, 5.0)])
+    lat, lon = site.frame.to_geodetic(np.array([[-50.0, -50.0], [250.0, -50.0], [250.0, 150.0],
+                                                [-50.0, 150.0]]))
+    p.polygons = [FencePolygon([(float(a), float(b)) for a, b in zip(lat, lon, strict=True)])]
+    p.breach_return = (p.home_lat_deg, p.home_lon_deg, 25.0)
+    return p
+
+
+@pytest.fixture()
+def start_vehicle() -> Iterator[Callable[..., SitlVehicle]]:
+    """``start_vehicle(plan_or_home, **VehicleConfig fields)``: a running SITL vehicle,
+    stopped after the test."""
+    started: list[SitlVehicle] = []
+
+    def start(where: Plan | tuple[float, float, float], **config: Any) -> SitlVehicle:
+        home = home_of(where) if isinstance(where, Plan) else where
+        v = SitlVehicle("udpin:127.0.0.1:0", VehicleConfig(home=home, **config)).start()
+        started.append(v)
+        return v
+
+    yield start
+    for v in started:
+        v.stop()
+
+
+def free_udp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+class FakeVehicle:
+    """A minimal ArduCopter impostor on a loopback port that misbehaves on purpose.
+
+    ``nack``: answer every MISSION_COUNT with this MAV_MISSION_RESULT. ``silent_after``: stop
+    answering mission requests after that many items (heartbeats go on). ``corrupt_seq``: hold
+    everything but report param2 + 1 for that seq on download.
+    """
+
+    def __init__(self, *, nack: int | None = None, silent_after: int | None = None,
+                 corrupt_seq: int | None = None, sysid: int = 1) -> None:
+        self.conn = mavutil.mavlink_connection("udpin:127.0.0.1:0", source_system=sysid,
+                                               source_component=1)
+        self.nack, self.silent_after, self.corrupt_seq = nack, silent_after, corrupt_seq
+        self.lists: dict[int, list[WireItem]] = {0: [], 1: [], 2: []}
+        self.incoming: list[WireItem] = []
+        self.expect = 0
+        self.stop = threading.Event()
+        self.thread = threading.Thread(target=self.run, daemon=True)
+
+    @property
+    def url(self) -> str:
+        return f"udpout:127.0.0.1:{self.conn.port.getsockname()[1]}"
+
+    def __enter__(self) -> FakeVehicle:
+        self.thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop.set()
+        self.thread.join(5)
+        self.conn.close()
+
+    def run(self) -> None:
+        mav = self.conn.mav
+        last_hb = 0.0
+        count, mtype = 0, 0
+        while not self.stop.is_set():
+            if time.monotonic() - last_hb > 0.2:
+                mav.heartbeat_send(mavlink.MAV_TYPE_QUADROTOR,
+                                   mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, 0, 4, 3)
+                last_hb = time.monotonic()
+            msg = self.conn.recv_match(blocking=True, timeout=0.02)
+            if msg is None:
+                continue
+            kind = msg.get_type()
+            src = msg.get_srcSystem(), msg.get_srcComponent()
+            if kind == "MISSION_COUNT":
+                count, mtype = msg.count, msg.mission_type
+                self.incoming = []
+                if self.nack is not None:
+                    mav.mission_ack_send(*src, self.nack, mtype)
+                elif count == 0:
+                    self.lists[mtype] = []
+                    mav.mission_ack_send(*src, mavlink.MAV_MISSION_ACCEPTED, mtype)
+                else:
+                    mav.mission_request_int_send(*src, 0, mtype)
+            elif kind == "MISSION_ITEM_INT" and msg.seq == len(self.incoming):
+                self.incoming.append(WireItem.from_msg(msg))
+                if self.silent_after is not None and len(self.incoming) >= self.silent_after:
+                    continue
+                if len(self.incoming) == count:
+                    self.lists[mtype] = self.incoming
+                    mav.mission_ack_send(*src, mavlink.MAV_MISSION_ACCEPTED, mtype)
+                else:
+                    mav.mission_request_int_send(*src, len(self.incoming), mtype)
+            elif kind == "MISSION_REQUEST_LIST":
+                mav.mission_count_send(*src, len(self.lists[msg.mission_type]), msg.mission_type)
+            elif kind == "MISSION_REQUEST_INT":
+                items = self.lists[msg.mission_type]
+                if msg.seq < len(items):
+                    it = items[msg.seq]
+                    if msg.seq == self.corrupt_seq and msg.mission_type == 0:
+                        it = WireItem(it.seq, it.frame, it.command, it.param1, it.param2 + 1.0,
+                                      it.param3, it.param4, it.x, it.y, it.z, it.mission_type)
+                    it.send(mav, *src)
+
+
+def rtl_plan(site: Site, points: list[tuple[float, float]], v: float = 8.0) -> Plan:
+    items = [nav(site, Cmd.NAV_TAKEOFF, (0, 0)), speed(v)]
+    items += [nav(site, Cmd.NAV_WAYPOINT, p) for p in points]
+    items.append(MissionItem(int(Cmd.NAV_RETURN_TO_LAUNCH), [0.0] * 7, int(Frame.MISSION)))
+    return plan_of(site, items)

@@ -1,0 +1,135 @@
+import time
+
+import pytest
+
+from tests.validator.mavlink.conftest import FakeVehicle, free_udp_port, url_of
+from validator.errors import InputError
+from validator.mavlink.link import (
+    Link,
+    LinkError,
+    download_plan,
+    parse_params,
+    upload_plan,
+    upload_to,
+)
+from validator.mavlink.wire import MissionType, mavlink, plan_to_wire
+
+
+def test_upload_then_read_back_is_identical(plan, start_vehicle):
+    vehicle = start_vehicle(plan)
+    report = upload_plan(plan, url_of(vehicle), timeout_s=5)
+    assert report.counts == {"mission": 7, "fence": 6, "rally": 2}
+    held = vehicle.lists()
+    sent = plan_to_wire(plan, home_item=True)
+    for t in MissionType:
+        assert [w.content() for w in held.of(t)] == [w.content() for w in sent.of(t)]
+
+
+def test_still_identical_with_20_percent_packet_loss(plan, start_vehicle):
+    vehicle = start_vehicle(plan, loss=0.2, seed=7)
+    with Link(url_of(vehicle), timeout_s=10, retry_s=0.1) as link:
+        upload_to(link, plan)  # raises unless the read-back is identical
+    assert vehicle.writer.dropped > 0 and vehicle.rx_dropped > 0
+    sent = plan_to_wire(plan, home_item=True)
+    assert [w.content() for w in vehicle.lists().mission] == [w.content() for w in sent.mission]
+
+
+def test_download_gives_back_the_plan(plan, start_vehicle):
+    vehicle = start_vehicle(plan)
+    upload_plan(plan, url_of(vehicle), timeout_s=5)
+    back = download_plan(url_of(vehicle), timeout_s=5)
+    assert [it.command for it in back.items] == [it.command for it in plan.items]
+    assert len(back.circles) == 1 and len(back.polygons) == 1 and len(back.rally) == 2
+    assert back.home_lat_deg == pytest.approx(plan.home_lat_deg, abs=1e-7)
+
+
+def test_parameters_are_set_and_read_back(plan, start_vehicle):
+    vehicle = start_vehicle(plan)
+    report = upload_plan(plan, url_of(vehicle), timeout_s=5,
+                         params={"WPNAV_SPEED": 750.0, "FENCE_ACTION": 1.0})
+    assert report.params == {"WPNAV_SPEED": 750.0, "FENCE_ACTION": 1.0}
+    assert vehicle.params["WPNAV_SPEED"][0] == 750.0
+
+
+def test_a_value_the_vehicle_refuses_is_reported(plan, start_vehicle):
+    vehicle = start_vehicle(plan)
+    with pytest.raises(LinkError, match="parameter WPNAV_ACCEL: set -5, vehicle holds 250"):
+        with Link(url_of(vehicle), timeout_s=1, retry_s=0.1) as link:
+            link.set_param("WPNAV_ACCEL", -5.0)
+
+
+def test_dead_link_fails_within_the_timeout(plan):
+    t0 = time.monotonic()
+    with pytest.raises(LinkError, match="no heartbeat within 1 s"):
+        upload_plan(plan, f"udpout:127.0.0.1:{free_udp_port()}", timeout_s=1.0)
+    assert time.monotonic() - t0 < 2.0
+
+
+def test_wrong_system_id_is_named(plan, start_vehicle):
+    vehicle = start_vehicle(plan, system_id=3)
+    with pytest.raises(LinkError, match=r"no vehicle with system id 9 .*heard system id 3"):
+        upload_plan(plan, url_of(vehicle), timeout_s=1.0, sysid=9)
+    assert upload_plan(plan, url_of(vehicle), timeout_s=5, sysid=3).vehicle.system_id == 3
+
+
+def test_nack_is_reported_by_its_result_name(plan):
+    with FakeVehicle(nack=mavlink.MAV_MISSION_NO_SPACE) as fake:
+        with pytest.raises(LinkError, match="mission upload: vehicle rejected it with "
+                                            "MAV_MISSION_NO_SPACE"):
+            upload_plan(plan, fake.url, timeout_s=2)
+
+
+def test_vehicle_going_silent_half_way_is_a_failure_within_the_timeout(plan):
+    with FakeVehicle(silent_after=3) as fake:
+        t0 = time.monotonic()
+        with pytest.raises(LinkError, match="mission upload: vehicle stopped answering after "
+                                            "item 2 of 7.*upload incomplete"):
+            upload_plan(plan, fake.url, timeout_s=1.5)
+        assert time.monotonic() - t0 < 1.5 + 1.0
+        assert fake.lists[0] == []  # the vehicle never got a complete mission
+
+
+def test_read_back_difference_fails_the_upload(plan):
+    with FakeVehicle(corrupt_seq=3) as fake:
+        with pytest.raises(LinkError, match="read-back differs from the upload: mission item "
+                                            "3: param2 sent 0.0, vehicle holds 1.0"):
+            upload_plan(plan, fake.url, timeout_s=2)
+
+
+def test_a_fake_vehicle_that_behaves_passes(plan):
+    with FakeVehicle() as fake:
+        assert upload_plan(plan, fake.url, timeout_s=2).counts["mission"] == 7
+
+
+def test_param_file_formats():
+    text = ("# ArduPilot\nWPNAV_SPEED 1000\nWPNAV_ACCEL,250.5  # comment\n\n"
+            "1\t1\tMPC_ACC_HOR\t3.0\t9\n")
+    assert parse_params(text) == {"WPNAV_SPEED": 1000.0, "WPNAV_ACCEL": 250.5,
+                                  "MPC_ACC_HOR": 3.0}
+
+
+@pytest.mark.parametrize("text, message", [
+    ("WPNAV_SPEED", r"f.param:1: expected 'NAME VALUE'"),
+    ("WPNAV SPEED 3", r"f.param:1: expected 'NAME VALUE'"),
+    ("WPNAV_SPEED fast", r"f.param:1: WPNAV_SPEED: 'fast' is not a number"),
+    ("A_NAME_MUCH_TOO_LONG 1", r"f.param:1: 'A_NAME_MUCH_TOO_LONG' is not a parameter name"),
+    ("X 1\nY nan", r"f.param:2: Y: value must be finite"),
+])
+def test_bad_param_files_name_the_line(text, message):
+    with pytest.raises(InputError, match=message):
+        parse_params(text, "f.param")
+
+
+def test_a_plan_file_is_not_a_connection(tmp_path, plan):
+    path = tmp_path / "mission.plan"
+    path.write_text("{}")
+    with pytest.raises(LinkError, match="is a file, not a connection"):
+        upload_plan(plan, str(path), timeout_s=1)
+
+
+def test_a_plan_without_fence_or_rally_clears_the_vehicles(plan, start_vehicle):
+    vehicle = start_vehicle(plan)
+    upload_plan(plan, url_of(vehicle), timeout_s=5)
+    plan.circles, plan.polygons, plan.rally, plan.breach_return = [], [], [], None
+    upload_plan(plan, url_of(vehicle), timeout_s=5)
+    assert vehicle.lists().fence == () and vehicle.lists().rally == ()

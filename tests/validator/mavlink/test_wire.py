@@ -1,0 +1,123 @@
+import math
+
+import numpy as np
+import pytest
+
+from validator.errors import InputError
+from validator.mavlink.wire import (
+    MissionType,
+    WireItem,
+    first_difference,
+    mission_result_name,
+    plan_to_wire,
+    wire_to_plan,
+)
+from validator.plan_format import Cmd, FenceCircle
+
+
+def test_ardupilot_mission_starts_with_home_and_keeps_plan_order(plan):
+    wire = plan_to_wire(plan, home_item=True)
+    assert [w.seq for w in wire.mission] == list(range(len(plan.items) + 1))
+    home = wire.mission[0]
+    assert (home.command, home.frame) == (Cmd.NAV_WAYPOINT, 0)
+    assert home.x == round(plan.home_lat_deg * 1e7) and home.z == pytest.approx(plan.home_alt_m)
+    assert [w.command for w in wire.mission[1:]] == [it.command for it in plan.items]
+
+
+def test_px4_mission_has_no_home_item(plan):
+    wire = plan_to_wire(plan, home_item=False)
+    assert [w.command for w in wire.mission] == [it.command for it in plan.items]
+
+
+def test_coordinates_are_int32_degrees_e7_rounded_to_nearest(plan):
+    wp = plan_to_wire(plan, home_item=True).mission[3]
+    assert wp.x == int(np.rint(plan.items[2].lat_deg * 1e7))
+    assert wp.y == int(np.rint(plan.items[2].lon_deg * 1e7))
+
+
+@pytest.mark.parametrize("home_item, target_seq", [(True, 3), (False, 2)])
+def test_do_jump_target_is_a_wire_sequence_number(plan, home_item, target_seq):
+    wire = plan_to_wire(plan, home_item=home_item).mission
+    jumps = [w for w in wire if w.command == Cmd.DO_JUMP]
+    assert [j.param1 for j in jumps] == [target_seq]
+    assert wire[target_seq].command == Cmd.NAV_WAYPOINT  # the item the plan's doJumpId names
+
+
+def test_fence_circle_polygon_and_return_point(plan):
+    fence = plan_to_wire(plan, home_item=True).fence
+    vertices = [w for w in fence if w.command == Cmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION]
+    circles = [w for w in fence if w.command == Cmd.NAV_FENCE_CIRCLE_EXCLUSION]
+    assert len(vertices) == 4 and {w.param1 for w in vertices} == {4.0}
+    assert [c.param1 for c in circles] == [pytest.approx(20.0)]
+    assert fence[-1].command == 5000 and fence[-1].z == pytest.approx(25.0)
+    assert all(w.mission_type == MissionType.FENCE for w in fence)
+
+
+def test_rally_points_are_nav_rally_point_above_home(plan):
+    rally = plan_to_wire(plan, home_item=True).rally
+    assert [w.command for w in rally] == [Cmd.NAV_RALLY_POINT] * 2
+    assert {w.frame for w in rally} == {3} and rally[0].z == pytest.approx(30.0)
+
+
+@pytest.mark.parametrize("home_item", [True, False])
+def test_plan_survives_the_wire_to_int32_precision(plan, home_item):
+    wire = plan_to_wire(plan, home_item=home_item)
+    home = None if home_item else (plan.home_lat_deg, plan.home_lon_deg, plan.home_alt_m)
+    back = wire_to_plan(wire, home_item=home_item, home=home)
+    assert len(back.items) == len(plan.items)
+    for a, b in zip(plan.items, back.items, strict=True):
+        assert a.command == b.command and a.frame == b.frame
+        for pa, pb in zip(a.params, b.params, strict=True):
+            assert (math.isnan(pa) and math.isnan(pb)) or pb == pytest.approx(pa, abs=1e-6)
+    assert back.circles == [
+        FenceCircle(pytest.approx(c.lat_deg, abs=1e-7), pytest.approx(c.lon_deg, abs=1e-7),
+                    pytest.approx(c.radius_m), c.inclusion) for c in plan.circles]
+    assert len(back.polygons) == 1 and len(back.polygons[0].vertices_deg) == 4
+    assert back.rally == [pytest.approx(r, abs=1e-7) for r in plan.rally]
+    assert back.breach_return == pytest.approx(plan.breach_return, abs=1e-7)
+    assert back.home_alt_m == pytest.approx(plan.home_alt_m)
+    assert wire_to_plan(plan_to_wire(back, home_item=home_item), home_item=home_item,
+                        home=home).items[2].params[4] == back.items[2].params[4]
+
+
+def test_latitude_out_of_range_names_the_item(plan):
+    plan.items[2].params[4] = 95.0
+    with pytest.raises(InputError, match=r"mission.items\[2\]: latitude 95.0"):
+        plan_to_wire(plan, home_item=True)
+
+
+def test_jump_to_a_missing_item_is_refused(plan):
+    plan.items[4].params[0] = 99.0
+    with pytest.raises(InputError, match=r"mission.items\[4\]: DO_JUMP target 99"):
+        plan_to_wire(plan, home_item=True)
+
+
+def _item(seq: int, p2: float = 0.0, p4: float = math.nan) -> WireItem:
+    return WireItem(seq, 3, 16, 0.0, p2, 0.0, p4, 100, 200, 30.0, 0)
+
+
+def test_identical_lists_have_no_difference_and_nan_equals_nan():
+    a = (_item(0), _item(1))
+    assert first_difference(a, (_item(0), _item(1)), MissionType.MISSION) is None
+
+
+def test_first_difference_names_item_and_field():
+    diff = first_difference((_item(0), _item(1, 5.0)), (_item(0), _item(1, 4.0)),
+                            MissionType.MISSION)
+    assert diff == "mission item 1: param2 sent 5.0, vehicle holds 4.0"
+
+
+def test_difference_in_count_is_reported():
+    assert first_difference((_item(0),), (), MissionType.FENCE) == (
+        "fence: sent 1 items, vehicle holds 0")
+
+
+def test_ardupilot_home_item_is_not_compared():
+    moved = WireItem(0, 3, 16, 0.0, 0.0, 0.0, math.nan, 999, 200, 30.0, 0)
+    assert first_difference((_item(0),), (moved,), MissionType.MISSION, skip_seq0=True) is None
+    assert first_difference((_item(0),), (moved,), MissionType.MISSION) is not None
+
+
+def test_mission_result_names():
+    assert mission_result_name(4) == "MAV_MISSION_NO_SPACE"
+    assert mission_result_name(200) == "MAV_MISSION_RESULT 200"
