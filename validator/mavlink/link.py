@@ -18,7 +18,6 @@ back from the vehicle are identical, item by item, to what was sent.
 from __future__ import annotations
 
 import math
-import os
 import re
 import select
 import struct
@@ -586,18 +585,23 @@ def upload_plan(
 
 
 def home_of(link: Link) -> tuple[float, float, float] | None:
-    """The vehicle's home (lat, lon, alt AMSL) from HOME_POSITION, or None if not told."""
-    link.command(mavlink.MAV_CMD_REQUEST_MESSAGE, float(mavlink.MAVLINK_MSG_ID_HOME_POSITION))
-    msg = link.recv(["HOME_POSITION"], time.monotonic() + min(link.timeout_s, 2.0))
-    if msg is None:
-        return None
-    return msg.latitude / 1e7, msg.longitude / 1e7, msg.altitude / 1000.0
+    """The vehicle's home (lat, lon, alt AMSL) from HOME_POSITION, or None if it never says."""
+    ts, tc = link.target
+    deadline = time.monotonic() + link.timeout_s
+    while time.monotonic() < deadline:
+        # The answer may come before or after the COMMAND_ACK: wait for the message itself.
+        link.mav.command_long_send(ts, tc, mavlink.MAV_CMD_REQUEST_MESSAGE, 0,
+                                   float(mavlink.MAVLINK_MSG_ID_HOME_POSITION), 0, 0, 0, 0, 0, 0)
+        msg = link.recv(["HOME_POSITION"], min(deadline, time.monotonic() + 3 * link.retry_s))
+        if msg is not None:
+            return msg.latitude / 1e7, msg.longitude / 1e7, msg.altitude / 1000.0
+    return None
 
 
 def download_from(link: Link) -> Plan:
     """The three lists the vehicle holds, as a :class:`Plan`."""
     lists = link.download()
-    home = None if link.vehicle.is_ardupilot else home_of(link)
+    home = None if link.vehicle.is_ardupilot and lists.mission else home_of(link)
     firmware = {3: int(Autopilot.ARDUPILOTMEGA), 12: int(Autopilot.PX4)}.get(
         link.vehicle.autopilot, int(Autopilot.GENERIC))
     return wire_to_plan(lists, home_item=link.vehicle.is_ardupilot, home=home,
@@ -610,6 +614,3 @@ def download_plan(url: str, *, timeout_s: float = DEFAULT_TIMEOUT_S,
     with Link(url, timeout_s=timeout_s, target_system=sysid) as link:
         return download_from(link)
 
-
-def env_flag(name: str) -> bool:  # pragma: no cover - tiny helper for CLI debugging
-    return os.environ.get(name, "") not in ("", "0")

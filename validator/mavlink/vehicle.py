@@ -473,10 +473,13 @@ class SitlVehicle:
             else:
                 self.guided_speed_mps = float(p[1])
                 result = m.MAV_RESULT_ACCEPTED
-        elif c == m.MAV_CMD_REQUEST_MESSAGE:
-            result = self._send_requested(int(round(p[0])))
-        elif c == m.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES:
-            result = self._send_requested(m.MAVLINK_MSG_ID_AUTOPILOT_VERSION)
+        elif c in (m.MAV_CMD_REQUEST_MESSAGE, m.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES):
+            wanted = (int(round(p[0])) if c == m.MAV_CMD_REQUEST_MESSAGE
+                      else m.MAVLINK_MSG_ID_AUTOPILOT_VERSION)
+            if wanted in (m.MAVLINK_MSG_ID_HOME_POSITION, m.MAVLINK_MSG_ID_AUTOPILOT_VERSION):
+                self._ack(msg, m.MAV_RESULT_ACCEPTED)  # the protocol: ACK, then the message
+                self._send_requested(wanted)
+                return
         elif c == m.MAV_CMD_SET_MESSAGE_INTERVAL:
             result = m.MAV_RESULT_ACCEPTED  # telemetry runs at its configured rate
         self._ack(msg, result)

@@ -1,0 +1,118 @@
+"""upload-mission, download-mission and sitl-vehicle as commands: exit status, one-line
+errors, no partial output file."""
+
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+import yaml
+
+from tests.validator.builders import make_site, waypoint_plan
+from tests.validator.mavlink.conftest import FakeVehicle, free_udp_port, url_of
+from validator.mavlink.cli import download_mission_main, sitl_vehicle_main, upload_mission_main
+from validator.mavlink.link import download_plan
+from validator.plan_format import read_plan, write_plan
+from validator.site import site_to_dict
+
+
+def test_upload_mission_sets_params_and_verifies(tmp_path, plan, start_vehicle, capsys):
+    vehicle = start_vehicle(plan)
+    path = tmp_path / "m.plan"
+    write_plan(plan, path)
+    params = tmp_path / "copter.param"
+    params.write_text("WPNAV_SPEED 1200\nWPNAV_RADIUS 150\n")
+    status = upload_mission_main([str(path), "--connect", url_of(vehicle), "--set-params",
+                                  str(params)])
+    assert status == 0
+    assert capsys.readouterr().out.startswith("uploaded and verified 7 mission, 6 fence and 2 "
+                                              "rally items on system 1 (ArduPilot); 2 parameters")
+    assert vehicle.params["WPNAV_RADIUS"][0] == 150.0
+
+
+def test_upload_mission_refuses_a_plan_the_audit_rejects_unless_forced(tmp_path, start_vehicle,
+                                                                       capsys):
+    site = make_site(nfz=((100.0, 0.0, 20.0),))
+    site_path = tmp_path / "site.yaml"
+    site_path.write_text(yaml.safe_dump(site_to_dict(site)))
+    bad = waypoint_plan(site, [(40.0, 0.0), (160.0, 0.0)])
+    path = tmp_path / "bad.plan"
+    write_plan(bad, path)
+    vehicle = start_vehicle(bad)
+    args = [str(path), "--connect", url_of(vehicle), "--site", str(site_path)]
+    assert upload_mission_main(args) == 1
+    assert "enters NFZ1" in capsys.readouterr().err
+    assert vehicle.lists().mission == ()
+    assert upload_mission_main([*args, "--force"]) == 0
+
+
+def test_upload_mission_nack_exits_2_with_one_line(tmp_path, plan, capsys):
+    path = tmp_path / "m.plan"
+    write_plan(plan, path)
+    with FakeVehicle(nack=1) as fake:
+        assert upload_mission_main([str(path), "--connect", fake.url, "--timeout", "2"]) == 2
+    err = capsys.readouterr().err
+    assert err == ("upload-mission: mission upload: vehicle rejected it with MAV_MISSION_ERROR"
+                   "\n")
+
+
+def test_upload_mission_corrupt_plan_exits_2(tmp_path, capsys):
+    path = tmp_path / "m.plan"
+    path.write_text("{not json")
+    assert upload_mission_main([str(path), "--connect", "udpout:127.0.0.1:9"]) == 2
+    assert "not valid JSON" in capsys.readouterr().err
+
+
+def test_download_mission_writes_what_the_vehicle_holds(tmp_path, plan, start_vehicle):
+    vehicle = start_vehicle(plan)
+    src = tmp_path / "m.plan"
+    write_plan(plan, src)
+    assert upload_mission_main([str(src), "--connect", url_of(vehicle)]) == 0
+    out = tmp_path / "held.plan"
+    assert download_mission_main(["--connect", url_of(vehicle), "-o", str(out)]) == 0
+    held = read_plan(out)
+    assert [it.command for it in held.items] == [it.command for it in plan.items]
+    assert len(held.polygons) == 1 and len(held.rally) == 2
+
+
+def test_download_mission_from_a_dead_link_writes_nothing(tmp_path, capsys):
+    out = tmp_path / "held.plan"
+    t0 = time.monotonic()
+    status = download_mission_main(["--connect", f"udpout:127.0.0.1:{free_udp_port()}",
+                                    "--timeout", "1", "-o", str(out)])
+    assert status == 2 and time.monotonic() - t0 < 2.0
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+    assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_sitl_vehicle_bad_home_exits_2(capsys):
+    assert sitl_vehicle_main(["--listen", "udpin:127.0.0.1:0", "--home", "-35.3,500,0"]) == 2
+    assert capsys.readouterr().err == ("sitl-vehicle: --home -35.3,500,0: latitude or longitude "
+                                       "out of range\n")
+
+
+def test_sitl_vehicle_bad_loss_exits_2(capsys):
+    assert sitl_vehicle_main(["--listen", "udpin:127.0.0.1:0", "--home", "1,2,3",
+                              "--loss", "1.5"]) == 2
+    assert "--loss: must be in [0, 1)" in capsys.readouterr().err
+
+
+def test_sitl_vehicle_command_serves_and_stops_on_sigterm(plan):
+    code = "import sys; from validator.mavlink.cli import sitl_vehicle_main as m; sys.exit(m())"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code, "--listen", "udpin:127.0.0.1:0", "--home",
+         f"{plan.home_lat_deg},{plan.home_lon_deg},{plan.home_alt_m}", "--speedup", "10"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    try:
+        assert proc.stdout is not None
+        line = proc.stdout.readline()
+        assert line.startswith("sitl-vehicle: listening on udpin:127.0.0.1:")
+        port = int(line.split(":")[3].split()[0])
+        held = download_plan(f"udpout:127.0.0.1:{port}", timeout_s=5)
+        assert held.items == [] and held.circles == []
+        assert held.home_lat_deg == pytest.approx(plan.home_lat_deg, abs=1e-7)
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=10) == 0
