@@ -20,6 +20,7 @@ from typing import Any, TypeVar
 from validator.errors import InputError
 
 T = TypeVar("T")
+STUDY_EXTRA = ("tqdm", "dask", "distributed")
 
 
 def _list_of(kind: Callable[[str], T]) -> Callable[[str], tuple[T, ...]]:
@@ -144,6 +145,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _fig3(args) if args.command == "fig3" else _fig4(args)
     except InputError as err:
         print(f"nfz-study: {err}", file=sys.stderr)
+        return 2
+    except ModuleNotFoundError as err:
+        if err.name not in STUDY_EXTRA:
+            raise
+        print(f"nfz-study: needs the study extra (missing {err.name}): "
+              "pip install 'nfz-mission[study]'", file=sys.stderr)
         return 2
     except ExecutorError as err:
         print(f"nfz-study: {err}; finished trials are kept, run again to resume", file=sys.stderr)

@@ -84,16 +84,20 @@ class Fig4Config:
             ("count", float(self.radius_m), int(m)) for m in self.counts
         ]
 
+    def spec(self, index: int, radius_m: float, num_nfzs: int, scheme: str) -> TrialSpec:
+        """Trial ``index`` of the point (``radius_m``, ``num_nfzs``) under ``scheme``."""
+        return TrialSpec(seed=trial_seed(self.seed, index), scheme=scheme, num_gns=self.num_gns,
+                         num_nfzs=num_nfzs, radius_m=radius_m, slots=self.slots,
+                         buffer_m=self.buffer_m, area_m=self.area_m)
+
     def specs(self) -> list[TrialSpec]:
         """Every trial, trial index outermost so an interrupted study covers all points evenly."""
-        out: list[TrialSpec] = []
-        for i in range(self.trials):
-            seed = trial_seed(self.seed, i)
-            for _, radius, count in self.points():
-                for scheme in self.schemes:
-                    out.append(TrialSpec(seed=seed, scheme=scheme, num_gns=self.num_gns,
-                                         num_nfzs=count, radius_m=radius, slots=self.slots,
-                                         buffer_m=self.buffer_m, area_m=self.area_m))
+        out = [
+            self.spec(i, radius, count, scheme)
+            for i in range(self.trials)
+            for _, radius, count in self.points()
+            for scheme in self.schemes
+        ]
         return list(dict.fromkeys(out))
 
 
@@ -109,18 +113,12 @@ def summarize(rows: Sequence[dict[str, Any]], config: Fig4Config) -> list[dict[s
     (bps/Hz) is the mean over trials of the min rate, zero on outage; ``min_rate_bps_hz`` is
     the plain mean of the min rate (what the scheme achieves ignoring its violations).
     """
-    by_key: dict[tuple[Any, ...], list[dict[str, Any]]] = {}
-    for r in rows:
-        by_key.setdefault(
-            (r["scheme"], float(r["radius_m"]), int(r["num_nfzs"])), []
-        ).append(r)
+    by_key = {r["key"]: r for r in rows}
     out = []
     for sweep, radius, count in config.points():
         for scheme in config.schemes:
-            group = [
-                r for r in by_key.get((scheme, radius, count), [])
-                if r["num_gns"] == config.num_gns and r["slots"] == config.slots
-            ]
+            keys = (config.spec(i, radius, count, scheme).key for i in range(config.trials))
+            group = [by_key[k] for k in keys if k in by_key]
             ok = [r for r in group if not is_failed(r)]
             outages = sum(bool(r["outage"]) for r in ok)
             se = [float(r["spectral_efficiency_bps_hz"]) for r in ok]

@@ -81,10 +81,11 @@ def test_bad_fig4_options_are_named(change: dict[str, Any], option: str) -> None
         Fig4Config(**change).check()
 
 
-def _rows(scheme: str, results: list[tuple[float, bool] | None]) -> list[dict[str, Any]]:
+def _rows(config: Fig4Config, scheme: str, results: list[tuple[float, bool] | None]
+          ) -> list[dict[str, Any]]:
     out = []
     for i, res in enumerate(results):
-        spec = TrialSpec(seed=i, scheme=scheme, slots=10)
+        spec = config.spec(i, config.radius_m, config.num_nfzs, scheme)
         row: dict[str, Any] = {"key": spec.key, **spec.__dict__, "solve_seconds": 1.0}
         if res is None:
             row.update(error="SolverError: x", min_rate_bps_hz=None, outage=None,
@@ -99,8 +100,8 @@ def _rows(scheme: str, results: list[tuple[float, bool] | None]) -> list[dict[st
 
 def test_summary_zeroes_outages_and_leaves_failures_out() -> None:
     config = Fig4Config(trials=4, radii_m=(30.0,), counts=(3,), slots=10)
-    rows = _rows("proposed", [(1.0, False), (2.0, False), (3.0, False), None]) + _rows(
-        "conventional", [(2.0, True), (2.0, False), (4.0, True), (1.0, False)]
+    rows = _rows(config, "proposed", [(1.0, False), (2.0, False), (3.0, False), None]) + _rows(
+        config, "conventional", [(2.0, True), (2.0, False), (4.0, True), (1.0, False)]
     )
     summary = {(r["sweep"], r["scheme"]): r for r in summarize(rows, config)}
     prop, conv = summary[("radius", "proposed")], summary[("radius", "conventional")]
