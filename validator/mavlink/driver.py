@@ -120,6 +120,7 @@ class _Recorder:
         self.mission_state = 0
         self.reached: list[tuple[float, int]] = []
         self.t_s = math.nan
+        self.home_amsl_m = math.nan
         self.last_heard = time.monotonic()
 
     def pump(self, until: float, stop: Callable[[], bool]) -> bool:
@@ -146,6 +147,7 @@ class _Recorder:
         kind = m.get_type()
         if kind == "GLOBAL_POSITION_INT":
             self.t_s = m.time_boot_ms / 1000.0
+            self.home_amsl_m = (m.alt - m.relative_alt) / 1000.0
             self.rows.append((self.t_s, m.lat / 1e7, m.lon / 1e7, m.relative_alt / 1000.0,
                               m.vx / 100.0, m.vy / 100.0, m.vz / 100.0,
                               self.seq, self.armed, self.breach))
@@ -236,12 +238,15 @@ def fly_mission(
     rec = _Recorder(link)
     alt = takeoff_alt_m if takeoff_alt_m is not None else takeoff_altitude(plan)
     _request_streams(link)
-    rec.pump(time.monotonic() + 0.5, lambda: rec.custom_mode is not None and rec.rows != [])
+    if not rec.pump(time.monotonic() + link.timeout_s, lambda: bool(rec.rows)):
+        raise LinkError(f"the vehicle sent no GLOBAL_POSITION_INT within {link.timeout_s:g} s")
     say("mode hold / arm")
     _set_mode(link, rec, modes, modes.hold)
     _until_accepted(link, rec, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0)
     say(f"takeoff to {alt:g} m")
-    _until_accepted(link, rec, mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, 0, 0, alt)
+    # ArduPilot reads NAV_TAKEOFF's param7 above home, PX4 as AMSL.
+    param7 = rec.home_amsl_m + alt if modes.px4 else alt
+    _until_accepted(link, rec, mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, 0, 0, param7)
 
     def at_altitude() -> bool:
         return bool(rec.rows) and rec.rows[-1][3] >= TAKEOFF_REACHED_FRACTION * alt

@@ -200,6 +200,8 @@ class SitlVehicle:
             raise ValueError("speedup must be > 0")
         if not 0.0 <= config.loss < 1.0:
             raise ValueError("loss must be in [0, 1)")
+        if not listen_url.startswith(("udpin:", "udp:")):
+            raise ValueError("listen on UDP, e.g. udpin:127.0.0.1:14550")
         self.config = config
         self.frame = LocalFrame(*config.home)
         self.conn = mavutil.mavlink_connection(listen_url, source_system=config.system_id,
