@@ -4,17 +4,21 @@ Each iteration r: update λ, μ ((28), (29)) and solve (P3-2) for (Q, Δ); solve
 η ← min(κη, η_max); solve (P2) for P. Stop when the exact objective changes by less than ε
 and the schedule is binary. Then the schedule is rounded (one GN per slot), power is
 re-optimised for it, and the min rate is recomputed from the exact rate formula.
+
+With ``dynamics="vehicle"`` the optimised path is then re-timed as a multicopter flies it
+(:mod:`.retime`), and schedule and power are optimised again on that timing.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
+from mission_planner.optimize import retime
 from mission_planner.optimize.initial import initial_tour
 from mission_planner.optimize.power import power_problem
 from mission_planner.optimize.scaled import (
@@ -32,6 +36,8 @@ from validator.errors import InputError
 from validator.site import Site
 
 Progress = Callable[[int, float], None]
+DYNAMICS = ("none", "vehicle")
+SEARCH_ITERATIONS = 15  # Algorithm 1 iterations per candidate top speed with dynamics on
 
 
 @dataclass(frozen=True)
@@ -41,6 +47,11 @@ class PlannerOptions:
     ``eta_scale`` "per-period" weighs the scheduling penalty against T·r_min (η/T), "literal"
     uses the paper's η as written. ``nfz_margin_m`` is added to every (buffered) NFZ radius so
     that solver tolerance and MAVLink's int32 1e-7° rounding (≤ 0.8 cm) never cost clearance.
+
+    ``dynamics`` "none" is the paper's kinematic model (top speed only). "vehicle" re-times
+    the optimised path with the site's ``max_accel`` / ``max_jerk`` as ArduCopter flies it
+    (:mod:`.retime`); when the moves then overrun T, the path is planned again for a lower
+    effective top speed, up to ``retime_attempts`` times.
     """
 
     gamma: float = 100.0
@@ -52,6 +63,20 @@ class PlannerOptions:
     eta_scale: str = "per-period"
     binary_tolerance: float = 1e-3
     nfz_margin_m: float = 0.02
+    dynamics: str = "none"
+    retime_attempts: int = 8
+
+
+@dataclass
+class _State:
+    """The optimiser's variables in scaled units (see :mod:`.scaled`)."""
+
+    q: NDArray[np.float64]  # (N, 2) slots 1..N
+    delta: NDArray[np.float64]  # (N,)
+    s: NDArray[np.float64]  # (K, N) relaxed schedule
+    power: NDArray[np.float64]  # (N,)
+    history: list[float] = field(default_factory=list)
+    iterations: int = 0
 
 
 def _binary_gap(s: NDArray[np.float64]) -> float:
@@ -90,68 +115,217 @@ def plan(
     opt = options or PlannerOptions()
     if opt.eta_scale not in ("per-period", "literal"):
         raise InputError(f"eta_scale: expected 'per-period' or 'literal', got {opt.eta_scale!r}")
+    if opt.dynamics not in DYNAMICS:
+        raise InputError(f"dynamics: expected one of {', '.join(DYNAMICS)}, got {opt.dynamics!r}")
     started = time.perf_counter()
-    sc = scale_site(site, opt.nfz_margin_m, opt.gamma)
+    if opt.dynamics == "none":
+        sc = scale_site(site, opt.nfz_margin_m, opt.gamma)
+        state = _algorithm1(sc, scheme, opt, progress)
+        return _solution(site, scheme, sc, _finish(sc, state), started, {})
+    return _plan_flyable(site, scheme, opt, progress, started)
+
+
+def _algorithm1(sc: Scaled, scheme: str, opt: PlannerOptions, progress: Progress | None) -> _State:
+    """The BCD loop of Algorithm 1 from the initial tour; returns the relaxed final state."""
     n = sc.num_slots
-
     traj = trajectory_problem(n, sc.num_gns, sc.num_nfzs, scheme)
-    sched = scheduling_problem(sc.num_gns, n)
-    pwr = power_problem(sc.num_gns, n)
-
     q, delta = initial_tour(sc)
-    s = _initial_schedule(sc, q)
     # Uniform power just inside the budget: (7) then leaves (P3-2) free to move δ at first, and
     # it does not coincide with Σδ = T (which would leave the solver no interior point).
-    power = np.full(n, 1.0 - 1e-3)
-    eta = opt.eta_initial
-    eta_div = site.period_s if opt.eta_scale == "per-period" else 1.0
+    state = _State(q, delta, _initial_schedule(sc, q), np.full(n, 1.0 - 1e-3))
 
-    objective = min_rate(sc, q, delta, power, s)
-    history = [objective]
-    iterations = 0
-    for iterations in range(1, opt.max_iterations + 1):
-        step = traj.solve(sc, q, delta, power, s)
-        if step is not None and min_rate(sc, step.q, step.delta, power, s) >= objective - 1e-9:
-            q, delta = step.q, _renormalise(step.delta, n)
-        s_new = sched.solve(slot_rates(sc, q, delta, power), s, eta / eta_div)
+    def trajectory_step(st: _State) -> None:
+        step = traj.solve(sc, st.q, st.delta, st.power, st.s)
+        objective = min_rate(sc, st.q, st.delta, st.power, st.s)
+        if step is not None:
+            new_delta = _renormalise(step.delta, n)
+            if min_rate(sc, step.q, new_delta, st.power, st.s) >= objective - 1e-9:
+                st.q, st.delta = step.q, new_delta
+
+    _descend(sc, state, opt, progress, trajectory_step)
+    return state
+
+
+def _descend(
+    sc: Scaled,
+    state: _State,
+    opt: PlannerOptions,
+    progress: Progress | None,
+    trajectory_step: Callable[[_State], None] | None,
+) -> None:
+    """Iterate (P3-2) (if given), (P1-2) and (P2) until the objective settles."""
+    sched = scheduling_problem(sc.num_gns, sc.num_slots)
+    eta = opt.eta_initial
+    eta_div = sc.period_s if opt.eta_scale == "per-period" else 1.0
+    objective = min_rate(sc, state.q, state.delta, state.power, state.s)
+    state.history.append(objective)
+    for _ in range(opt.max_iterations):
+        if trajectory_step is not None:
+            trajectory_step(state)
+        s_new = sched.solve(
+            slot_rates(sc, state.q, state.delta, state.power), state.s, eta / eta_div
+        )
         if s_new is not None:
-            s = s_new
+            state.s = s_new
         eta = min(opt.kappa * eta, opt.eta_max)
-        p_new = pwr.solve(sc.rho / distance_sq(sc, q), s, delta, sc.peak)
+        p_new = _power_step(sc, state, state.s)
         if p_new is not None:
-            power = _within_budget(p_new, delta, sc.peak)
-        new_objective = min_rate(sc, q, delta, power, s)
-        history.append(new_objective)
+            state.power = p_new
+        new_objective = min_rate(sc, state.q, state.delta, state.power, state.s)
+        state.history.append(new_objective)
+        state.iterations += 1
         if progress is not None:
-            progress(iterations, new_objective)
+            progress(state.iterations, new_objective)
         done = (
-            abs(new_objective - objective) < opt.epsilon and _binary_gap(s) < opt.binary_tolerance
+            abs(new_objective - objective) < opt.epsilon
+            and _binary_gap(state.s) < opt.binary_tolerance
         )
         objective = new_objective
         if done:
             break
 
-    schedule = np.argmax(s, axis=0).astype(np.int64)
-    binary = np.zeros_like(s)
-    binary[schedule, np.arange(n)] = 1.0
-    p_final = pwr.solve(sc.rho / distance_sq(sc, q), binary, delta, sc.peak)
-    if p_final is not None and min_rate(
-        sc, q, delta, _within_budget(p_final, delta, sc.peak), binary
-    ) >= min_rate(sc, q, delta, power, binary):
-        power = _within_budget(p_final, delta, sc.peak)
 
-    trajectory = np.vstack([q[-1], q]) * LENGTH_UNIT_M
+def _power_step(sc: Scaled, state: _State, s: NDArray[np.float64]) -> NDArray[np.float64] | None:
+    """(P2) for schedule ``s`` at the current trajectory, within the power budget exactly."""
+    pwr = power_problem(sc.num_gns, sc.num_slots)
+    p_new = pwr.solve(sc.rho / distance_sq(sc, state.q), s, state.delta, sc.peak)
+    return None if p_new is None else _within_budget(p_new, state.delta, sc.peak)
+
+
+def _finish(sc: Scaled, state: _State) -> _State:
+    """One GN per slot (the largest share), power re-optimised for that binary schedule."""
+    schedule = np.argmax(state.s, axis=0)
+    binary = np.zeros_like(state.s)
+    binary[schedule, np.arange(sc.num_slots)] = 1.0
+    p_new = _power_step(sc, state, binary)
+    if p_new is not None and min_rate(sc, state.q, state.delta, p_new, binary) >= min_rate(
+        sc, state.q, state.delta, state.power, binary
+    ):
+        state.power = p_new
+    state.s = binary
+    return state
+
+
+def _solution(
+    site: Site, scheme: str, sc: Scaled, state: _State, started: float, notes: dict[str, object]
+) -> Solution:
+    trajectory = np.vstack([state.q[-1], state.q]) * LENGTH_UNIT_M
     return Solution(
         site=site,
         scheme=scheme,
         trajectory_m=trajectory,
-        delta_s=delta * sc.slot_s,
-        power_w=power * site.p_avg_w,
-        schedule=schedule,
-        iterations=iterations,
+        delta_s=state.delta * sc.slot_s,
+        power_w=state.power * site.p_avg_w,
+        schedule=np.argmax(state.s, axis=0).astype(np.int64),
+        iterations=state.iterations,
         solve_seconds=time.perf_counter() - started,
-        history=history,
+        history=state.history,
+        notes=notes,
     )
+
+
+@dataclass
+class _Flyable:
+    """A re-timed candidate: the planning top speed, its skeleton and slot timeline."""
+
+    speed_mps: float
+    skeleton: retime.Skeleton
+    trajectory_m: NDArray[np.float64]
+    delta_s: NDArray[np.float64]
+    move_s: float
+    state: _State
+    min_rate: float
+
+
+def _retimed(
+    site: Site, scheme: str, speed: float, opt: PlannerOptions, progress: Progress | None
+) -> tuple[_Flyable | None, float]:
+    """Plan with top speed ``speed`` (paper model), re-time it for the vehicle, and optimise
+    schedule and power on the new timing. Returns the candidate (None if its moves overrun T)
+    and the ratio of the vehicle's move time to the paper's."""
+    planning_site = site.with_limits(max_speed_mps=speed)
+    psc = scale_site(planning_site, opt.nfz_margin_m, opt.gamma)
+    # The re-timing, not Algorithm 1's slow tail, decides these candidates: fewer iterations.
+    search = replace(opt, max_iterations=min(opt.max_iterations, SEARCH_ITERATIONS))
+    state = _finish(psc, _algorithm1(psc, scheme, search, progress))
+    paper = _solution(planning_site, scheme, psc, state, 0.0, {})
+    sk = retime.skeleton(paper.trajectory_m, paper.delta_s, site.nfz_xy_m, site.planning_radius_m)
+    lengths = np.linalg.norm(np.roll(sk.points_m, -1, axis=0) - sk.points_m, axis=1)
+    profiles = retime.leg_profiles(site, lengths)
+    move_s = float(np.sum(profiles.total_s))
+    paper_move_s = max(site.period_s - float(np.sum(sk.hold_s)), 1e-9)
+    holds = retime.fit_holds(sk.hold_s, move_s, site.period_s)
+    timed = None if holds is None else retime.resample(sk, holds, profiles, site.slots)
+    if timed is None:
+        return None, move_s / paper_move_s
+    sc = scale_site(site, opt.nfz_margin_m, opt.gamma)
+    trajectory_m, delta_s = timed
+    q = trajectory_m[1:] / LENGTH_UNIT_M
+    delta = _renormalise(delta_s / sc.slot_s, sc.num_slots)
+    timed_state = _State(
+        q,
+        delta,
+        _initial_schedule(sc, q),
+        np.full(sc.num_slots, 1.0 - 1e-3),
+        iterations=state.iterations,
+    )
+    _descend(sc, timed_state, opt, None, None)
+    _finish(sc, timed_state)
+    rate = min_rate(sc, timed_state.q, timed_state.delta, timed_state.power, timed_state.s)
+    return _Flyable(
+        speed, sk, trajectory_m, delta_s, move_s, timed_state, rate
+    ), move_s / paper_move_s
+
+
+def _plan_flyable(
+    site: Site, scheme: str, opt: PlannerOptions, progress: Progress | None, started: float
+) -> Solution:
+    """Algorithm 1 at the highest top speed whose path the vehicle flies within T.
+
+    The vehicle's moves take longer than the paper's; planning for a lower top speed gives a
+    shorter path. The speed falls until the re-timed moves fit, then a bisection between the
+    last speed that overran and the first that fit keeps the candidate with the best min rate.
+    """
+    speed, too_fast = site.max_speed_mps, None
+    best: _Flyable | None = None
+    iterations = 0
+    for _ in range(opt.retime_attempts):
+        cand, overrun = _retimed(site, scheme, speed, opt, progress)
+        if cand is None:
+            too_fast = speed
+        elif best is None or cand.min_rate > best.min_rate:
+            best = cand
+        iterations += 1
+        if best is None:
+            speed *= float(np.clip(0.9 / overrun, 0.2, 0.9))
+        elif too_fast is None or too_fast - best.speed_mps < 0.05 * too_fast:
+            break
+        else:
+            speed = (best.speed_mps + too_fast) / 2
+    if best is None:
+        raise InputError(
+            f"uav: no flyable cycle of {site.period_s:g} s found within max_accel "
+            f"{site.max_accel_mps2:g} m/s² and max_jerk {site.max_jerk_mps3:g} m/s³ "
+            f"(tried top speeds down to {speed:.2f} m/s)"
+        )
+    sc = scale_site(site, opt.nfz_margin_m, opt.gamma)
+    notes: dict[str, object] = {
+        "dynamics": "vehicle",
+        "planning_speed_mps": best.speed_mps,
+        "speeds_tried": iterations,
+        "waypoint_slots": _waypoint_slots(best.trajectory_m, best.skeleton),
+        "move_s": best.move_s,
+    }
+    return _solution(site, scheme, sc, best.state, started, notes)
+
+
+def _waypoint_slots(trajectory_m: NDArray[np.float64], sk: retime.Skeleton) -> list[int]:
+    """Trajectory indices (0..N) at which the re-timed cycle reaches a skeleton waypoint."""
+    out = []
+    for p in sk.points_m:
+        d = np.linalg.norm(trajectory_m - p, axis=1)
+        out.append(int(np.flatnonzero(d < 1e-6)[0]))
+    return sorted(set(out))
 
 
 def _renormalise(delta: NDArray[np.float64], n: int) -> NDArray[np.float64]:

@@ -1,0 +1,200 @@
+"""Flyable timing: re-time an optimised path the way a multicopter really flies it.
+
+The paper's model lets the UAV jump between hovering and top speed. ArduCopter (measured in
+SITL, see the shared notes) flies each leg between waypoints as a jerk-limited S-curve from
+rest to rest, so a dash that the paper times at V takes far longer, and the period T is
+overrun several times. This module keeps the optimised path but flies it honestly:
+
+1. :func:`skeleton`: the path's corners and hover points become waypoints; straight stretches
+   between them (Douglas-Peucker within ``tolerance_m``, never closer to an NFZ than before)
+   become single legs;
+2. :func:`leg_profiles`: each leg is timed with the validator's own ArduCopter S-curve model
+   (WPNAV_ACCEL capped by the lean angle, WPNAV_JERK with ArduCopter's jerk ramp);
+3. the time left in T goes to the hover points in proportion to the optimiser's holds;
+4. :func:`resample`: N slots are laid on that timeline: boundaries at every arrival and
+   departure, the rest spread over the moves, positions taken from the S-curves.
+
+Schedule and power are then re-optimised on the re-timed trajectory by the caller. Positions
+are metres east/north; times seconds.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from shapely.geometry import LineString
+
+from validator.dynamics import (
+    GRAVITY_MPS2,
+    Profiles1D,
+    jerk_ramp_s,
+    make_profile,
+    scurve_rest_to_rest,
+)
+from validator.geometry import min_leg_clearance
+from validator.site import Site
+
+STATIONARY_M = 0.05  # a slot that moves less than this is hovering
+SIMPLIFY_STEPS_M = (10.0, 5.0, 2.0, 1.0, 0.5, 0.2, 0.0)
+
+
+@dataclass(frozen=True)
+class Skeleton:
+    """Waypoints of a closed path: ``points_m`` (W, 2), the hold at each (s), and the
+    trajectory index each came from. Leg w flies points[w] → points[w+1] (cyclic)."""
+
+    points_m: NDArray[np.float64]
+    hold_s: NDArray[np.float64]
+    index: NDArray[np.int64]
+
+
+def skeleton(
+    trajectory_m: NDArray[np.float64],
+    delta_s: NDArray[np.float64],
+    centres_m: NDArray[np.float64],
+    radii_m: NDArray[np.float64],
+    tolerance_m: float = SIMPLIFY_STEPS_M[0],
+) -> Skeleton:
+    """Corners and hover points of a closed slot trajectory (N+1, 2) with slot lengths (N,).
+
+    Runs of stationary slots become one waypoint holding their total time. Between hover
+    points the path is simplified (Douglas-Peucker, shapely) with the largest tolerance in
+    :data:`SIMPLIFY_STEPS_M` up to ``tolerance_m`` that keeps every leg at least as clear of
+    the circles (``centres_m``, ``radii_m``) as the original, or clear of them.
+    """
+    q = np.asarray(trajectory_m, dtype=float)
+    n = len(delta_s)
+    moving = np.linalg.norm(np.diff(q, axis=0), axis=1) >= STATIONARY_M
+    # Begin where a hover begins, so that no hold wraps round the end of the list.
+    starts = [i for i in range(n) if not moving[i] and moving[i - 1]]
+    first = starts[0] if starts else 0
+    verts = [first]  # trajectory indices of candidate waypoints, in flying order
+    holds = [0.0]
+    for i in ((first + k) % n for k in range(n)):
+        if moving[i]:
+            verts.append((i + 1) % n)
+            holds.append(0.0)
+        else:
+            holds[-1] += float(delta_s[i])
+    if len(verts) > 1:  # the last move returns to the first waypoint
+        verts, holds = verts[:-1], holds[:-1]
+    hover = {v for v, h in zip(verts, holds, strict=True) if h > 0}
+    keep = _simplify(q[:n], verts, hover, centres_m, radii_m, tolerance_m)
+    hold_of = dict(zip(verts, holds, strict=True))
+    return Skeleton(q[keep], np.array([hold_of[v] for v in keep]), np.array(keep, dtype=np.int64))
+
+
+def _simplify(
+    q: NDArray[np.float64],
+    verts: list[int],
+    hover: set[int],
+    centres_m: NDArray[np.float64],
+    radii_m: NDArray[np.float64],
+    tolerance_m: float,
+) -> list[int]:
+    """Vertices kept after simplifying each stretch between hover points."""
+    anchors = [k for k, v in enumerate(verts) if v in hover] or [0]
+    keep: list[int] = []
+    for a, b in zip(anchors, [*anchors[1:], anchors[0] + len(verts)], strict=True):
+        stretch = [verts[k % len(verts)] for k in range(a, b + 1)]
+        pts = q[stretch]
+        before = min_leg_clearance(pts, centres_m, radii_m)
+        chosen = list(range(len(stretch)))
+        for tol in (t for t in SIMPLIFY_STEPS_M if t <= tolerance_m):
+            simple = LineString(pts).simplify(tol, preserve_topology=False)
+            idx = _indices_of(simple, pts)
+            if min_leg_clearance(pts[idx], centres_m, radii_m) >= min(before, 0.0) - 1e-9:
+                chosen = idx
+                break
+        keep.extend(stretch[i] for i in chosen[:-1])
+    return keep
+
+
+def _indices_of(line: LineString, pts: NDArray[np.float64]) -> list[int]:
+    """Indices into ``pts`` of a simplified line's vertices (simplify keeps original points)."""
+    out: list[int] = []
+    start = 0
+    for c in np.asarray(line.coords):
+        hits = np.flatnonzero(np.all(np.abs(pts[start:] - c) < 1e-9, axis=1))
+        if hits.size:
+            start += int(hits[0])
+            out.append(start)
+    if not out or out[0] != 0:
+        out.insert(0, 0)
+    if out[-1] != len(pts) - 1:
+        out.append(len(pts) - 1)
+    return out
+
+
+def leg_profiles(site: Site, lengths_m: NDArray[np.float64]) -> Profiles1D:
+    """Rest-to-rest S-curves of legs flown by ArduCopter at the site's limits (top speed V)."""
+    profile = make_profile("arducopter", site)
+    accel = min(profile.si("WPNAV_ACCEL"), GRAVITY_MPS2 * math.tan(profile.si("ANGLE_MAX")))
+    jerk = np.full(len(lengths_m), profile.si("WPNAV_JERK"))
+    speed = min(profile.si("WPNAV_SPEED"), profile.si("VEHICLE_SPEED_MAX"))
+    return scurve_rest_to_rest(
+        np.asarray(lengths_m, dtype=float),
+        np.full(len(lengths_m), speed),
+        np.full(len(lengths_m), accel),
+        jerk,
+        jerk_ramp_s(profile, jerk),
+    )
+
+
+def fit_holds(
+    hold_s: NDArray[np.float64], move_s: float, period_s: float
+) -> NDArray[np.float64] | None:
+    """Holds rescaled so moves plus holds last exactly the period; None if the moves overrun."""
+    spare = period_s - move_s
+    if spare < 0:
+        return None
+    total = float(np.sum(hold_s))
+    if total > 0:
+        return np.asarray(hold_s * (spare / total), dtype=float)
+    out = np.zeros_like(hold_s)
+    out[0] = spare
+    return out
+
+
+def resample(
+    sk: Skeleton, hold_s: NDArray[np.float64], profiles: Profiles1D, slots: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+    """N slots over the re-timed cycle: (trajectory (N+1, 2), slot lengths (N,)); None when
+    the waypoints need more slots than there are."""
+    w = len(sk.points_m)
+    move = profiles.total_s
+    # Intervals in time order: hold at waypoint k (if any), then the move of leg k.
+    kinds: list[tuple[str, int, float]] = []
+    for k in range(w):
+        if hold_s[k] > 1e-9:
+            kinds.append(("hold", k, float(hold_s[k])))
+        if move[k] > 1e-9:
+            kinds.append(("move", k, float(move[k])))
+    if not kinds or len(kinds) > slots:
+        return None
+    dur = np.array([d for _, _, d in kinds])
+    # Every interval gets one slot, the rest go where time is longest (largest remainder).
+    extra = slots - len(kinds)
+    share = dur / dur.sum() * extra
+    count = 1 + np.floor(share).astype(int)
+    rest = slots - int(count.sum())
+    count[np.argsort(-(share - np.floor(share)), kind="stable")[:rest]] += 1
+    points = [sk.points_m[0]]
+    deltas: list[float] = []
+    nxt = np.roll(sk.points_m, -1, axis=0)
+    for (kind, k, d), c in zip(kinds, count, strict=True):
+        deltas.extend([d / c] * c)
+        if kind == "hold":
+            points.extend([sk.points_m[k]] * c)
+            continue
+        tau = d * np.arange(1, c + 1) / c
+        along, _, _ = profiles.state(np.full(c, k), tau)
+        length = float(profiles.length_m[k])
+        unit = (nxt[k] - sk.points_m[k]) / length
+        points.extend(sk.points_m[k] + along[:, None] * unit[None, :])
+    traj = np.array(points)
+    traj[-1] = traj[0]  # exactly closed (the last move ends at waypoint 0)
+    return traj, np.array(deltas)

@@ -1,0 +1,99 @@
+"""Re-timing an optimised path the way a multicopter flies it (dynamics="vehicle")."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mission_planner.optimize import PlannerOptions, Solution, plan
+from mission_planner.optimize.retime import fit_holds, leg_profiles, resample, skeleton
+from mission_planner.study.sites import random_site
+from validator.site import Site
+
+
+def _hover_dash() -> tuple[np.ndarray, np.ndarray]:
+    """Hover 3 slots at A, dash to B in 2 collinear slots, hover 2 at B, dash back in 1."""
+    a, b, mid = np.array([0.0, 0.0]), np.array([100.0, 0.0]), np.array([50.0, 0.0])
+    traj = np.array([a, a, a, a, mid, b, b, b, a])
+    delta = np.array([2.0, 2.0, 2.0, 1.5, 1.5, 3.0, 3.0, 5.0])
+    return traj, delta
+
+
+def test_skeleton_keeps_hover_points_and_drops_collinear_ones() -> None:
+    traj, delta = _hover_dash()
+    sk = skeleton(traj, delta, np.zeros((0, 2)), np.zeros(0))
+    assert len(sk.points_m) == 2
+    holds = {tuple(p): h for p, h in zip(sk.points_m.tolist(), sk.hold_s, strict=True)}
+    assert holds[(0.0, 0.0)] == pytest.approx(6.0)
+    assert holds[(100.0, 0.0)] == pytest.approx(6.0)
+
+
+def test_skeleton_keeps_a_corner_that_would_cut_a_zone() -> None:
+    # A detour round a zone: dropping its apex would send the leg through the zone.
+    traj = np.array([[0.0, 0.0], [0.0, 0.0], [50.0, 40.0], [100.0, 0.0], [100.0, 0.0], [0.0, 0.0]])
+    delta = np.array([5.0, 3.0, 3.0, 5.0, 4.0])
+    centres, radii = np.array([[50.0, 20.0]]), np.array([10.0])
+    sk = skeleton(traj, delta, centres, radii)
+    assert any(np.allclose(p, [50.0, 40.0]) for p in sk.points_m)
+
+
+def test_fit_holds_gives_the_spare_time_to_the_holds() -> None:
+    holds = fit_holds(np.array([4.0, 2.0]), move_s=20.0, period_s=26.0)
+    assert holds is not None
+    assert holds.sum() == pytest.approx(6.0)
+    assert holds[0] == pytest.approx(2 * holds[1])
+
+
+def test_fit_holds_refuses_moves_longer_than_the_period() -> None:
+    assert fit_holds(np.array([1.0]), move_s=30.0, period_s=26.0) is None
+
+
+def test_resample_lays_slots_on_the_s_curves(site: Site) -> None:
+    traj, delta = _hover_dash()
+    sk = skeleton(traj, delta, np.zeros((0, 2)), np.zeros(0))
+    lengths = np.linalg.norm(np.roll(sk.points_m, -1, axis=0) - sk.points_m, axis=1)
+    profiles = leg_profiles(site, lengths)
+    move = float(profiles.total_s.sum())
+    holds = fit_holds(sk.hold_s, move, move + 10.0)
+    assert holds is not None
+    out = resample(sk, holds, profiles, 12)
+    assert out is not None
+    q, d = out
+    assert q.shape == (13, 2) and d.shape == (12,)
+    assert d.sum() == pytest.approx(move + 10.0)
+    assert np.allclose(q[0], q[-1])
+    # Slot speeds never exceed the top speed, and every slot stays on the A-B line.
+    speed = np.linalg.norm(np.diff(q, axis=0), axis=1) / d
+    assert np.all(speed <= site.max_speed_mps + 1e-9)
+    assert np.allclose(q[:, 1], 0.0)
+
+
+@pytest.fixture(scope="module")
+def site() -> Site:
+    return random_site(2, slots=12)
+
+
+@pytest.fixture(scope="module")
+def flyable(site: Site) -> Solution:
+    return plan(site, "proposed", options=PlannerOptions(dynamics="vehicle", max_iterations=10))
+
+
+def test_flyable_plan_fills_the_period_and_respects_the_top_speed(
+    site: Site, flyable: Solution
+) -> None:
+    assert flyable.delta_s.sum() == pytest.approx(site.period_s)
+    assert np.all(flyable.leg_length_m <= site.max_speed_mps * flyable.delta_s * (1 + 1e-9))
+    assert flyable.notes["dynamics"] == "vehicle"
+
+
+def test_flyable_moves_take_as_long_as_the_s_curves(site: Site, flyable: Solution) -> None:
+    idx = flyable.notes["waypoint_slots"]
+    pts = flyable.trajectory_m[idx]
+    lengths = np.linalg.norm(np.roll(pts, -1, axis=0) - pts, axis=1)
+    move = float(leg_profiles(site, lengths[lengths > 1e-6]).total_s.sum())
+    moving = flyable.leg_length_m > 1e-6
+    assert float(flyable.delta_s[moving].sum()) == pytest.approx(move, rel=1e-6)
+
+
+def test_flyable_plan_keeps_clear_of_every_zone(flyable: Solution) -> None:
+    assert flyable.nfz_clearance_min_m >= flyable.site.buffer_m - 1e-6
