@@ -1,6 +1,24 @@
-"""The paper's optimiser: Algorithm 1 with (P1-2) scheduling, (P2) power, (P3-2) trajectory."""
+"""The paper's optimiser: Algorithm 1 with (P1-2) scheduling, (P2) power, (P3-2) trajectory.
 
-from mission_planner.optimize.bcd import PlannerOptions, plan
+``plan`` and ``PlannerOptions`` load lazily: importing cvxpy takes about a second, which code
+that only reads a :class:`Solution` (mission export, reports) should not pay.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
 from mission_planner.optimize.solution import SCHEMES, Solution
 
+if TYPE_CHECKING:
+    from mission_planner.optimize.bcd import PlannerOptions, plan
+
 __all__ = ["SCHEMES", "PlannerOptions", "Solution", "plan"]
+
+
+def __getattr__(name: str) -> Any:
+    if name in ("plan", "PlannerOptions"):
+        from mission_planner.optimize import bcd
+
+        return getattr(bcd, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
