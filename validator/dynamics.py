@@ -19,9 +19,10 @@ Three profiles (:func:`make_profile`), parameters in the autopilot's own names a
     through that overlap. Holds are truncated to whole seconds, as ArduCopter stores them.
 ``px4``
     PX4 mission following: corners rounded by an arc inside NAV_ACC_RAD, corner speed
-    sqrt(MPC_ACC_HOR · r) (PX4's waypoint speed rule), speed along the path limited by
-    MPC_ACC_HOR with PX4's jerk-aware braking distance (MPC_JERK_AUTO), cruise at the
-    commanded speed or MPC_XY_CRUISE, capped by MPC_XY_VEL_MAX.
+    sqrt(MPC_ACC_HOR · r) (PX4's waypoint speed rule), speed along the path driven by a
+    jerk-limited follower (MPC_ACC_HOR, MPC_JERK_AUTO) under the caps and the braking
+    distances to every lower cap ahead; cruise at the commanded speed or MPC_XY_CRUISE, capped
+    by MPC_XY_VEL_MAX. Holds keep fractional seconds.
 
 Accelerations and jerks default to the site's ``uav.max_accel`` / ``uav.max_jerk``, speeds to
 its ``max_speed``; ``VEHICLE_SPEED_MAX`` (m/s, every profile) is the vehicle's real top speed
@@ -52,6 +53,7 @@ GRAVITY_MPS2 = 9.80665
 SEG_CRUISE = 7  # rest-to-rest profiles: segments 0-6 accelerate, 7 cruises, 8-14 decelerate
 SEG_DECEL_START = 8
 CORNER_SEARCH_STEP_S = 0.0025  # ArduCopter checks the corner condition at its 400 Hz loop rate
+STOP_TOLERANCE_M = 0.01  # a vehicle creeping to a stop counts as there this close
 
 
 @dataclass(frozen=True)
@@ -721,31 +723,89 @@ def _px4_run_path(
     a = np.concatenate(a_parts)
     keep = np.concatenate([[True], np.diff(s) > 1e-9])  # drop repeated joints
     s, pts, cap, a = s[keep], pts[keep], cap[keep], a[keep]
-    cap[0] = cap[-1] = 0.0  # a run starts and ends at rest
+    cap[-1] = 0.0  # a run ends at rest (it starts at rest too: the follower's initial state)
     return s, pts, cap, a, reach
 
 
-def px4_speed_profile(
+def ramp_distance_m(
+    v_mps: NDArray[np.float64], accel_mps2: NDArray[np.float64], jerk_mps3: float
+) -> NDArray[np.float64]:
+    """Distance (m) a jerk-limited S-curve needs from rest to ``v_mps`` (or back to rest).
+
+    v·sqrt(v/J) while the acceleration stays below A (v ≤ A²/J), else v²/(2A) + v·A/(2J).
+    """
+    v = np.maximum(v_mps, 0.0)
+    a = accel_mps2
+    short = v <= a * a / jerk_mps3
+    return np.asarray(np.where(short, v * np.sqrt(v / jerk_mps3),
+                               v * v / (2.0 * a) + v * a / (2.0 * jerk_mps3)), dtype=float)
+
+
+def _ramp_speed(
+    d_m: NDArray[np.float64], accel_mps2: NDArray[np.float64], jerk_mps3: float
+) -> NDArray[np.float64]:
+    """Inverse of :func:`ramp_distance_m`: the speed that can be shed to rest within ``d_m``."""
+    d = np.maximum(d_m, 0.0)
+    a = accel_mps2
+    j = jerk_mps3
+    short = d <= a**3 / j**2
+    long_v = -a * a / (2.0 * j) + np.sqrt(a**4 / (4.0 * j * j) + 2.0 * a * d)
+    return np.asarray(np.where(short, np.cbrt(d * d * j), long_v), dtype=float)
+
+
+def braking_limit(
     s_m: NDArray[np.float64], cap_mps: NDArray[np.float64], accel_mps2: NDArray[np.float64],
     jerk_mps3: float,
 ) -> NDArray[np.float64]:
-    """Fastest speed (m/s) along arc length ``s_m`` under the caps, reaching every cap in time.
+    """Highest speed (m/s) at each arc length ``s_m`` from which every lower cap ahead can
+    still be met: slowing from v to v_c takes the S-curve distance D(v) − D(v_c)
+    (:func:`ramp_distance_m`)."""
+    pot = ramp_distance_m(cap_mps, accel_mps2, jerk_mps3)
+    ahead = np.minimum.accumulate((pot + s_m)[::-1])[::-1] - s_m
+    return np.asarray(np.minimum(_ramp_speed(ahead, accel_mps2, jerk_mps3), cap_mps),
+                      dtype=float)
 
-    Braking uses PX4's jerk-aware rule (``computeMaxSpeedFromDistance``): from v down to v_f
-    takes d with v² + (4A²/J)·v = 2·A·d + v_f². Speeding up from v_0 follows the jerk-limited
-    S-curve: v² + (A²/J)·v = 2·A·d + v_0² (exact from rest when v ≥ A²/J).
+
+def follow_speed_limit(
+    s_m: NDArray[np.float64], limit_mps: NDArray[np.float64], accel_mps2: float,
+    jerk_mps3: float, dt_s: float,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Drive from rest at ``s_m[0]`` to rest at ``s_m[-1]`` as fast as a speed limit allows.
+
+    The acceleration moves by at most J·dt per step toward the limit's own acceleration
+    (v·dv/ds, feed-forward) plus sign(e)·sqrt(2·J·|e|) for the gap e to the limit, bounded by
+    A: the time-optimal way to meet a speed with bounded jerk. ``limit_mps`` must be a braking
+    limit (:func:`braking_limit`), which a jerk-limited vehicle can follow. Returns the sample
+    times (s, from 0) and arc lengths (m).
     """
-    a2 = 2.0 * accel_mps2 * s_m
-
-    def solve(b: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
-        return np.asarray((-b + np.sqrt(b * b + 4.0 * np.maximum(x, 0.0))) / 2.0, dtype=float)
-
-    b_brake = 4.0 * accel_mps2**2 / jerk_mps3
-    b_rise = accel_mps2**2 / jerk_mps3
-    ahead = np.minimum.accumulate((cap_mps**2 + b_brake * cap_mps + a2)[::-1])[::-1] - a2
-    behind = np.minimum.accumulate(cap_mps**2 + b_rise * cap_mps - a2) + a2
-    v = np.minimum(solve(b_brake, ahead), solve(b_rise, behind))
-    return np.asarray(np.minimum(v, cap_mps), dtype=float)
+    ff = np.clip(limit_mps * np.gradient(limit_mps, s_m), -accel_mps2, accel_mps2)
+    s_grid, lim, acc_ff = s_m.tolist(), limit_mps.tolist(), ff.tolist()
+    end, n = s_grid[-1], len(s_grid)
+    A, J = accel_mps2, jerk_mps3
+    s = s_grid[0]
+    v = a = t = 0.0
+    ts, ss = [0.0], [s]
+    i = 0
+    while not (s >= end - STOP_TOLERANCE_M and v < 0.05) and t < 1e6:
+        while i + 2 < n and s_grid[i + 1] <= s:
+            i += 1
+        f = (s - s_grid[i]) / (s_grid[i + 1] - s_grid[i]) if i + 1 < n else 0.0
+        target = lim[i] + f * (lim[i + 1] - lim[i]) if i + 1 < n else lim[i]
+        target = max(target, 0.01)  # creep onto a stop point instead of stalling short of it
+        e = target - v
+        on_limit = min(1.0, v / target)  # feed forward only what the vehicle is following
+        want = acc_ff[i] * on_limit + math.copysign(math.sqrt(2.0 * J * abs(e)), e)
+        want = max(-A, min(A, want))
+        a += max(-J * dt_s, min(J * dt_s, want - a))
+        v_new = max(v + a * dt_s, 0.0)
+        if v_new == 0.0:
+            a = max(a, 0.0)
+        s = min(s + (v + v_new) / 2.0 * dt_s, end)
+        v = v_new
+        t += dt_s
+        ts.append(t)
+        ss.append(s)
+    return np.asarray(ts, dtype=float), np.asarray(ss, dtype=float)
 
 
 def _fly_px4(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
@@ -759,20 +819,22 @@ def _fly_px4(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
     acc = kinematic_limit(geom.unit, np.full(n, profile.si("MPC_ACC_HOR")),
                           profile.si("MPC_ACC_UP_MAX"), profile.si("MPC_ACC_UP_MAX"))
     jerk = profile.si("MPC_JERK_AUTO")
+    step = min(dt_s, 0.02)  # the follower integrates at 50 Hz or faster
     start, reached, done = np.zeros(n), np.zeros(n), np.zeros(n)
     t_parts, p_parts = [], []
     clock = 0.0
     for run in _px4_runs(flight):
         s, pts, cap, a, reach = _px4_run_path(run, geom, speed, profile.si("NAV_ACC_RAD"), acc,
                                                ds_m=0.05)
-        v = px4_speed_profile(s, cap, a, jerk)
-        mean_v = (v[:-1] + v[1:]) / 2.0
-        seg = np.diff(s)
-        dt = np.divide(seg, mean_v, out=np.zeros_like(seg), where=mean_v > 1e-9)
-        t_run = clock + np.concatenate([[0.0], np.cumsum(dt)])
+        if s[-1] > 0:
+            limit = braking_limit(s, cap, a, jerk)
+            t_run, s_run = follow_speed_limit(s, limit, float(np.min(a)), jerk, step)
+        else:
+            t_run, s_run = np.zeros(1), np.zeros(1)
+        t_run = t_run + clock
         t_parts.append(t_run)
-        p_parts.append(pts)
-        at = np.interp(reach, s, t_run)
+        p_parts.append(np.stack([np.interp(s_run, s, pts[:, c]) for c in range(3)], axis=1))
+        at = np.interp(reach, s_run, t_run)
         for j, k in enumerate(run):
             start[k] = clock if j == 0 else reached[run[j - 1]]
             reached[k] = done[k] = at[j]
