@@ -183,7 +183,10 @@ def run_trials(
     fn = functools.partial(run_trial, options=options)
     if manifest is not None:
         check_manifest(directory, manifest)
-    if scheduler is not None:
+    rows: Iterator[dict[str, Any]]
+    if not todo:
+        rows = iter(())
+    elif scheduler is not None:
         rows = _map_dask(fn, todo, _connect(scheduler))
     else:
         n = min(workers or default_workers(), max(len(todo), 1))
