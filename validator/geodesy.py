@@ -1,7 +1,9 @@
 """The local east/north frame of a site, and MAVLink's int32 coordinate rounding.
 
-Positions are metres east (x) and north (y) of the site origin on the WGS84 ellipsoid's local
-tangent plane (pymap3d ENU). Latitudes and longitudes are degrees; altitudes metres AMSL.
+Positions are metres east (x) and north (y) of the site origin in the WGS84 east/north/up frame
+(pymap3d ENU) whose tangent plane touches the ellipsoid height of the origin's ground altitude,
+with every point taken at that height. (At 584 m, a plane at height 0 instead would shift points
+360 m out by 3 cm.) Latitudes and longitudes are degrees; altitudes metres.
 """
 
 from __future__ import annotations
@@ -26,8 +28,15 @@ class LocalFrame:
     def to_geodetic(self, xy_m: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Latitudes and longitudes (degrees) of points ``xy_m`` (..., 2) on the ground plane."""
         xy = np.asarray(xy_m, dtype=float)
+        # up = 0 puts the point on the tangent plane, a few mm above height alt0 within 1 km;
+        # the round trip through to_local moves it by under 1 µm.
         lat, lon, _ = pymap3d.enu2geodetic(
-            xy[..., 0], xy[..., 1], np.zeros(xy.shape[:-1]), self.lat0_deg, self.lon0_deg, 0.0
+            xy[..., 0],
+            xy[..., 1],
+            np.zeros(xy.shape[:-1]),
+            self.lat0_deg,
+            self.lon0_deg,
+            self.alt0_m,
         )
         return np.asarray(lat, dtype=float), np.asarray(lon, dtype=float)
 
@@ -36,7 +45,7 @@ class LocalFrame:
         lat = np.asarray(lat_deg, dtype=float)
         lon = np.asarray(lon_deg, dtype=float)
         e, n, _ = pymap3d.geodetic2enu(
-            lat, lon, np.zeros(lat.shape), self.lat0_deg, self.lon0_deg, 0.0
+            lat, lon, np.full(lat.shape, self.alt0_m), self.lat0_deg, self.lon0_deg, self.alt0_m
         )
         return np.stack([np.asarray(e, dtype=float), np.asarray(n, dtype=float)], axis=-1)
 

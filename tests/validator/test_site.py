@@ -157,3 +157,15 @@ def test_file_and_dict_agree(tmp_path: Path) -> None:
     path = tmp_path / "s.yaml"
     path.write_text(yaml.safe_dump(copy.deepcopy(_base())))
     assert np.array_equal(load_site(path).nfz_xy_m, parse_site(_base()).nfz_xy_m)
+
+
+def test_local_frame_is_the_tangent_plane_at_the_origin_altitude() -> None:
+    """Same frame as the shared ArduCopter SITL data: fence centres there equal the NFZs."""
+    from validator.geodesy import LocalFrame
+
+    high = LocalFrame(-35.363261, 149.16523, 584.0)
+    low = LocalFrame(-35.363261, 149.16523, 0.0)
+    lat, lon = high.to_geodetic(np.array([360.0, 110.0]))
+    assert np.allclose(high.to_local(lat, lon), [360.0, 110.0], atol=1e-5)
+    # A frame at sea level would put the same point ~3 cm further out at 584 m.
+    assert np.linalg.norm(low.to_local(lat, lon) - [360.0, 110.0]) > 0.02
