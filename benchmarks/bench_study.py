@@ -93,7 +93,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--full", action="store_true", help="N 25..200, K 2..10, M 1..10")
     parser.add_argument("--seeds", type=int, default=2, help="sites per size (2)")
     parser.add_argument("--scheme", default="proposed", choices=("proposed", "conventional"))
-    parser.add_argument("--trials", type=int, default=8, help="trials per throughput run (8)")
+    parser.add_argument("--trials", type=int, default=16,
+                        help="trials per throughput run (16: enough to amortise worker start-up)")
     parser.add_argument("--slots", type=int, default=50, help="N of the throughput runs (50)")
     parser.add_argument("--max-iterations", type=int, default=None,
                         help="cap on Algorithm 1's iterations (planner default)")
