@@ -350,7 +350,8 @@ class Link:
         count: int | None = None
         out: list[WireItem] = []
         last_progress = last_open = time.monotonic()
-        opened = False
+        opened = False  # a MISSION_REQUEST_LIST re-sent mid-download awaits its answer
+        reopens = 0
         while count is None or len(out) < count:
             now = time.monotonic()
             if now - last_progress > self.timeout_s:
@@ -358,10 +359,16 @@ class Link:
                         else f"item {len(out)} of {count}")
                 raise LinkError(f"{label} download: no answer to {what} within "
                                 f"{self.timeout_s:g} s")
-            if count is None or (now - max(last_progress, last_open) > RESTART_AFTER_S):
-                self.mav.mission_request_list_send(ts, tc, mtype)
-                last_open = now
+            if count is not None and now - max(last_progress, last_open) > RESTART_AFTER_S:
+                reopens += 1
+                if reopens >= TRANSFER_ATTEMPTS:
+                    raise LinkError(f"{label} download: gave up after {TRANSFER_ATTEMPTS} "
+                                    "attempts; the link loses too many packets")
                 opened = True
+                last_open = now
+                self.mav.mission_request_list_send(ts, tc, mtype)
+            elif count is None:
+                self.mav.mission_request_list_send(ts, tc, mtype)
             if count is not None:
                 self.mav.mission_request_int_send(ts, tc, len(out), mtype)
             msg = self.recv(
@@ -384,8 +391,11 @@ class Link:
                 if count is not None and int(msg.count) != count:
                     raise LinkError(f"{label} download: the list changed during the download "
                                     f"({count} then {msg.count} items)")
+                if count is None:
+                    last_progress = time.monotonic()
+                elif opened:
+                    out.clear()  # a reopened transfer starts at item 0 (MAVSDK insists)
                 count = int(msg.count)
-                last_progress = time.monotonic()
                 opened = False
                 continue
             out.append(WireItem.from_msg(msg))

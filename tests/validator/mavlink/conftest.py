@@ -80,14 +80,21 @@ class FakeVehicle:
 
     ``nack``: answer every MISSION_COUNT with this MAV_MISSION_RESULT. ``silent_after``: stop
     answering mission requests after that many items (heartbeats go on). ``corrupt_seq``: hold
-    everything but report param2 + 1 for that seq on download.
+    everything but report param2 + 1 for that seq on download. ``drop_download_at``: when
+    that item is first requested, abandon the download as MAVSDK does after its retries: say
+    nothing more until a new MISSION_REQUEST_LIST, then serve items only from 0 in order.
+    ``mute_items``: answer MISSION_REQUEST_LIST but never an item.
     """
 
     def __init__(self, *, nack: int | None = None, silent_after: int | None = None,
-                 corrupt_seq: int | None = None, sysid: int = 1) -> None:
+                 corrupt_seq: int | None = None, drop_download_at: int | None = None,
+                 mute_items: bool = False, sysid: int = 1) -> None:
         self.conn = mavutil.mavlink_connection("udpin:127.0.0.1:0", source_system=sysid,
                                                source_component=1)
         self.nack, self.silent_after, self.corrupt_seq = nack, silent_after, corrupt_seq
+        self.drop_download_at, self.mute_items = drop_download_at, mute_items
+        self.serving: int | None = None  # next item a download may ask for; None: abandoned
+        self.list_requests = 0
         self.lists: dict[int, list[WireItem]] = {0: [], 1: [], 2: []}
         self.incoming: list[WireItem] = []
         self.expect = 0
@@ -141,9 +148,17 @@ class FakeVehicle:
                 else:
                     mav.mission_request_int_send(*src, len(self.incoming), mtype)
             elif kind == "MISSION_REQUEST_LIST":
+                self.list_requests += 1
+                self.serving = 0
                 mav.mission_count_send(*src, len(self.lists[msg.mission_type]), msg.mission_type)
-            elif kind == "MISSION_REQUEST_INT":
+            elif kind == "MISSION_REQUEST_INT" and not self.mute_items:
                 items = self.lists[msg.mission_type]
+                if self.drop_download_at is not None:
+                    if msg.seq == self.drop_download_at and self.list_requests == 1:
+                        self.serving = None
+                    if self.serving is None or msg.seq not in (self.serving, self.serving - 1):
+                        continue
+                    self.serving = max(self.serving, msg.seq + 1)
                 if msg.seq < len(items):
                     it = items[msg.seq]
                     if msg.seq == self.corrupt_seq and msg.mission_type == 0:

@@ -133,3 +133,24 @@ def test_a_plan_without_fence_or_rally_clears_the_vehicles(plan, start_vehicle):
     plan.circles, plan.polygons, plan.rally, plan.breach_return = [], [], [], None
     upload_plan(plan, url_of(vehicle), timeout_s=5)
     assert vehicle.lists().fence == () and vehicle.lists().rally == ()
+
+
+def test_download_restarts_when_the_vehicle_abandons_it(plan):
+    with FakeVehicle(drop_download_at=4) as fake:
+        with Link(fake.url, timeout_s=8, retry_s=0.1) as link:
+            sent = plan_to_wire(plan, home_item=True)
+            link.upload(sent)
+            held = link.download_list(MissionType.MISSION)
+        assert [w.content() for w in held] == [w.content() for w in sent.mission]
+        assert fake.list_requests == 2
+
+
+def test_a_vehicle_that_never_sends_items_fails_within_the_timeout(plan):
+    with FakeVehicle(mute_items=True) as fake:
+        t0 = time.monotonic()
+        with pytest.raises(LinkError, match="mission download: no answer to item 0 of 7 "
+                                            "within 4 s"):
+            with Link(fake.url, timeout_s=4, retry_s=0.1) as link:
+                link.upload(plan_to_wire(plan, home_item=True))
+                link.download_list(MissionType.MISSION)
+        assert time.monotonic() - t0 < 4 + 2
