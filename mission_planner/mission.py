@@ -10,6 +10,9 @@ out a QGroundControl :class:`~validator.plan_format.Plan`:
    δ[n] m/s) where the speed changes and a NAV_WAYPOINT at q[n]. Slots in which the UAV stays
    put (within ``stationary_tol_m``) merge into the waypoint before them, whose hold is their
    δ sum; slots at the start of the cycle in which it stays put become a hold at q[0];
+   consecutive slots on one straight line at one speed become one waypoint
+   (:func:`merge_straight_steps`), so waypoints stand only where the path turns or the speed
+   changes: fewer corners for the autopilot to round off and fewer rest-to-rest legs;
 4. DO_JUMP back to the cycle's first item ``cycles − 1`` times;
 5. DO_CHANGE_SPEED to the transit speed, the return transit, NAV_LAND at home. Never RTL:
    it flies straight home whatever lies between.
@@ -39,12 +42,21 @@ Decisions where autopilots and the plan disagree (all in :class:`MissionOptions`
   rest of its slot: the slot keeps its length and the UAV ends it at the same place.
 - **Speed limit.** A leg speed never exceeds the site's V: float excess is clipped (the leg
   then takes a hair longer than δ); an excess above 1 % is reported as a problem.
+- **Long legs.** Slots merge into one leg only when flying the merged leg at its constant
+  speed puts the vehicle within ``merge_offset_m`` (5 cm) of the planned position at every
+  instant (checked at every slot boundary; in between both are linear in time, so the gap is
+  largest at a boundary), each slot's direction is within ``merge_angle_deg`` (1°) and its
+  speed within ``merge_speed_rel`` (1 %) of the merged leg's, no slot in between holds, and the
+  merged leg keeps at least the NFZ clearance its slots had (or the export target). The
+  exported ``nfzMission`` trajectory puts the merged slots' end points on the merged leg at
+  their planned times, so the validator's throughput scoring maps the flown track to the
+  same slots.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -88,6 +100,9 @@ class MissionOptions:
     ``fence_margin_m`` None means half the site's safety buffer. ``operating_area`` None, or
     "polygon" (buffered convex hull) / "circle" (bounding circle) around everything flown,
     ``operating_area_margin_m`` outside it. ``transit_speed_mps`` None means the site's V.
+    ``merge_legs`` False keeps one waypoint per moving slot (the paper's layout); otherwise
+    straight runs merge within ``merge_angle_deg`` (degrees), ``merge_speed_rel`` (fraction)
+    and ``merge_offset_m`` (see :func:`merge_straight_steps`).
     """
 
     autopilot: str = "ardupilot"
@@ -102,6 +117,10 @@ class MissionOptions:
     min_speed_mps: float = 0.2
     speed_tol_mps: float = 1e-3
     arc_step_deg: float = DEFAULT_ARC_STEP_DEG
+    merge_legs: bool = True
+    merge_angle_deg: float = 1.0
+    merge_speed_rel: float = 0.01
+    merge_offset_m: float = 0.05
 
 
 @dataclass(frozen=True)
@@ -112,6 +131,8 @@ class CycleStep:
     ``leg_s`` the planned time of the leg into it (δ of its moving slot, 0 for a hold at q[0]),
     ``hold_s`` the planned hold (δ of the stationary slots after it, plus any time a slow leg
     saves). ``speed_mps`` is filled in once the geometry is final; None for a hold at q[0].
+    The first ``moving_slots`` of ``slots`` are flown along the leg (more than one when
+    straight slots were merged; 0 for a hold at q[0]); the rest are the hold.
     """
 
     index: int
@@ -119,6 +140,7 @@ class CycleStep:
     leg_s: float
     hold_s: float
     speed_mps: float | None = None
+    moving_slots: int = 1
 
 
 @dataclass(frozen=True)
@@ -129,6 +151,8 @@ class Mission:
     nudge); ``outbound_m`` and ``return_m`` are the transit polylines (home → q[0], last
     waypoint → home); ``cycle_items`` the 0-based first and last item of the service cycle.
     ``problems`` lists every reason the safety gate refuses the mission (empty: safe).
+    ``merged_waypoints`` is how many per-slot waypoints long straight legs replaced, and
+    ``merge_offset_m`` the largest distance (m) a merged slot's end point moved onto its leg.
     """
 
     plan: Plan
@@ -143,6 +167,8 @@ class Mission:
     operating_area_m: NDArray[np.float64] | None
     max_nudge_m: float
     problems: tuple[str, ...] = field(default_factory=tuple)
+    merged_waypoints: int = 0
+    merge_offset_m: float = 0.0
 
     @property
     def safe(self) -> bool:
@@ -180,7 +206,7 @@ def check_options(site: Site, options: MissionOptions) -> None:
     if not 0 <= options.min_speed_mps < site.max_speed_mps:
         raise InputError(f"min_speed_mps: must be in [0, V), got {options.min_speed_mps:g}")
     for name in ("export_margin_m", "max_nudge_m", "stationary_tol_m", "speed_tol_mps",
-                 "arc_step_deg"):
+                 "arc_step_deg", "merge_angle_deg", "merge_speed_rel", "merge_offset_m"):
         if not getattr(options, name) >= 0:
             raise InputError(f"{name}: must be >= 0, got {getattr(options, name)}")
 
@@ -212,15 +238,113 @@ def service_steps(trajectory_m: ArrayLike, delta_s: ArrayLike,
         if np.hypot(*(q[n] - start)) <= stationary_tol_m:
             if steps:
                 s = steps[-1]
-                steps[-1] = CycleStep(n, (*s.slots, n), s.leg_s, s.hold_s + d)
+                steps[-1] = replace(s, index=n, slots=(*s.slots, n), hold_s=s.hold_s + d)
             else:
                 lead.append(n)
             continue
         steps.append(CycleStep(n, (n,), d, 0.0))
         start = q[n]
     if lead:
-        steps.insert(0, CycleStep(0, tuple(lead), 0.0, float(np.sum(delta[[n - 1 for n in lead]]))))
+        steps.insert(0, CycleStep(0, tuple(lead), 0.0, float(np.sum(delta[[n - 1 for n in lead]])),
+                                  moving_slots=0))
     return steps
+
+
+def _run_is_straight(
+    q: NDArray[np.float64], start: NDArray[np.float64], run: list[CycleStep], *,
+    angle_deg: float, speed_rel: float, offset_m: float, min_speed_mps: float,
+    centres: NDArray[np.float64], radii: NDArray[np.float64], clearance_target_m: float,
+) -> bool:
+    """Whether the consecutive moving steps ``run`` (leaving ``start``) fly as one leg."""
+    if any(s.leg_s <= 0 for s in run) or any(s.hold_s > 0 for s in run[:-1]):
+        return False
+    ends = q[[s.index for s in run]]
+    starts = np.vstack([start, ends[:-1]])
+    legs = ends - starts
+    leg_s = np.array([s.leg_s for s in run])
+    lengths = np.hypot(legs[:, 0], legs[:, 1])
+    chord = ends[-1] - start
+    chord_len = float(np.hypot(*chord))
+    total_s = float(np.sum(leg_s))
+    speed = chord_len / total_s
+    if chord_len <= 0 or np.any(lengths / leg_s < max(min_speed_mps, 1e-9)):
+        return False
+    if np.any(np.abs(lengths / leg_s - speed) > speed_rel * speed):
+        return False
+    cos = (legs @ chord) / (lengths * chord_len)
+    if np.any(cos < math.cos(math.radians(angle_deg))):
+        return False
+    # Space-time gap: at its constant speed the merged leg is at start + chord·t/T when the
+    # plan is at each slot boundary; both move linearly in between, so boundaries bound it.
+    t = np.cumsum(leg_s)[:-1]
+    flown = start + chord * (t / total_s)[:, None]
+    if np.any(np.hypot(*(flown - ends[:-1]).T) > offset_m):
+        return False
+    if centres.size:
+        before = segment_point_distance(starts[:, None, :], ends[:, None, :], centres[None])
+        after = segment_point_distance(start, ends[-1], centres) - radii
+        need = np.minimum(np.min(before - radii[None, :], axis=0), clearance_target_m)
+        if np.any(after < need - 1e-12):
+            return False
+    return True
+
+
+def merge_straight_steps(
+    steps: list[CycleStep], trajectory_m: ArrayLike, *, angle_deg: float = 1.0,
+    speed_rel: float = 0.01, offset_m: float = 0.05, min_speed_mps: float = 0.0,
+    nfz_xy_m: ArrayLike = (), nfz_radius_m: ArrayLike = (), clearance_target_m: float = 0.0,
+) -> list[CycleStep]:
+    """Merge consecutive slots on one straight line at one speed into one waypoint.
+
+    Greedily from the start of the cycle, a waypoint absorbs the next while the run still
+    flies as one leg: no hold before its end, every slot's direction within ``angle_deg``
+    (degrees) of the run's chord and its speed within ``speed_rel`` (fraction) of the chord's
+    constant speed (and at least ``min_speed_mps``), the chord flown at that speed within
+    ``offset_m`` (m) of the planned position at every slot boundary, and the chord at least as
+    clear of each NFZ (``nfz_radius_m`` = the planning radii) as its slots were, or
+    ``clearance_target_m`` beyond the radius. Timing is unchanged: the merged step's leg time
+    is the sum of its slots' δ and its hold the last slot's. Never merges across q[0].
+    """
+    q = np.asarray(trajectory_m, dtype=float)
+    centres = np.asarray(nfz_xy_m, dtype=float).reshape(-1, 2)
+    radii = np.asarray(nfz_radius_m, dtype=float).reshape(-1)
+    out: list[CycleStep] = []
+    i = 0
+    while i < len(steps):
+        start = q[steps[i - 1].index] if i > 0 else q[0]
+        j = i + 1
+        while j < len(steps) and _run_is_straight(
+            q, start, steps[i:j + 1], angle_deg=angle_deg, speed_rel=speed_rel,
+            offset_m=offset_m, min_speed_mps=min_speed_mps, centres=centres, radii=radii,
+            clearance_target_m=clearance_target_m,
+        ):
+            j += 1
+        run = steps[i:j]
+        if len(run) == 1:
+            out.append(run[0])
+        else:
+            moving = tuple(s.slots[0] for s in run)
+            out.append(CycleStep(run[-1].index, (*moving, *run[-1].slots[1:]),
+                                 float(sum(s.leg_s for s in run)), run[-1].hold_s,
+                                 moving_slots=len(moving)))
+        i = j
+    return out
+
+
+def place_on_legs(trajectory_m: ArrayLike, delta_s: ArrayLike,
+                  steps: list[CycleStep]) -> NDArray[np.float64]:
+    """The trajectory with each merged leg's inner slot end points where the vehicle is, at
+    the leg's constant speed, when the slot ends: start + (elapsed δ / leg time)·leg."""
+    q = np.array(trajectory_m, dtype=float)
+    delta = np.asarray(delta_s, dtype=float)
+    for s in steps:
+        if s.moving_slots < 2:
+            continue
+        slots = np.array(s.slots[:s.moving_slots])
+        start, end = q[slots[0] - 1], q[slots[-1]]
+        frac = np.cumsum(delta[slots - 1])[:-1] / s.leg_s
+        q[slots[:-1]] = start + frac[:, None] * (end - start)
+    return q
 
 
 def nudge_clear(points_m: ArrayLike, centres_m: ArrayLike, radii_m: ArrayLike, *,
@@ -283,7 +407,7 @@ def assign_speeds(steps: list[CycleStep], trajectory_m: NDArray[np.float64], max
         length = float(np.hypot(*(here - prev)))
         prev = here
         if s.leg_s <= 0:
-            out.append(CycleStep(s.index, s.slots, 0.0, s.hold_s, None))
+            out.append(replace(s, leg_s=0.0, speed_mps=None))
             continue
         speed = length / s.leg_s
         hold = s.hold_s
@@ -296,7 +420,7 @@ def assign_speeds(steps: list[CycleStep], trajectory_m: NDArray[np.float64], max
         elif speed < min_speed_mps:
             hold += s.leg_s - length / min_speed_mps
             speed = min_speed_mps
-        out.append(CycleStep(s.index, s.slots, s.leg_s, hold, speed))
+        out.append(replace(s, hold_s=hold, speed_mps=speed))
     return out, problems
 
 
@@ -373,12 +497,22 @@ def build_mission(solution: Solution, options: MissionOptions | None = None) -> 
     q[-1] = q[0]
 
     steps = service_steps(q, delta, opt.stationary_tol_m)
-    cyc_idx = [0] + [s.index for s in steps if s.index not in (0, len(q) - 1)]
     radii = site.planning_radius_m
+    per_slot = len(steps)
+    if opt.merge_legs:
+        steps = merge_straight_steps(
+            steps, q, angle_deg=opt.merge_angle_deg, speed_rel=opt.merge_speed_rel,
+            offset_m=opt.merge_offset_m, min_speed_mps=opt.min_speed_mps,
+            nfz_xy_m=site.nfz_xy_m, nfz_radius_m=radii, clearance_target_m=opt.export_margin_m)
+    cyc_idx = [0] + [s.index for s in steps if s.index not in (0, len(q) - 1)]
     pts, moved = nudge_clear(q[cyc_idx], site.nfz_xy_m, radii, target_margin_m=opt.export_margin_m,
                              max_nudge_m=opt.max_nudge_m, closed=True)
+    planned_q = q.copy()
     q[cyc_idx] = pts
     q[-1] = q[0]
+    q = place_on_legs(q, delta, steps)
+    inner = [n for s in steps for n in s.slots[:s.moving_slots - 1]]
+    merge_offset = (float(np.max(np.hypot(*(q[inner] - planned_q[inner]).T))) if inner else 0.0)
     steps, speed_problems = assign_speeds(steps, q, site.max_speed_mps, opt.min_speed_mps)
     problems += speed_problems
     if opt.autopilot == "ardupilot":
@@ -463,6 +597,7 @@ def build_mission(solution: Solution, options: MissionOptions | None = None) -> 
         plan=plan, solution=solution, options=opt, trajectory_m=q, steps=tuple(steps),
         outbound_m=outbound, return_m=back, cycle_items=(first, closing), fence_margin_m=margin,
         operating_area_m=area, max_nudge_m=moved, problems=tuple(problems),
+        merged_waypoints=per_slot - len(steps), merge_offset_m=merge_offset,
     )
 
 
@@ -645,6 +780,8 @@ def mission_summary(mission: Mission) -> dict[str, Any]:
         "autopilot": mission.options.autopilot,
         "items": len(plan.items),
         "service_waypoints": len(mission.steps),
+        "service_waypoints_merged": mission.merged_waypoints,
+        "merge_offset_max_m": mission.merge_offset_m,
         "speed_changes": len(speeds),
         "cycle_items": [first, last],
         "cycles": mission.options.cycles,
@@ -683,8 +820,10 @@ __all__ = [
     "build_mission",
     "check_options",
     "flown_legs",
+    "merge_straight_steps",
     "mission_summary",
     "nav_positions",
+    "place_on_legs",
     "plan_problems",
     "planned_cycle_s",
     "service_steps",

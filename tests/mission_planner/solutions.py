@@ -67,3 +67,13 @@ def circle_tour(site: Site, centre: tuple[float, float] = (200.0, 200.0),
                 radius_m: float = 60.0) -> Solution:
     """Equal slots around a circle of ``radius_m`` (clear of the default site's NFZs)."""
     return solution_for(site, circle_points(centre, radius_m, site.slots))
+
+
+def subdivided(corners: list[tuple[float, float]], per_side: int) -> NDArray[np.float64]:
+    """A closed polygon through ``corners`` with each side cut into ``per_side`` equal slots:
+    (len(corners)·per_side + 1, 2) points, first == last."""
+    c = np.asarray(corners, dtype=float)
+    nxt = np.roll(c, -1, axis=0)
+    f = np.arange(per_side)[None, :, None] / per_side
+    pts = (c[:, None, :] + f * (nxt - c)[:, None, :]).reshape(-1, 2)
+    return np.vstack([pts, pts[:1]])

@@ -12,6 +12,7 @@ from mission_planner.mission import (
     MissionOptions,
     build_mission,
     flown_legs,
+    merge_straight_steps,
     mission_summary,
     nudge_clear,
     plan_problems,
@@ -19,10 +20,19 @@ from mission_planner.mission import (
     service_steps,
     whole_second_holds,
 )
-from tests.mission_planner.solutions import circle_points, circle_tour, make_site, solution_for
+from tests.mission_planner.solutions import (
+    circle_points,
+    circle_tour,
+    make_site,
+    solution_for,
+    subdivided,
+)
+from validator.dynamics import make_profile
 from validator.errors import InputError
+from validator.flight import resolve_flight
 from validator.geometry import min_leg_clearance, segment_point_distance
 from validator.plan_format import EXTRA_KEY, Cmd, Frame, dumps_plan, loads_plan
+from validator.replay import replay, score_track
 
 
 @pytest.fixture(scope="module")
@@ -314,3 +324,146 @@ def test_a_cycle_starting_at_home_still_flies_to_q0_first():
     assert [it.command for it in m.plan.items[:first]] == [Cmd.NAV_TAKEOFF, Cmd.DO_CHANGE_SPEED,
                                                            Cmd.NAV_WAYPOINT]
     assert not m.problems
+
+
+# ---------------------------------------------------------------------------- long legs
+
+SQUARE = [(150.0, 150.0), (250.0, 150.0), (250.0, 250.0), (150.0, 250.0)]  # clear of every NFZ
+
+
+@pytest.fixture(scope="module")
+def square_site():
+    return make_site(uav={"altitude": 30.0, "max_speed": 30.0, "period": 48.0, "slots": 12})
+
+
+def _waypoints(m):
+    first, last = m.cycle_items
+    return [it for it in m.plan.items[first:last + 1] if it.command == Cmd.NAV_WAYPOINT]
+
+
+def test_straight_slots_at_one_speed_become_one_waypoint_per_side(square_site):
+    m = build_mission(solution_for(square_site, subdivided(SQUARE, 3)))
+    wps = _waypoints(m)
+    assert len(wps) == 4 and m.merged_waypoints == 8
+    xy = square_site.frame.to_local([w.lat_deg for w in wps], [w.lon_deg for w in wps])
+    np.testing.assert_allclose(xy, np.roll(SQUARE, -1, axis=0), atol=1e-6)
+    assert [s.moving_slots for s in m.steps] == [3, 3, 3, 3]
+    assert mission_summary(m)["service_waypoints_merged"] == 8
+
+
+def test_merged_legs_keep_the_cycle_time(square_site):
+    m = build_mission(solution_for(square_site, subdivided(SQUARE, 3)))
+    cycle = planned_cycle_s(_reread(m), square_site.frame, m.cycle_items)
+    assert cycle == pytest.approx(square_site.period_s, abs=1e-6)
+
+
+def test_no_merge_keeps_one_waypoint_per_slot(square_site):
+    m = build_mission(solution_for(square_site, subdivided(SQUARE, 3)),
+                      MissionOptions(merge_legs=False))
+    assert len(_waypoints(m)) == 12 and m.merged_waypoints == 0
+
+
+def test_a_speed_change_on_a_straight_line_keeps_its_waypoint(square_site):
+    delta = np.full(12, 4.0)
+    delta[1] *= 1.02  # slot 2 flies 2 % slower than slots 1 and 3 of the same side
+    delta[4] *= 1.001  # slot 5: 0.1 % slower: 1 cm behind at its end, merged
+    delta *= square_site.period_s / delta.sum()
+    m = build_mission(solution_for(square_site, subdivided(SQUARE, 3), delta),
+                      MissionOptions(autopilot="px4"))
+    assert [s.moving_slots for s in m.steps] == [1, 1, 1, 3, 3, 3]
+    assert len(_waypoints(m)) == 6
+
+
+@pytest.mark.parametrize("slower, merged", [(1.005, True), (1.02, False)])
+def test_short_slots_merge_only_within_the_speed_tolerance(slower, merged):
+    # 1 m slots: 2 % slower is only 1 cm behind, but above the 1 % speed tolerance.
+    q = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]])
+    steps = service_steps(q, np.array([1.0, slower]), stationary_tol_m=0.05)
+    assert (len(merge_straight_steps(steps, q)) == 1) == merged
+
+
+def test_a_hover_on_a_straight_line_keeps_its_waypoint(square_site):
+    q = subdivided(SQUARE, 3)
+    q = np.insert(q, 2, q[1], axis=0)[:-1]  # hover at q[1] for one slot, drop one of side 4
+    q[-1] = q[0]
+    m = build_mission(solution_for(square_site, q), MissionOptions(autopilot="px4"))
+    assert m.steps[0].moving_slots == 1 and m.steps[0].hold_s > 0
+    assert m.steps[1].moving_slots == 2
+
+
+@pytest.mark.parametrize("bend_deg, merged", [(0.05, True), (0.5, False), (2.0, False)])
+def test_slots_merge_only_within_a_few_centimetres_of_straight(bend_deg, merged):
+    # Two 30 m slots meeting at a bend: 0.05° puts the corner 1.3 cm off the chord (merged),
+    # 0.5° 13 cm (more than 5 cm although within 1°), 2° is above the 1° tolerance.
+    a = math.radians(bend_deg / 2)
+    q = np.array([[0.0, 0.0], [30 * math.cos(a), 30 * math.sin(a)], [60 * math.cos(a), 0.0]])
+    steps = service_steps(q, np.array([1.0, 1.0]), stationary_tol_m=0.05)
+    out = merge_straight_steps(steps, q)
+    assert (len(out) == 1) == merged
+
+
+@pytest.mark.parametrize("gap_m, merged", [(0.0, False), (0.02, True)])
+def test_a_merged_leg_keeps_the_clearance_its_slots_had(gap_m, merged):
+    # Slots bowed 2 cm away from an NFZ below them: the chord is 2 cm closer to it. It may
+    # merge only if the chord still keeps the 1 cm export margin.
+    q = np.array([[0.0, 0.0], [30.0, 0.02], [60.0, 0.0]])
+    steps = service_steps(q, np.array([1.0, 1.0]), stationary_tol_m=0.05)
+    out = merge_straight_steps(steps, q, nfz_xy_m=[[30.0, -20.0 - gap_m]], nfz_radius_m=[20.0],
+                               clearance_target_m=0.01)
+    assert (len(out) == 1) == merged
+
+
+def _planned_position(q, delta, t):
+    """Where the planned (per-slot) trajectory is t seconds into the cycle."""
+    knots = np.concatenate([[0.0], np.cumsum(delta)])
+    return np.column_stack([np.interp(t, knots, q[:, 0]), np.interp(t, knots, q[:, 1])])
+
+
+def test_flown_merged_legs_stay_within_the_offset_of_the_plan_at_every_instant(square_site):
+    q = subdivided(SQUARE, 3)
+    rng = np.random.default_rng(7)
+    q[1:-1] += rng.uniform(-0.01, 0.01, q[1:-1].shape)  # solver-like noise off the sides
+    q[[3, 6, 9]] = np.array(SQUARE)[1:]  # corners where they are
+    sol = solution_for(square_site, q)
+    m = build_mission(sol, MissionOptions(autopilot="px4"))
+    assert m.merged_waypoints == 8
+    flight = resolve_flight(m.plan, square_site)
+    track = replay(flight, make_profile("ideal", square_site), dt_s=0.01)
+    rep = score_track(track, flight, square_site, m.plan)
+    inside = (track.t_s >= rep.cycle.start_s) & (track.t_s <= rep.cycle.end_s)
+    t = track.t_s[inside] - rep.cycle.start_s
+    planned = _planned_position(sol.trajectory_m, sol.delta_s, t)
+    gap = np.hypot(*(track.xy_m[inside] - planned).T)
+    assert np.max(gap) <= MissionOptions().merge_offset_m
+    assert m.merge_offset_m <= MissionOptions().merge_offset_m
+
+
+def _ideal_throughput(m, site):
+    flight = resolve_flight(m.plan, site)
+    rep = score_track(replay(flight, make_profile("ideal", site), dt_s=0.01), flight, site,
+                      m.plan)
+    assert rep.throughput is not None, [f.message for f in rep.findings]
+    return rep.throughput
+
+
+def test_the_validator_scores_merged_legs_as_the_slots_they_replace(square_site):
+    sol = solution_for(square_site, subdivided(SQUARE, 3))
+    merged = _ideal_throughput(build_mission(sol, MissionOptions(autopilot="px4")), square_site)
+    per_slot = _ideal_throughput(build_mission(sol, MissionOptions(autopilot="px4",
+                                                                   merge_legs=False)),
+                                 square_site)
+    np.testing.assert_allclose(merged.planned_bps_hz, per_slot.planned_bps_hz, rtol=1e-12)
+    np.testing.assert_allclose(merged.flown_bps_hz, per_slot.flown_bps_hz, rtol=1e-3)
+
+
+def test_merged_slot_end_points_lie_on_their_leg_at_their_planned_time(square_site):
+    delta = np.linspace(3.0, 5.0, 12)
+    delta[:3] = 4.0  # side 1 at one speed, the others speeding up
+    delta *= square_site.period_s / delta.sum()
+    m = build_mission(solution_for(square_site, subdivided(SQUARE, 3), delta),
+                      MissionOptions(autopilot="px4"))
+    q = np.array(m.plan.extra["trajectory_m"])
+    assert m.steps[0].moving_slots == 3
+    t = np.cumsum(delta[:3])
+    expect = q[0] + (t[:2] / t[2])[:, None] * (q[3] - q[0])
+    np.testing.assert_allclose(q[1:3], expect, atol=1e-9)
