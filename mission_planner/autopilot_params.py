@@ -1,0 +1,163 @@
+"""The autopilot parameters a mission needs to be flown as planned, and their file formats.
+
+The paper's model knows only a top speed; an autopilot also limits acceleration and jerk and
+rounds corners inside its waypoint radius. :func:`recommended_params` turns a mission and its
+site into the parameters that make the vehicle fly the plan with the site's limits:
+
+ArduCopter 4.x (``AC_WPNav``; names, units and documented ranges from its parameter table)
+
+- ``WPNAV_SPEED`` (cm/s, 10–2000): the fastest planned leg (the largest DO_CHANGE_SPEED in the
+  plan), rounded up to a whole cm/s, so a leg without a speed change is never flown slower;
+- ``WPNAV_ACCEL`` (cm/s/s, 50–500): the site's ``uav.max_accel``;
+- ``WPNAV_JERK`` (m/s/s/s, 1–20): the site's ``uav.max_jerk``;
+- ``WPNAV_RADIUS`` (cm, 5–1000): :func:`waypoint_radius_m`.
+
+PX4 (multicopter position control and navigator)
+
+- ``MPC_XY_CRUISE`` (m/s, 3–20) and ``MPC_XY_VEL_MAX`` (m/s, 0–20): the fastest planned leg
+  (PX4 caps every mission speed at MPC_XY_VEL_MAX);
+- ``MPC_ACC_HOR`` (m/s², 2–15): ``uav.max_accel``; ``MPC_JERK_AUTO`` (m/s³, 1–80): ``uav.max_jerk``;
+- ``NAV_ACC_RAD`` (m, 0.05–200): :func:`waypoint_radius_m`.
+
+A value outside the documented range is still written (the plan needs it) and listed in
+``notes``, so the operator can check that the vehicle accepts it.
+
+:func:`dumps_params` writes them as an ArduPilot ``.param`` file (``NAME VALUE`` per line, as
+Mission Planner and MAVProxy load) or, for PX4, as a QGroundControl parameter file
+(``SYSID COMPID NAME VALUE TYPE``, tab-separated); ``#`` lines are comments in both, and
+``upload-mission --set-params`` reads both.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from mission_planner.mission import Mission
+from validator.plan_format import Cmd
+from validator.site import Site
+
+MAV_PARAM_TYPE_REAL32 = 9
+ARDUPILOT_DEFAULT_RADIUS_M = 2.0  # WPNAV_RADIUS default (200 cm): no reason to cut wider
+ARDUPILOT_MIN_RADIUS_M = 0.05  # WPNAV_RADIUS minimum (5 cm), AC_WPNav enforces it
+
+# name -> (unit, documented minimum, documented maximum)
+ARDUPILOT_PARAMS: dict[str, tuple[str, float, float]] = {
+    "WPNAV_SPEED": ("cm/s", 10.0, 2000.0),
+    "WPNAV_ACCEL": ("cm/s/s", 50.0, 500.0),
+    "WPNAV_JERK": ("m/s/s/s", 1.0, 20.0),
+    "WPNAV_RADIUS": ("cm", 5.0, 1000.0),
+}
+PX4_PARAMS: dict[str, tuple[str, float, float]] = {
+    "MPC_XY_CRUISE": ("m/s", 3.0, 20.0),
+    "MPC_XY_VEL_MAX": ("m/s", 0.0, 20.0),
+    "MPC_ACC_HOR": ("m/s/s", 2.0, 15.0),
+    "MPC_JERK_AUTO": ("m/s/s/s", 1.0, 80.0),
+    "NAV_ACC_RAD": ("m", 0.05, 200.0),
+}
+PARAM_TABLES = {"ardupilot": ARDUPILOT_PARAMS, "px4": PX4_PARAMS}
+
+
+@dataclass(frozen=True)
+class AutopilotParams:
+    """Parameters for one autopilot, in its own names and units (see the module doc).
+
+    ``notes`` lists each value outside the autopilot's documented range.
+    """
+
+    autopilot: str
+    values: dict[str, float]
+    notes: tuple[str, ...] = field(default=())
+
+    def unit(self, name: str) -> str:
+        return PARAM_TABLES[self.autopilot][name][0]
+
+    def as_dict(self) -> dict[str, object]:
+        return {
+            "autopilot": self.autopilot,
+            "values": dict(self.values),
+            "units": {n: self.unit(n) for n in self.values},
+            "notes": list(self.notes),
+        }
+
+
+def waypoint_radius_m(site: Site, fence_margin_m: float) -> float:
+    """Waypoint (acceptance) radius (m) for a site: buffer − fence margin, within [0.05, 2].
+
+    Autopilots round a corner inside this radius, and the rounded track leaves the planned
+    legs by up to about the radius (measured in ArduCopter SITL and in the replay), on the
+    inside of the turn. The planned legs keep the full safety buffer from each NFZ and the
+    exclusion fence sits ``fence_margin_m`` outside the NFZ, so a radius of at most the slack
+    between them keeps rounded corners off the fence. Never above ArduCopter's default 2 m
+    (wider corners save little time) nor below its 5 cm minimum.
+    """
+    slack = site.buffer_m - fence_margin_m
+    return float(min(ARDUPILOT_DEFAULT_RADIUS_M, max(ARDUPILOT_MIN_RADIUS_M, slack)))
+
+
+def fastest_leg_mps(mission: Mission) -> float:
+    """The fastest speed (m/s) the mission commands (DO_CHANGE_SPEED, transits included)."""
+    speeds = [it.params[1] for it in mission.plan.items if it.command == Cmd.DO_CHANGE_SPEED]
+    return float(max(speeds, default=mission.plan.cruise_speed_mps))
+
+
+def _ceil(value: float, step: float) -> float:
+    # Round up to the file's resolution, ignoring float noise just above a step.
+    return math.ceil(value / step - 1e-9) * step
+
+
+def recommended_params(mission: Mission) -> AutopilotParams:
+    """The parameters ``mission`` needs on its autopilot (``mission.options.autopilot``)."""
+    site = mission.solution.site
+    autopilot = mission.options.autopilot
+    speed = fastest_leg_mps(mission)
+    radius = waypoint_radius_m(site, mission.fence_margin_m)
+    if autopilot == "px4":
+        values = {
+            "MPC_XY_CRUISE": round(_ceil(speed, 0.01), 2),
+            "MPC_XY_VEL_MAX": round(_ceil(speed, 0.01), 2),
+            "MPC_ACC_HOR": site.max_accel_mps2,
+            "MPC_JERK_AUTO": site.max_jerk_mps3,
+            "NAV_ACC_RAD": radius,
+        }
+    else:
+        values = {
+            "WPNAV_SPEED": _ceil(speed * 100.0, 1.0),
+            "WPNAV_ACCEL": round(site.max_accel_mps2 * 100.0, 6),
+            "WPNAV_JERK": site.max_jerk_mps3,
+            "WPNAV_RADIUS": round(radius * 100.0, 6),
+        }
+    table = PARAM_TABLES[autopilot]
+    notes = tuple(
+        f"{name} {value:g} {table[name][0]} is outside the documented range "
+        f"{table[name][1]:g}-{table[name][2]:g}: check that the vehicle accepts it"
+        for name, value in values.items()
+        if not table[name][1] <= value <= table[name][2]
+    )
+    return AutopilotParams(autopilot, values, notes)
+
+
+def dumps_params(params: AutopilotParams, title: str = "") -> str:
+    """The parameter file text: ArduPilot ``NAME VALUE`` lines, or a QGroundControl parameter
+    file (``1 1 NAME VALUE 9``, tab-separated) for PX4; ``#`` comments name units and notes."""
+    head = [f"# {title}"] if title else []
+    head.append("# " + ", ".join(f"{n} in {params.unit(n)}" for n in params.values))
+    head += [f"# note: {note}" for note in params.notes]
+    if params.autopilot == "px4":
+        head.append("# Vehicle-Id Component-Id Name Value Type")
+        body = [f"1\t1\t{n}\t{v:.9g}\t{MAV_PARAM_TYPE_REAL32}" for n, v in params.values.items()]
+    else:
+        width = max(len(n) for n in params.values)
+        body = [f"{n:<{width}} {v:.9g}" for n, v in params.values.items()]
+    return "\n".join(head + body) + "\n"
+
+
+__all__ = [
+    "ARDUPILOT_PARAMS",
+    "PX4_PARAMS",
+    "AutopilotParams",
+    "dumps_params",
+    "fastest_leg_mps",
+    "recommended_params",
+    "waypoint_radius_m",
+]

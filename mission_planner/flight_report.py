@@ -1,0 +1,149 @@
+"""What the nodes really get: a mission replayed as its autopilot flies it, before take-off.
+
+:func:`replay_mission` flies an exported mission with the validator's flight model
+(:func:`validator.replay.replay`: the ``arducopter`` profile for ArduPilot plans, ``px4`` for
+PX4) set to the recommended parameters (:mod:`.autopilot_params`), and scores the track with
+:func:`validator.replay.score_track`, the same scorer that judges SITL and real telemetry.
+:class:`FlightCheck` holds the result; :meth:`FlightCheck.as_dict` is the report's ``"flight"``
+section and :meth:`FlightCheck.warning` the one-line warning when the flown cycle overruns T.
+
+Rates are spectral efficiencies (bps/Hz): planned = the paper's model over T on the exported
+trajectory (slot n served from its end point q[n]); commanded = integrated along the exported
+legs flown exactly at their commanded speeds and holds (the validator's ``ideal`` profile), so
+planned vs commanded is the paper model's own discretisation and commanded vs replayed what
+the autopilot's dynamics cost; replayed = integrated along the modelled track over the flown
+cycle (per flown second). Times in seconds, clearances in metres from each NFZ's published
+radius (negative = inside).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from mission_planner.autopilot_params import AutopilotParams, recommended_params
+from mission_planner.mission import Mission
+from validator.dynamics import Profile, make_profile
+from validator.flight import resolve_flight
+from validator.replay import TrackReport, replay, score_track
+
+CYCLE_OVERRUN_WARN = 0.10  # warn when the flown cycle exceeds T by more than this fraction
+PROFILE_FOR = {"ardupilot": "arducopter", "px4": "px4"}
+
+
+@dataclass(frozen=True)
+class FlightCheck:
+    """A mission's replay: the profile and parameters flown, and the validator's report."""
+
+    profile: Profile
+    params: dict[str, float]
+    period_s: float
+    report: TrackReport
+    commanded: TrackReport
+
+    @property
+    def commanded_min_rate_bps_hz(self) -> float | None:
+        tp = self.commanded.throughput
+        return tp.flown_min if tp is not None else None
+
+    @property
+    def planned_min_rate_bps_hz(self) -> float | None:
+        tp = self.report.throughput
+        return tp.planned_min if tp is not None else None
+
+    @property
+    def replayed_min_rate_bps_hz(self) -> float | None:
+        tp = self.report.throughput
+        return tp.flown_min if tp is not None else None
+
+    @property
+    def replayed_cycle_s(self) -> float | None:
+        c = self.report.cycle
+        return c.flown_cycle_s if c is not None else None
+
+    @property
+    def cycle_ratio(self) -> float | None:
+        """Replayed cycle / T (1.0 = flown exactly as planned)."""
+        flown = self.replayed_cycle_s
+        return flown / self.period_s if flown is not None and self.period_s > 0 else None
+
+    @property
+    def min_rate_ratio(self) -> float | None:
+        """Replayed min rate / planned min rate."""
+        planned, flown = self.planned_min_rate_bps_hz, self.replayed_min_rate_bps_hz
+        return flown / planned if planned and flown is not None else None
+
+    @property
+    def clearance_by_nfz_m(self) -> dict[str, float]:
+        return {p.name: p.clearance_m for p in self.report.nfz}
+
+    def warning(self, overrun: float = CYCLE_OVERRUN_WARN) -> str | None:
+        """One line when the replayed cycle exceeds T by more than ``overrun`` (or is unknown)."""
+        ratio = self.cycle_ratio
+        if ratio is None:
+            return (f"the {self.profile.name} replay did not complete a service cycle: the "
+                    "flown timing is unknown")
+        if ratio <= 1.0 + overrun:
+            return None
+        rate = ""
+        if self.min_rate_ratio is not None:
+            rate = (f"; min rate {self.replayed_min_rate_bps_hz:.4f} bps/Hz flown vs "
+                    f"{self.planned_min_rate_bps_hz:.4f} planned")
+        return (f"the {self.profile.name} replay flies the cycle in {self.replayed_cycle_s:.1f} s,"
+                f" {ratio:.2f} x T = {self.period_s:g} s{rate}")
+
+    def as_dict(self) -> dict[str, Any]:
+        """The report's ``"flight"`` section."""
+        c = self.report.cycle
+        clearances = self.clearance_by_nfz_m
+        tp = self.report.throughput
+        return {
+            "profile": self.profile.name,
+            "params": dict(self.params),
+            "planned_min_rate_bps_hz": self.planned_min_rate_bps_hz,
+            "commanded_min_rate_bps_hz": self.commanded_min_rate_bps_hz,
+            "replayed_min_rate_bps_hz": self.replayed_min_rate_bps_hz,
+            "min_rate_ratio": self.min_rate_ratio,
+            "planned_cycle_s": self.period_s,
+            "commanded_cycle_s": c.ideal_cycle_s if c is not None else None,
+            "replayed_cycle_s": self.replayed_cycle_s,
+            "replayed_cycles_s": list(c.flown_cycles_s) if c is not None else [],
+            "cycle_ratio": self.cycle_ratio,
+            "replayed_clearance_by_nfz_m": clearances,
+            "replayed_clearance_min_m": min(clearances.values()) if clearances else None,
+            "fence_entries": len(self.report.fence_entries),
+            "cross_track_max_m": self.report.cross_track_max_m,
+            "speed_max_mps": self.report.speed_max_mps,
+            "per_gn": tp.as_dict()["per_gn"] if tp is not None else [],
+            "warning": self.warning(),
+            "findings": [f.as_dict() for f in self.report.findings],
+        }
+
+
+def replay_mission(
+    mission: Mission,
+    params: AutopilotParams | Mapping[str, float] | None = None,
+    *,
+    profile: str | None = None,
+    dt_s: float = 0.05,
+) -> FlightCheck:
+    """Fly ``mission`` with the validator's model of its autopilot and score the track.
+
+    ``params`` (autopilot names and units) default to :func:`recommended_params`; ``profile``
+    to ``arducopter`` for ArduPilot missions and ``px4`` for PX4. Samples every ``dt_s`` s.
+    """
+    site = mission.solution.site
+    if params is None:
+        params = recommended_params(mission)
+    values = dict(params.values if isinstance(params, AutopilotParams) else params)
+    prof = make_profile(profile or PROFILE_FOR[mission.options.autopilot], site, values)
+    flight = resolve_flight(mission.plan, site, "mission")
+    reference = replay(flight, make_profile("ideal", site), dt_s=dt_s)
+    commanded = score_track(reference, flight, site, mission.plan, reference=reference)
+    track = replay(flight, prof, dt_s=dt_s)
+    report = score_track(track, flight, site, mission.plan, reference=reference)
+    return FlightCheck(prof, values, site.period_s, report, commanded)
+
+
+__all__ = ["CYCLE_OVERRUN_WARN", "FlightCheck", "replay_mission"]

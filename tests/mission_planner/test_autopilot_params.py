@@ -1,0 +1,93 @@
+"""Autopilot parameters a mission needs: values from the plan and site, and the file formats."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from mission_planner.autopilot_params import (
+    dumps_params,
+    fastest_leg_mps,
+    recommended_params,
+    waypoint_radius_m,
+)
+from mission_planner.mission import MissionOptions, build_mission
+from tests.mission_planner.solutions import make_site, solution_for, subdivided
+from validator.mavlink.link import parse_params
+
+SQUARE = [(150.0, 150.0), (250.0, 150.0), (250.0, 250.0), (150.0, 250.0)]
+
+
+def _mission(autopilot="ardupilot", fence_margin_m=None, **uav):
+    site = make_site(uav={"altitude": 30.0, "max_speed": 12.0, "period": 60.0, "slots": 12,
+                          **uav})
+    delta = [4.0] * 3 + [6.0] * 9  # side 1 at 8.33 m/s, the rest at 5.56 m/s
+    return build_mission(solution_for(site, subdivided(SQUARE, 3), delta),
+                         MissionOptions(autopilot=autopilot, fence_margin_m=fence_margin_m,
+                                        transit_speed_mps=7.0))
+
+
+def test_ardupilot_params_come_from_the_fastest_leg_and_the_site_limits():
+    m = _mission(max_accel=4.0, max_jerk=3.0)
+    p = recommended_params(m)
+    assert fastest_leg_mps(m) == pytest.approx(100.0 / 12.0)
+    assert p.values == {"WPNAV_SPEED": 834.0,  # 833.3 cm/s rounded up to a whole cm/s
+                        "WPNAV_ACCEL": 400.0, "WPNAV_JERK": 3.0, "WPNAV_RADIUS": 100.0}
+    assert p.notes == ()
+
+
+def test_px4_params_use_px4_names_and_si_units():
+    p = recommended_params(_mission("px4", max_accel=4.0, max_jerk=3.0))
+    assert p.values == {"MPC_XY_CRUISE": 8.34, "MPC_XY_VEL_MAX": 8.34, "MPC_ACC_HOR": 4.0,
+                        "MPC_JERK_AUTO": 3.0, "NAV_ACC_RAD": 1.0}
+
+
+def test_transit_speed_counts_as_a_planned_leg():
+    m = _mission()
+    fast = build_mission(m.solution, MissionOptions(transit_speed_mps=11.0))
+    assert recommended_params(fast).values["WPNAV_SPEED"] == 1100.0
+
+
+@pytest.mark.parametrize("buffer_m, margin_m, radius_m", [
+    (2.0, None, 1.0),  # the default: half the buffer is left between legs and fence
+    (2.0, 1.5, 0.5),
+    (6.0, 0.0, 2.0),  # never wider than ArduCopter's default
+    (0.0, None, 0.05),  # never below ArduCopter's minimum
+])
+def test_waypoint_radius_is_the_slack_between_planned_legs_and_fence(buffer_m, margin_m,
+                                                                      radius_m):
+    site = make_site(safety={"buffer_m": buffer_m})
+    margin = buffer_m / 2 if margin_m is None else margin_m
+    assert waypoint_radius_m(site, margin) == pytest.approx(radius_m)
+
+
+def test_values_outside_the_documented_range_are_written_and_noted():
+    fast = build_mission(_mission(max_speed=30.0, max_accel=6.0).solution,
+                         MissionOptions(transit_speed_mps=30.0))
+    p = recommended_params(fast)
+    assert p.values["WPNAV_SPEED"] == 3000.0 and p.values["WPNAV_ACCEL"] == 600.0
+    assert [n.split(" is ")[0] for n in p.notes] == ["WPNAV_SPEED 3000 cm/s",
+                                                     "WPNAV_ACCEL 600 cm/s/s"]
+    assert "# note: WPNAV_SPEED 3000 cm/s" in dumps_params(p)
+
+
+@pytest.mark.parametrize("autopilot", ["ardupilot", "px4"])
+def test_parameter_file_reads_back_as_written(autopilot):
+    p = recommended_params(_mission(autopilot))
+    text = dumps_params(p, "test")
+    assert parse_params(text) == pytest.approx(p.values)
+    assert text.startswith("# test\n")
+
+
+def test_ardupilot_file_is_name_value_lines_px4_file_is_qgc_format():
+    ap = dumps_params(recommended_params(_mission()))
+    px = dumps_params(recommended_params(_mission("px4")))
+    ap_lines = [ln for ln in ap.splitlines() if not ln.startswith("#")]
+    px_lines = [ln for ln in px.splitlines() if not ln.startswith("#")]
+    assert [ln.split()[0] for ln in ap_lines] == ["WPNAV_SPEED", "WPNAV_ACCEL", "WPNAV_JERK",
+                                                  "WPNAV_RADIUS"]
+    assert all(len(ln.split()) == 2 for ln in ap_lines)
+    for ln in px_lines:
+        sysid, compid, name, value, ptype = ln.split("\t")
+        assert (sysid, compid, ptype) == ("1", "1", "9") and math.isfinite(float(value))

@@ -1,0 +1,77 @@
+"""A mission replayed with its autopilot's model and recommended parameters, before take-off."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from mission_planner.autopilot_params import recommended_params
+from mission_planner.flight_report import replay_mission
+from mission_planner.mission import MissionOptions, build_mission
+from tests.mission_planner.solutions import make_site, solution_for, subdivided
+
+SQUARE = [(150.0, 150.0), (250.0, 150.0), (250.0, 250.0), (150.0, 250.0)]
+
+
+def _square(period_s, autopilot="ardupilot"):
+    site = make_site(uav={"altitude": 30.0, "max_speed": 10.0, "period": period_s, "slots": 12})
+    return build_mission(solution_for(site, subdivided(SQUARE, 3)),
+                         MissionOptions(autopilot=autopilot))
+
+
+@pytest.fixture(scope="module")
+def slow():
+    """100 m sides at 2.2 m/s: the arducopter model flies the cycle as planned."""
+    return replay_mission(_square(180.0))
+
+
+@pytest.fixture(scope="module")
+def hurried():
+    """The same square in 60 s: 8.3 m/s legs that stop at every corner take longer."""
+    return replay_mission(_square(60.0))
+
+
+def test_flies_the_arducopter_model_with_the_recommended_parameters(slow):
+    m = _square(180.0)
+    assert slow.profile.name == "arducopter"
+    assert slow.params == recommended_params(m).values
+    assert {k: slow.profile.params[k] for k in slow.params} == slow.params
+
+
+def test_px4_missions_fly_the_px4_model():
+    check = replay_mission(_square(180.0, "px4"))
+    assert check.profile.name == "px4" and "NAV_ACC_RAD" in check.params
+
+
+def test_a_cycle_flown_as_planned_gives_no_warning(slow):
+    assert slow.cycle_ratio == pytest.approx(1.0, abs=0.02)
+    assert slow.warning() is None
+
+
+def test_a_cycle_more_than_ten_percent_late_is_one_warning_line(hurried):
+    assert hurried.cycle_ratio > 1.1
+    warning = hurried.warning()
+    assert warning is not None and "\n" not in warning
+    assert f"{hurried.replayed_cycle_s:.1f} s" in warning and "T = 60 s" in warning
+
+
+def test_late_corners_cost_min_rate(slow, hurried):
+    # The paper model serves each slot from its end point: flown exactly, the square gets a
+    # little less than planned; stopping at corners costs the hurried plan more.
+    assert slow.min_rate_ratio == pytest.approx(
+        slow.commanded_min_rate_bps_hz / slow.planned_min_rate_bps_hz, rel=0.01)
+    assert hurried.replayed_min_rate_bps_hz < hurried.commanded_min_rate_bps_hz
+
+
+def test_flight_section_holds_what_the_issue_asks_for(hurried):
+    section = hurried.as_dict()
+    json.dumps(section)  # plain JSON
+    assert section["planned_cycle_s"] == 60.0
+    assert section["replayed_cycle_s"] == pytest.approx(hurried.report.cycle.flown_cycle_s)
+    assert section["commanded_cycle_s"] == pytest.approx(60.0, abs=0.5)
+    assert section["planned_min_rate_bps_hz"] > section["replayed_min_rate_bps_hz"] > 0
+    assert set(section["replayed_clearance_by_nfz_m"]) == {"NFZ1", "NFZ2", "NFZ3"}
+    assert section["replayed_clearance_min_m"] == min(
+        section["replayed_clearance_by_nfz_m"].values())
+    assert section["warning"] == hurried.warning()
