@@ -1,17 +1,26 @@
 """``plan-mission``: optimise a site's service cycle and export it as an autopilot mission.
 
     plan-mission SITE.yaml -o mission.plan [--scheme proposed|conventional] [--report R.json]
-        [--buffer-m B] [--autopilot ardupilot|px4] [--cycles C] [--fence-margin-m M]
-        [--operating-area polygon|circle] [--operating-area-margin-m A]
-        [--format plan|waypoints] [--geojson F.geojson] [--plot F.png] [--force] [--seed S]
+        [--dynamics vehicle|none] [--buffer-m B] [--autopilot ardupilot|px4] [--cycles C]
+        [--fence-margin-m M] [--operating-area polygon|circle] [--operating-area-margin-m A]
+        [--format plan|waypoints] [--params F.param] [--no-merge] [--geojson F.geojson]
+        [--plot F.png] [--force] [--seed S]
+
+``--dynamics vehicle`` (default) keeps speed changes within the site's ``uav.max_accel`` and
+``uav.max_jerk``; ``--dynamics none`` is the paper's kinematic model (top speed only) and
+reproduces its results. Beside the mission goes the parameter file the autopilot needs
+(``OUT.param`` or ``--params``; :mod:`mission_planner.autopilot_params`). The mission is then
+replayed with the validator's model of the autopilot set to those parameters
+(:mod:`mission_planner.flight_report`): the report gets a ``"flight"`` section and stderr a
+one-line warning when the flown cycle exceeds T by more than 10 %.
 
 Exit status: 0 written; 1 refused by the safety gate (some leg inside an NFZ plus its buffer,
 or another problem of :func:`mission_planner.mission.plan_problems`), nothing written unless
 ``--force``; 2 bad input (one line on stderr naming the field), nothing written.
 Every output is prepared in memory first and written atomically.
 
-The same steps from Python: :func:`plan_and_build` then :func:`output_files` and
-:func:`write_outputs`.
+The same steps from Python: :func:`plan_and_build`, :func:`~mission_planner.flight_report.
+replay_mission`, then :func:`output_files` and :func:`write_outputs`.
 """
 
 from __future__ import annotations
@@ -24,6 +33,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
+from mission_planner.autopilot_params import AutopilotParams, dumps_params, recommended_params
+from mission_planner.flight_report import FlightCheck, replay_mission
 from mission_planner.mission import (
     AUTOPILOTS,
     OPERATING_AREAS,
@@ -41,12 +52,26 @@ from validator.site import Site, load_site
 from validator.waypoints_format import waypoint_files
 
 FORMATS = ("plan", "waypoints")
+DYNAMICS = ("vehicle", "none")  # PlannerOptions.dynamics; kept here so --help needs no cvxpy
 Progress = Callable[[int, float], None]
 
 
-def mission_report(mission: Mission) -> dict[str, Any]:
-    """The report JSON: the solution's report plus the mission summary under ``"mission"``."""
-    return {**mission.solution.report(), "mission": mission_summary(mission)}
+def mission_report(mission: Mission, flight: FlightCheck | None = None,
+                   params: AutopilotParams | None = None) -> dict[str, Any]:
+    """The report JSON: the solution's report plus the mission summary under ``"mission"``,
+    the recommended autopilot parameters under ``"autopilot_params"`` and the replay under
+    ``"flight"`` when given."""
+    out = {**mission.solution.report(), "mission": mission_summary(mission)}
+    if params is not None:
+        out["autopilot_params"] = params.as_dict()
+    if flight is not None:
+        out["flight"] = flight.as_dict()
+    return out
+
+
+def params_path(out: str | Path) -> Path:
+    """Default parameter file beside the mission: OUT with suffix ``.param``."""
+    return Path(out).with_suffix(".param")
 
 
 def output_files(
@@ -57,11 +82,17 @@ def output_files(
     report: str | Path | None = None,
     geojson: str | Path | None = None,
     plot: str | Path | None = None,
+    params: str | Path | None = None,
+    autopilot_params: AutopilotParams | None = None,
+    flight: FlightCheck | None = None,
 ) -> dict[Path, str | bytes]:
     """Every file the mission is exported to (path -> content), not yet written.
 
     ``fmt`` "plan" writes a QGroundControl plan to ``out``; "waypoints" a QGC WPL 110 mission
     with its fence and rally files beside it (``NAME.fence.waypoints``, ``NAME.rally.waypoints``).
+    ``params`` names the autopilot parameter file (``autopilot_params``, default
+    :func:`~mission_planner.autopilot_params.recommended_params`); ``flight`` adds the replay
+    to the report.
     """
     if fmt not in FORMATS:
         raise InputError(f"format: expected one of {', '.join(FORMATS)}, got {fmt!r}")
@@ -70,8 +101,15 @@ def output_files(
         files[Path(out)] = dumps_plan(mission.plan)
     else:
         files.update(waypoint_files(mission.plan, out))
+    if params is not None:
+        autopilot_params = autopilot_params or recommended_params(mission)
+        site = mission.solution.site
+        title = (f"{autopilot_params.autopilot} parameters for {Path(out).name} (site "
+                 f"{site.name}), written by plan-mission")
+        files[Path(params)] = dumps_params(autopilot_params, title)
     if report is not None:
-        files[Path(report)] = json.dumps(mission_report(mission), indent=1) + "\n"
+        files[Path(report)] = json.dumps(mission_report(mission, flight, autopilot_params),
+                                         indent=1) + "\n"
     if geojson is not None:
         files[Path(geojson)] = dumps_geojson(plan_geojson(mission.plan, mission.solution.site))
     if plot is not None:
@@ -106,19 +144,23 @@ def plan_and_build(
     scheme: str = "proposed",
     options: MissionOptions | None = None,
     *,
+    dynamics: str = "vehicle",
     seed: int | None = None,
     progress: Progress | None = None,
 ) -> Mission:
     """Optimise ``site`` with the paper's Algorithm 1 and lay out its mission.
 
-    Options are checked before the (slow) optimisation. The safety verdict is in
-    ``Mission.problems``; nothing is written here.
+    ``dynamics`` "vehicle" keeps speed changes within the site's acceleration and jerk
+    limits; "none" is the paper's kinematic model. Options are checked before the (slow)
+    optimisation. The safety verdict is in ``Mission.problems``; nothing is written here.
     """
     opt = options or MissionOptions()
     check_options(site, opt)
+    if dynamics not in DYNAMICS:
+        raise InputError(f"dynamics: expected one of {', '.join(DYNAMICS)}, got {dynamics!r}")
     from mission_planner.optimize import PlannerOptions, plan  # cvxpy is slow to import
 
-    planner_options = PlannerOptions()
+    planner_options = PlannerOptions(dynamics=dynamics)
     if seed is not None and "seed" in {f.name for f in dataclasses.fields(PlannerOptions)}:
         planner_options = dataclasses.replace(planner_options, seed=seed)  # type: ignore[call-arg]
     solution = plan(site, scheme, options=planner_options, progress=progress)
@@ -142,7 +184,13 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--scheme", choices=("proposed", "conventional"), default="proposed",
                    help="NFZ rule: proposed = whole leg outside (Theorem 1), conventional = "
                    "waypoints only (default: proposed)")
-    p.add_argument("--report", type=Path, help="write the solution and mission report (JSON)")
+    p.add_argument("--dynamics", choices=DYNAMICS, default="vehicle",
+                   help="vehicle = speed changes within the site's uav.max_accel and "
+                   "uav.max_jerk (default); none = the paper's kinematic model (top speed "
+                   "only), which reproduces the paper's results")
+    p.add_argument("--report", type=Path,
+                   help="write the solution, mission, autopilot-parameter and replayed-flight "
+                   "report (JSON)")
     p.add_argument("--buffer-m", type=float,
                    help="safety buffer added to every NFZ radius (m; default: the site's)")
     p.add_argument("--autopilot", choices=tuple(AUTOPILOTS), default="ardupilot",
@@ -159,6 +207,13 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--format", choices=FORMATS,
                    help="plan (QGroundControl) or waypoints (QGC WPL 110 with .fence/.rally "
                    "files beside it); default: from the output's suffix, else plan")
+    p.add_argument("--params", type=Path,
+                   help="autopilot parameter file to write (default: the output with suffix "
+                   ".param): WPNAV_SPEED/ACCEL/JERK/RADIUS for ArduPilot, MPC_XY_CRUISE, "
+                   "MPC_XY_VEL_MAX, MPC_ACC_HOR, MPC_JERK_AUTO, NAV_ACC_RAD for PX4")
+    p.add_argument("--no-merge", action="store_true",
+                   help="one waypoint per moving slot (default: straight slots at one speed "
+                   "merge into one long leg)")
     p.add_argument("--geojson", type=Path, help="also write a GeoJSON FeatureCollection")
     p.add_argument("--plot", type=Path, help="also draw the paper's Fig. 3 (PNG)")
     p.add_argument("--force", action="store_true",
@@ -182,7 +237,9 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
         fmt = args.format or ("waypoints" if args.output.suffix == ".waypoints" else "plan")
-        outputs = [args.output] + [p for p in (args.report, args.geojson, args.plot) if p]
+        param_file = args.params or params_path(args.output)
+        outputs = [args.output, param_file] + [p for p in (args.report, args.geojson, args.plot)
+                                               if p]
         if fmt == "waypoints":
             from validator.waypoints_format import sidecar_paths
 
@@ -197,10 +254,11 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
             fence_margin_m=args.fence_margin_m,
             operating_area=args.operating_area,
             operating_area_margin_m=args.operating_area_margin_m,
+            merge_legs=not args.no_merge,
         )
         try:
-            mission = plan_and_build(site, args.scheme, options, seed=args.seed,
-                                     progress=_print_progress)
+            mission = plan_and_build(site, args.scheme, options, dynamics=args.dynamics,
+                                     seed=args.seed, progress=_print_progress)
         finally:
             if sys.stderr.isatty():
                 print(file=sys.stderr)
@@ -213,16 +271,25 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
                       file=sys.stderr)
                 return 1
             print("plan-mission: --force: writing the unsafe mission", file=sys.stderr)
+        autopilot_params = recommended_params(mission)
+        flight = replay_mission(mission, autopilot_params)
         files = output_files(mission, args.output, fmt=fmt, report=args.report,
-                             geojson=args.geojson, plot=args.plot)
+                             geojson=args.geojson, plot=args.plot, params=param_file,
+                             autopilot_params=autopilot_params, flight=flight)
         write_outputs(files)
     except InputError as err:
         print(f"plan-mission: error: {err}", file=sys.stderr)
         return 2
+    for note in autopilot_params.notes:
+        print(f"plan-mission: note: {note}", file=sys.stderr)
+    warning = flight.warning()
+    if warning:
+        print(f"plan-mission: warning: {warning}", file=sys.stderr)
     summary = mission_summary(mission)
     clearance = summary["nfz_clearance_min_m"]
     print(
-        f"plan-mission: wrote {', '.join(str(p) for p in files)}: {summary['items']} items, "
+        f"plan-mission: wrote {', '.join(str(p) for p in files)}: {summary['items']} items "
+        f"({summary['service_waypoints_merged']} waypoints merged into longer legs), "
         f"cycle {summary['cycle_duration_s']:.1f} s (T = {summary['period_s']:g} s), "
         f"min rate {mission.solution.min_rate_bps_hz:.4f} bps/Hz, min NFZ clearance "
         + ("none (no NFZ)" if clearance is None else f"{clearance:.3f} m"),

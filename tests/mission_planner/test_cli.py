@@ -14,9 +14,10 @@ import mission_planner.optimize
 from mission_planner.cli import plan_mission_main
 from mission_planner.mission import CLEARANCE_TOLERANCE_M, flown_legs, planned_cycle_s
 from tests.mission_planner.mavsdk_peer import mavsdk_import
-from tests.mission_planner.solutions import circle_points, site_dict, solution_for
+from tests.mission_planner.solutions import circle_points, site_dict, solution_for, subdivided
 from validator.audit import audit
 from validator.geometry import segment_point_distance
+from validator.mavlink.link import parse_params
 from validator.plan_format import Autopilot, Cmd, read_plan
 from validator.site import load_site
 from validator.waypoints_format import read_waypoints
@@ -55,7 +56,7 @@ def small_run(tmp_path_factory):
     site = _write_site(tmp, SMALL)
     out, report = tmp / "m.plan", tmp / "m.report.json"
     proc = subprocess.run([sys.executable, "-m", "mission_planner.cli", str(site), "-o", str(out),
-                           "--report", str(report), "--cycles", "2"],
+                           "--report", str(report), "--cycles", "2", "--dynamics", "none"],
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     return site, out, report, proc.stderr
@@ -113,7 +114,7 @@ def test_geometry_reread_from_the_file_clears_every_nfz(small_run):
 def test_home_behind_an_nfz_gets_a_bent_transit(tmp_path, capsys):
     site_path = _write_site(tmp_path, BEHIND)
     out, report = tmp_path / "m.plan", tmp_path / "r.json"
-    code, err = _run([site_path, "-o", out, "--report", report], capsys)
+    code, err = _run([site_path, "-o", out, "--report", report, "--dynamics", "none"], capsys)
     assert code == 0, err
     site = load_site(site_path)
     summary = json.loads(report.read_text())["mission"]
@@ -134,7 +135,8 @@ def test_waypoints_geojson_plot_and_px4(tmp_path, capsys):
     out = tmp_path / "m.waypoints"
     gj, png = tmp_path / "m.geojson", tmp_path / "m.png"
     code, err = _run([site_path, "-o", out, "--autopilot", "px4", "--operating-area", "polygon",
-                      "--geojson", gj, "--plot", png, "--fence-margin-m", "0.5"], capsys)
+                      "--geojson", gj, "--plot", png, "--fence-margin-m", "0.5",
+                      "--dynamics", "none"], capsys)
     assert code == 0, err
     plan = read_waypoints(out)
     assert plan.items[0].command == Cmd.NAV_TAKEOFF and plan.items[-1].command == Cmd.NAV_LAND
@@ -209,3 +211,98 @@ def test_force_writes_the_unsafe_mission_anyway(tmp_path, capsys, unsafe_planner
     code, err = _run([site_path, "-o", out, "--force"], capsys)
     assert code == 0 and "--force" in err
     assert not audit(read_plan(out), load_site(site_path)).ok
+
+
+# ---------------------------------------------------------------------------- issue 7
+
+SLOW = site_dict(name="slow", uav={"altitude": 30.0, "max_speed": 10.0, "period": 180.0,
+                                   "slots": 12})
+SQUARE = [(150.0, 150.0), (250.0, 150.0), (250.0, 250.0), (150.0, 250.0)]
+
+
+@pytest.fixture()
+def square_planner(monkeypatch):
+    """plan() replaced by a square tour (3 slots per side); records the options it got."""
+    seen = []
+
+    def fake_plan(site, scheme="proposed", *, options=None, progress=None):
+        seen.append(options)
+        return solution_for(site, subdivided(SQUARE, 3), scheme=scheme)
+
+    monkeypatch.setattr(mission_planner.optimize, "plan", fake_plan)
+    return seen
+
+
+@pytest.mark.parametrize("args, dynamics", [([], "vehicle"), (["--dynamics", "none"], "none"),
+                                            (["--dynamics", "vehicle"], "vehicle")])
+def test_dynamics_reaches_the_planner_vehicle_by_default(tmp_path, capsys, square_planner,
+                                                         args, dynamics):
+    code, err = _run([_write_site(tmp_path, SLOW), "-o", tmp_path / "m.plan", *args], capsys)
+    assert code == 0, err
+    assert [o.dynamics for o in square_planner] == [dynamics]
+
+
+def test_help_says_dynamics_none_reproduces_the_paper(capsys):
+    with pytest.raises(SystemExit):
+        plan_mission_main(["--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "--dynamics {vehicle,none}" in text and "reproduces the paper" in text
+
+
+def test_param_file_is_written_beside_the_mission(tmp_path, capsys, square_planner):
+    code, err = _run([_write_site(tmp_path, SLOW), "-o", tmp_path / "m.plan"], capsys)
+    assert code == 0, err
+    params = parse_params((tmp_path / "m.param").read_text())
+    assert params == {"WPNAV_SPEED": 1000.0, "WPNAV_ACCEL": 250.0, "WPNAV_JERK": 1.0,
+                      "WPNAV_RADIUS": 100.0}
+
+
+def test_params_option_names_the_file_px4_gets_px4_names(tmp_path, capsys, square_planner):
+    out, pfile = tmp_path / "m.plan", tmp_path / "vehicle.params"
+    code, err = _run([_write_site(tmp_path, SLOW), "-o", out, "--params", pfile,
+                      "--autopilot", "px4"], capsys)
+    assert code == 0, err
+    assert not (tmp_path / "m.param").exists()
+    assert set(parse_params(pfile.read_text())) == {"MPC_XY_CRUISE", "MPC_XY_VEL_MAX",
+                                                    "MPC_ACC_HOR", "MPC_JERK_AUTO", "NAV_ACC_RAD"}
+
+
+def test_params_file_colliding_with_the_mission_is_refused(tmp_path, capsys, square_planner):
+    out = tmp_path / "m.plan"
+    code, err = _run([_write_site(tmp_path, SLOW), "-o", out, "--params", out], capsys)
+    assert code == 2 and "named for two outputs" in err and err.count("\n") == 1
+    assert not out.exists()
+
+
+def test_report_has_the_replayed_flight_and_no_warning_when_on_time(tmp_path, capsys,
+                                                                    square_planner):
+    report = tmp_path / "r.json"
+    code, err = _run([_write_site(tmp_path, SLOW), "-o", tmp_path / "m.plan", "--report",
+                      report], capsys)
+    assert code == 0, err
+    data = json.loads(report.read_text())
+    flight = data["flight"]
+    assert flight["profile"] == "arducopter" and flight["params"]["WPNAV_RADIUS"] == 100.0
+    assert flight["replayed_cycle_s"] == pytest.approx(180.0, rel=0.02)
+    assert flight["replayed_min_rate_bps_hz"] > 0 and flight["warning"] is None
+    assert data["autopilot_params"]["values"] == flight["params"]
+    assert data["mission"]["service_waypoints_merged"] == 8
+    assert "warning" not in err
+
+
+def test_a_late_cycle_is_one_warning_line_on_stderr(tmp_path, capsys, square_planner):
+    hurried = {**SLOW, "uav": {**SLOW["uav"], "period": 50.0}}
+    code, err = _run([_write_site(tmp_path, hurried), "-o", tmp_path / "m.plan"], capsys)
+    assert code == 0, err
+    warnings = [ln for ln in err.splitlines() if "warning" in ln]
+    assert len(warnings) == 1
+    assert warnings[0].startswith("plan-mission: warning: the arducopter replay flies the cycle")
+
+
+def test_no_merge_keeps_a_waypoint_per_slot(tmp_path, capsys, square_planner):
+    site = _write_site(tmp_path, SLOW)
+    code, _ = _run([site, "-o", tmp_path / "a.plan"], capsys)
+    code2, _ = _run([site, "-o", tmp_path / "b.plan", "--no-merge"], capsys)
+    assert code == code2 == 0
+    merged, per_slot = (len(read_plan(tmp_path / n).items) for n in ("a.plan", "b.plan"))
+    assert per_slot == merged + 8
