@@ -204,12 +204,6 @@ class SitlVehicle:
             raise ValueError("listen on UDP, e.g. udpin:127.0.0.1:14550")
         self.config = config
         self.frame = LocalFrame(*config.home)
-        self.conn = mavutil.mavlink_connection(listen_url, source_system=config.system_id,
-                                               source_component=1)
-        rng = random.Random(config.seed)
-        self._rx_rng = random.Random(rng.random())
-        self.writer = LossyWriter(self.conn, config.loss, random.Random(rng.random()))
-        self.mav = mavlink.MAVLink(self.writer, srcSystem=config.system_id, srcComponent=1)
         self.site = vehicle_site(self.frame, config.max_speed_mps)
         profile = vehicle_profile(config.profile, self.site,
                                   {**{k: v for k, (v, _) in BASE_PARAMS.items()}, **config.params})
@@ -221,6 +215,12 @@ class SitlVehicle:
                 raise InputError(f"--param {name}: the vehicle has no such parameter")
             self.params[name][0] = float(value)
         self.params["SYSID_THISMAV"] = [float(config.system_id), float(INT16)]
+        self.conn = mavutil.mavlink_connection(listen_url, source_system=config.system_id,
+                                               source_component=1)
+        rng = random.Random(config.seed)
+        self._rx_rng = random.Random(rng.random())
+        self.writer = LossyWriter(self.conn, config.loss, random.Random(rng.random()))
+        self.mav = mavlink.MAVLink(self.writer, srcSystem=config.system_id, srcComponent=1)
         self._lists_lock = threading.Lock()
         self._lists: dict[int, tuple[WireItem, ...]] = {0: (), 1: (), 2: ()}
         self._completed: dict[int, int] = {}  # mission_type -> items of its finished upload
@@ -251,6 +251,7 @@ class SitlVehicle:
         self.breach_time_ms = 0
         self.guided_speed_mps: float | None = None
         self._updates: queue.SimpleQueue[int] = queue.SimpleQueue()
+        self._last_command: tuple[tuple[int, int, int] | None, int] = (None, 0)
         self.rx_dropped = 0
 
     # -- lifecycle -------------------------------------------------------------------------
@@ -448,6 +449,19 @@ class SitlVehicle:
 
     def _on_command(self, msg: Any) -> None:
         c = int(msg.command)
+        key = (c, msg.get_srcSystem(), msg.get_srcComponent())
+        if getattr(msg, "confirmation", 0) > 0 and self._last_command[0] == key:
+            # A repeat because our ACK was lost: answer again, do not act twice.
+            self._ack(msg, self._last_command[1])
+            return
+        result = self._execute(msg)
+        if result is not None:
+            self._last_command = (key, result)
+            self._ack(msg, result)
+
+    def _execute(self, msg: Any) -> int | None:
+        """Carry out a COMMAND_LONG/COMMAND_INT; its MAV_RESULT, or None once answered."""
+        c = int(msg.command)
         p = [msg.param1, msg.param2, msg.param3, msg.param4]
         m = mavlink
         result = m.MAV_RESULT_UNSUPPORTED
@@ -481,10 +495,10 @@ class SitlVehicle:
             if wanted in (m.MAVLINK_MSG_ID_HOME_POSITION, m.MAVLINK_MSG_ID_AUTOPILOT_VERSION):
                 self._ack(msg, m.MAV_RESULT_ACCEPTED)  # the protocol: ACK, then the message
                 self._send_requested(wanted)
-                return
+                return None
         elif c == m.MAV_CMD_SET_MESSAGE_INTERVAL:
             result = m.MAV_RESULT_ACCEPTED  # telemetry runs at its configured rate
-        self._ack(msg, result)
+        return result
 
     def _on_set_mode_msg(self, msg: Any) -> None:
         if msg.base_mode & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:

@@ -145,3 +145,17 @@ def test_loss_drops_about_that_fraction(plan, start_vehicle):
     n = w.sent + w.dropped
     assert n > 500
     assert w.dropped / n == pytest.approx(0.3, abs=4 * (0.3 * 0.7 / n) ** 0.5)
+
+
+def test_a_whole_flight_survives_20_percent_packet_loss(start_vehicle):
+    site = make_site(nfz=((100.0, 0.0, 20.0),))
+    plan = waypoint_plan(site, [(0.0, 60.0), (80.0, 60.0)], v=6.0)
+    vehicle = start_vehicle(plan, speedup=FAST, loss=0.2, seed=3)
+    with Link(url_of(vehicle), timeout_s=8, retry_s=0.1) as link:
+        upload_to(link, plan)
+        tel = fly_mission(link, plan, time_limit_s=300)
+    assert tel.end_reason == "landed"
+    assert vehicle.writer.dropped > 100
+    flight = resolve_flight(plan, site)
+    flown = telemetry_track(tel, flight, site, ardupilot=True, source="sitl")
+    assert np.isfinite(flown.leg_done_s[1:]).all()  # every leg seen despite the gaps
