@@ -423,7 +423,7 @@ def slot_map(flight: Flight, service: ServicePlan) -> SlotMap | str:
         if n == nslots and cycle + 1 < service.cycles:
             n, cycle = 0, cycle + 1
         leg = legs[k]
-        if leg.length_m > SLOT_MATCH_M:
+        if leg.length_m > STATIONARY_M:  # as the exporter: longer slots move, shorter hold
             out = moves.setdefault(k, [])
             s = 0.0
             reached = False

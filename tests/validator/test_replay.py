@@ -79,6 +79,16 @@ def test_flown_rate_is_the_rate_integrated_along_the_leg(site):
     assert not np.allclose(rep.throughput.planned_bps_hz, expected, rtol=2e-3)
 
 
+def test_a_slot_moving_less_than_the_match_tolerance_is_still_scored(site):
+    # An 8 cm last slot (the slow end of a jerk-limited leg) is a move, not a hover: it is
+    # longer than the exporter's 5 cm stationary tolerance.
+    q = [(0, 60), (60, 60), (0.08, 60), (0, 60)]
+    plan = service_plan(site, q, [6.0, 6.0, 1.0], [0.1, 0.1, 0.1], ["GN1", "GN2", "GN1"])
+    flight = resolve_flight(plan, site)
+    rep = score_track(replay(flight, make_profile("ideal", site)), flight, site, plan)
+    assert rep.throughput is not None, [f.message for f in rep.findings]
+
+
 def test_throughput_is_skipped_without_metadata(site):
     plan = waypoint_plan(site, [(0, -40), (200, -40)], end="none")
     flight = resolve_flight(plan, site)
