@@ -299,14 +299,13 @@ def _pump_vehicle_time(rec: _Recorder, limit_s: float, stop: Callable[[], bool],
 def telemetry_track(telemetry: Telemetry, flight: Flight, site: Site, *, ardupilot: bool,
                     source: str) -> Track:
     """The recorded flight from MISSION_START on, as a :class:`Track` aligned with ``flight``
-    (ArduPilot's seq converted to plan item indices)."""
-    keep = telemetry.t_s >= telemetry.mission_start_s
-    if not math.isfinite(telemetry.mission_start_s):
-        keep = np.ones(telemetry.t_s.size, dtype=bool)
+    (ArduPilot's seq converted to plan item indices), its clock starting at MISSION_START."""
+    t0 = telemetry.mission_start_s if math.isfinite(telemetry.mission_start_s) else 0.0
+    keep = telemetry.t_s >= t0
     seq = telemetry.mission_seq[keep] - (1 if ardupilot else 0)
     return track_from_geodetic(
-        flight, site, telemetry.t_s[keep], telemetry.lat_deg[keep], telemetry.lon_deg[keep],
-        seq, alt_m=telemetry.rel_alt_m[keep], source=source,
+        flight, site, telemetry.t_s[keep] - t0, telemetry.lat_deg[keep],
+        telemetry.lon_deg[keep], seq, alt_m=telemetry.rel_alt_m[keep], source=source,
     )
 
 
