@@ -432,7 +432,16 @@ def slot_map(flight: Flight, service: ServicePlan) -> SlotMap | str:
                 out.append((n, s, s + step[n]))
                 s += step[n]
                 n += 1
-                if np.hypot(*(b - leg.end_xy_m)) <= SLOT_MATCH_M:
+                gap = np.hypot(*(b - leg.end_xy_m))
+                if gap <= SLOT_MATCH_M:
+                    # A slow final approach (the end of an S-curve) may end several slots
+                    # within the tolerance: the leg takes them while they close in.
+                    while (n < nslots and step[n] > STATIONARY_M
+                           and np.hypot(*(q[n + 1] - leg.end_xy_m)) < gap):
+                        gap = np.hypot(*(q[n + 1] - leg.end_xy_m))
+                        out.append((n, s, s + step[n]))
+                        s += step[n]
+                        n += 1
                     reached = True
                     break
                 if segment_point_distance(leg.start_xy_m, leg.end_xy_m, b) > SLOT_MATCH_M:

@@ -89,6 +89,18 @@ def test_a_slot_moving_less_than_the_match_tolerance_is_still_scored(site):
     assert rep.throughput is not None, [f.message for f in rep.findings]
 
 
+def test_slots_slowing_into_a_waypoint_all_belong_to_its_leg(site):
+    # The last two slots of the cycle's last leg end 9 cm and then 0 cm from its waypoint (an
+    # S-curve's slow arrival): both are flown on the leg, neither is a hover.
+    plan = service_plan(site, [(0, 60), (60, 60), (0, 60)], [6.0, 7.0], [0.1, 0.1],
+                        ["GN1", "GN2"])
+    plan.extra.update(trajectory_m=[[0, 60], [60, 60], [0.09, 60], [0, 60]],
+                      delta_s=[6.0, 6.0, 1.0], power_w=[0.1] * 3, schedule=["GN1", "GN2", "GN2"])
+    flight = resolve_flight(plan, site)
+    rep = score_track(replay(flight, make_profile("ideal", site)), flight, site, plan)
+    assert rep.throughput is not None, [f.message for f in rep.findings]
+
+
 def test_throughput_is_skipped_without_metadata(site):
     plan = waypoint_plan(site, [(0, -40), (200, -40)], end="none")
     flight = resolve_flight(plan, site)
