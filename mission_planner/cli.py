@@ -12,7 +12,7 @@ reproduces its results. Beside the mission goes the parameter file the autopilot
 (``OUT.param`` or ``--params``; :mod:`mission_planner.autopilot_params`). The mission is then
 replayed with the validator's model of the autopilot set to those parameters
 (:mod:`mission_planner.flight_report`): the report gets a ``"flight"`` section and stderr a
-one-line warning when the flown cycle exceeds T by more than 10 %.
+one-line warning when the flown cycle is more than 10 % longer (or shorter) than T.
 
 Exit status: 0 written; 1 refused by the safety gate (some leg inside an NFZ plus its buffer,
 or another problem of :func:`mission_planner.mission.plan_problems`), nothing written unless

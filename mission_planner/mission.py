@@ -47,15 +47,19 @@ Decisions where autopilots and the plan disagree (all in :class:`MissionOptions`
   instant (checked at every slot boundary; in between both are linear in time, so the gap is
   largest at a boundary), each slot's direction is within ``merge_angle_deg`` (1°) and its
   speed within ``merge_speed_rel`` (1 %) of the merged leg's, no slot in between holds, and the
-  merged leg keeps at least the NFZ clearance its slots had (or the export target). The
-  exported ``nfzMission`` trajectory puts the merged slots' end points on the merged leg at
-  their planned times, so the validator's throughput scoring maps the flown track to the
-  same slots.
+  merged leg keeps at least the NFZ clearance its slots had (or the export target). Slots a
+  dynamics-aware planner laid along the autopilot's own rest-to-rest S-curve
+  (:func:`scurve_legs`: site V, ``uav.max_accel``, ``uav.max_jerk``) merge the same way, into
+  one leg commanded at V: the autopilot's acceleration and braking reproduce their timing.
+  The exported ``nfzMission`` trajectory puts the merged slots' end points on the merged leg
+  where the vehicle is when they end, so the validator's throughput scoring maps the flown
+  track to the same slots.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -66,6 +70,13 @@ from numpy.typing import ArrayLike, NDArray
 from mission_planner.optimize.solution import Solution
 from mission_planner.transit import DEFAULT_ARC_STEP_DEG, path_length_m, shortest_safe_path
 from validator.audit import audit
+from validator.dynamics import (
+    GRAVITY_MPS2,
+    Profiles1D,
+    jerk_ramp_s,
+    make_profile,
+    scurve_rest_to_rest,
+)
 from validator.errors import InputError
 from validator.geodesy import LocalFrame, round_e7
 from validator.geometry import (
@@ -132,7 +143,9 @@ class CycleStep:
     ``hold_s`` the planned hold (δ of the stationary slots after it, plus any time a slow leg
     saves). ``speed_mps`` is filled in once the geometry is final; None for a hold at q[0].
     The first ``moving_slots`` of ``slots`` are flown along the leg (more than one when
-    straight slots were merged; 0 for a hold at q[0]); the rest are the hold.
+    straight slots were merged; 0 for a hold at q[0]); the rest are the hold. ``scurve``: the
+    leg is timed as the autopilot's rest-to-rest S-curve at ``speed_mps`` (its top speed), not
+    flown at ``speed_mps`` throughout.
     """
 
     index: int
@@ -141,6 +154,7 @@ class CycleStep:
     hold_s: float
     speed_mps: float | None = None
     moving_slots: int = 1
+    scurve: bool = False
 
 
 @dataclass(frozen=True)
@@ -250,75 +264,151 @@ def service_steps(trajectory_m: ArrayLike, delta_s: ArrayLike,
     return steps
 
 
-def _run_is_straight(
-    q: NDArray[np.float64], start: NDArray[np.float64], run: list[CycleStep], *,
-    angle_deg: float, speed_rel: float, offset_m: float, min_speed_mps: float,
-    centres: NDArray[np.float64], radii: NDArray[np.float64], clearance_target_m: float,
-) -> bool:
-    """Whether the consecutive moving steps ``run`` (leaving ``start``) fly as one leg."""
-    if any(s.leg_s <= 0 for s in run) or any(s.hold_s > 0 for s in run[:-1]):
-        return False
-    ends = q[[s.index for s in run]]
-    starts = np.vstack([start, ends[:-1]])
-    legs = ends - starts
-    leg_s = np.array([s.leg_s for s in run])
-    lengths = np.hypot(legs[:, 0], legs[:, 1])
-    chord = ends[-1] - start
-    chord_len = float(np.hypot(*chord))
-    total_s = float(np.sum(leg_s))
-    speed = chord_len / total_s
-    if chord_len <= 0 or np.any(lengths / leg_s < max(min_speed_mps, 1e-9)):
-        return False
-    if np.any(np.abs(lengths / leg_s - speed) > speed_rel * speed):
-        return False
-    cos = (legs @ chord) / (lengths * chord_len)
-    if np.any(cos < math.cos(math.radians(angle_deg))):
-        return False
-    # Space-time gap: at its constant speed the merged leg is at start + chord·t/T when the
-    # plan is at each slot boundary; both move linearly in between, so boundaries bound it.
-    t = np.cumsum(leg_s)[:-1]
-    flown = start + chord * (t / total_s)[:, None]
-    if np.any(np.hypot(*(flown - ends[:-1]).T) > offset_m):
-        return False
-    if centres.size:
-        before = segment_point_distance(starts[:, None, :], ends[:, None, :], centres[None])
-        after = segment_point_distance(start, ends[-1], centres) - radii
-        need = np.minimum(np.min(before - radii[None, :], axis=0), clearance_target_m)
-        if np.any(after < need - 1e-12):
+def scurve_legs(site: Site, lengths_m: ArrayLike, speed_mps: float) -> Profiles1D:
+    """Rest-to-rest S-curves (the validator's ``arducopter`` model) of straight legs flown at
+    ``speed_mps`` within the site's limits: acceleration ``uav.max_accel`` (capped by
+    ArduCopter's default lean angle), jerk ``uav.max_jerk`` with ArduCopter's jerk ramp."""
+    profile = make_profile("arducopter", site)
+    accel = min(profile.si("WPNAV_ACCEL"), GRAVITY_MPS2 * math.tan(profile.si("ANGLE_MAX")))
+    lengths = np.atleast_1d(np.asarray(lengths_m, dtype=float))
+    jerk = np.full(lengths.shape, profile.si("WPNAV_JERK"))
+    return scurve_rest_to_rest(lengths, np.full(lengths.shape, float(speed_mps)),
+                               np.full(lengths.shape, accel), jerk, jerk_ramp_s(profile, jerk))
+
+
+@dataclass(frozen=True)
+class _Run:
+    """Consecutive moving steps leaving ``start``: their end points, slot legs and times."""
+
+    start: NDArray[np.float64]
+    ends: NDArray[np.float64]
+    leg_s: NDArray[np.float64]
+
+    @classmethod
+    def of(cls, q: NDArray[np.float64], start: NDArray[np.float64],
+           run: list[CycleStep]) -> _Run | None:
+        if any(s.leg_s <= 0 for s in run) or any(s.hold_s > 0 for s in run[:-1]):
+            return None  # a hold-only step, or the vehicle stops inside the run
+        return cls(start, q[[s.index for s in run]], np.array([s.leg_s for s in run]))
+
+    @property
+    def chord(self) -> NDArray[np.float64]:
+        return np.asarray(self.ends[-1] - self.start, dtype=float)
+
+    @property
+    def length_m(self) -> float:
+        return float(np.hypot(*self.chord))
+
+    def slot_speeds(self) -> NDArray[np.float64]:
+        legs = np.diff(np.vstack([self.start, self.ends]), axis=0)
+        return np.asarray(np.hypot(legs[:, 0], legs[:, 1]) / self.leg_s, dtype=float)
+
+    def is_straight(self, angle_deg: float, offset_m: float) -> bool:
+        """Every slot within ``angle_deg`` of the chord's direction, every end point within
+        ``offset_m`` of the chord."""
+        length = self.length_m
+        if length <= 0:
             return False
-    return True
+        legs = np.diff(np.vstack([self.start, self.ends]), axis=0)
+        lengths = np.hypot(legs[:, 0], legs[:, 1])
+        cos = (legs @ self.chord) / np.maximum(lengths * length, 1e-300)
+        off = segment_point_distance(self.start, self.ends[-1], self.ends)
+        return bool(np.all(cos >= math.cos(math.radians(angle_deg)))
+                    and np.all(off <= offset_m))
+
+    def flown_gap_m(self, along_m: NDArray[np.float64]) -> float:
+        """Largest distance between the planned slot end points and where a vehicle is at the
+        same times, ``along_m`` metres along the chord."""
+        u = self.chord / self.length_m
+        flown = self.start + along_m[:, None] * u[None, :]
+        return float(np.max(np.hypot(*(flown - self.ends).T)))
+
+    def keeps_clearance(self, centres: NDArray[np.float64], radii: NDArray[np.float64],
+                        target_m: float) -> bool:
+        """The chord at least as clear of each circle as its slots were (or ``target_m``)."""
+        if not centres.size:
+            return True
+        starts = np.vstack([self.start, self.ends[:-1]])
+        before = segment_point_distance(starts[:, None, :], self.ends[:, None, :], centres[None])
+        after = segment_point_distance(self.start, self.ends[-1], centres) - radii
+        need = np.minimum(np.min(before - radii[None, :], axis=0), target_m)
+        return bool(np.all(after >= need - 1e-12))
 
 
 def merge_straight_steps(
     steps: list[CycleStep], trajectory_m: ArrayLike, *, angle_deg: float = 1.0,
     speed_rel: float = 0.01, offset_m: float = 0.05, min_speed_mps: float = 0.0,
     nfz_xy_m: ArrayLike = (), nfz_radius_m: ArrayLike = (), clearance_target_m: float = 0.0,
+    scurve: Callable[[NDArray[np.float64]], Profiles1D] | None = None,
+    scurve_speed_mps: float | None = None, scurve_time_tol_s: float = 0.02,
 ) -> list[CycleStep]:
-    """Merge consecutive slots on one straight line at one speed into one waypoint.
+    """Merge consecutive slots on one straight line into one waypoint when one leg flies them.
 
-    Greedily from the start of the cycle, a waypoint absorbs the next while the run still
-    flies as one leg: no hold before its end, every slot's direction within ``angle_deg``
-    (degrees) of the run's chord and its speed within ``speed_rel`` (fraction) of the chord's
-    constant speed (and at least ``min_speed_mps``), the chord flown at that speed within
-    ``offset_m`` (m) of the planned position at every slot boundary, and the chord at least as
-    clear of each NFZ (``nfz_radius_m`` = the planning radii) as its slots were, or
-    ``clearance_target_m`` beyond the radius. Timing is unchanged: the merged step's leg time
-    is the sum of its slots' δ and its hold the last slot's. Never merges across q[0].
+    A run of slots (no hold before its end, every slot within ``angle_deg`` degrees of the
+    run's chord and every end point within ``offset_m`` of it, the chord at least as clear of
+    each NFZ as its slots, or ``clearance_target_m`` beyond the planning radius
+    ``nfz_radius_m``) becomes one leg when a vehicle flying it is within ``offset_m`` (m) of
+    the planned position at every slot boundary:
+
+    - **at one speed**: greedily from each waypoint, while every slot's speed is within
+      ``speed_rel`` (fraction) of the chord's constant speed and at least ``min_speed_mps``;
+      between boundaries both move linearly in time, so the boundaries bound the gap;
+    - **as the autopilot's own S-curve**: the longest straight run from each waypoint, when
+      ``scurve`` (lengths -> :class:`~validator.dynamics.Profiles1D`, e.g. :func:`scurve_legs`)
+      flown at ``scurve_speed_mps`` from rest to rest matches the slots and arrives within
+      ``scurve_time_tol_s`` of the plan: the planner timed the leg that way (dynamics-aware
+      plans), so one waypoint with that speed replaces the speed changes between its slots.
+
+    Timing is unchanged: a merged step's leg time is the sum of its slots' δ and its hold the
+    last slot's. Never merges across q[0].
     """
     q = np.asarray(trajectory_m, dtype=float)
     centres = np.asarray(nfz_xy_m, dtype=float).reshape(-1, 2)
     radii = np.asarray(nfz_radius_m, dtype=float).reshape(-1)
+
+    def clear(run: _Run) -> bool:
+        return run.keeps_clearance(centres, radii, clearance_target_m)
+
+    def one_speed(run: _Run) -> bool:
+        speeds = run.slot_speeds()
+        speed = run.length_m / float(np.sum(run.leg_s))
+        return bool(
+            np.all(speeds >= max(min_speed_mps, 1e-9))
+            and np.all(np.abs(speeds - speed) <= speed_rel * speed)
+            and run.is_straight(angle_deg, offset_m)
+            and run.flown_gap_m(speed * np.cumsum(run.leg_s)) <= offset_m
+            and clear(run)
+        )
+
+    def as_scurve(run: _Run) -> bool:
+        if scurve is None or scurve_speed_mps is None:
+            return False
+        prof = scurve(np.array([run.length_m]))
+        t = np.cumsum(run.leg_s)
+        along, _, _ = prof.state(np.zeros(t.size, dtype=np.int64), t)
+        return bool(abs(float(prof.total_s[0]) - t[-1]) <= scurve_time_tol_s
+                    and run.flown_gap_m(along) <= offset_m and clear(run))
+
+    def run_at(i: int, j: int) -> _Run | None:
+        start = q[steps[i - 1].index] if i > 0 else q[0]
+        return _Run.of(q, start, steps[i:j])
+
     out: list[CycleStep] = []
     i = 0
     while i < len(steps):
-        start = q[steps[i - 1].index] if i > 0 else q[0]
         j = i + 1
-        while j < len(steps) and _run_is_straight(
-            q, start, steps[i:j + 1], angle_deg=angle_deg, speed_rel=speed_rel,
-            offset_m=offset_m, min_speed_mps=min_speed_mps, centres=centres, radii=radii,
-            clearance_target_m=clearance_target_m,
-        ):
-            j += 1
+        longest = i + 1  # the longest straight run from i, for the S-curve test
+        while longest < len(steps):
+            r = run_at(i, longest + 1)
+            if r is None or not r.is_straight(angle_deg, offset_m):
+                break
+            longest += 1
+        is_scurve = False
+        if longest - i > 1 and (r := run_at(i, longest)) is not None and as_scurve(r):
+            j, is_scurve = longest, True
+        else:
+            while j < len(steps) and (r := run_at(i, j + 1)) is not None and one_speed(r):
+                j += 1
         run = steps[i:j]
         if len(run) == 1:
             out.append(run[0])
@@ -326,15 +416,17 @@ def merge_straight_steps(
             moving = tuple(s.slots[0] for s in run)
             out.append(CycleStep(run[-1].index, (*moving, *run[-1].slots[1:]),
                                  float(sum(s.leg_s for s in run)), run[-1].hold_s,
-                                 moving_slots=len(moving)))
+                                 speed_mps=scurve_speed_mps if is_scurve else None,
+                                 moving_slots=len(moving), scurve=is_scurve))
         i = j
     return out
 
 
 def place_on_legs(trajectory_m: ArrayLike, delta_s: ArrayLike,
                   steps: list[CycleStep]) -> NDArray[np.float64]:
-    """The trajectory with each merged leg's inner slot end points where the vehicle is, at
-    the leg's constant speed, when the slot ends: start + (elapsed δ / leg time)·leg."""
+    """The trajectory with each merged leg's inner slot end points on the leg where the
+    vehicle is when the slot ends: at the leg's constant speed, start + (elapsed δ / leg
+    time)·leg; on an S-curve leg, the point's own projection onto the leg."""
     q = np.array(trajectory_m, dtype=float)
     delta = np.asarray(delta_s, dtype=float)
     for s in steps:
@@ -342,8 +434,11 @@ def place_on_legs(trajectory_m: ArrayLike, delta_s: ArrayLike,
             continue
         slots = np.array(s.slots[:s.moving_slots])
         start, end = q[slots[0] - 1], q[slots[-1]]
-        frac = np.cumsum(delta[slots - 1])[:-1] / s.leg_s
-        q[slots[:-1]] = start + frac[:, None] * (end - start)
+        if s.scurve:
+            frac = segment_point_closest_fraction(start, end, q[slots[:-1]])
+        else:
+            frac = np.cumsum(delta[slots - 1])[:-1] / s.leg_s
+        q[slots[:-1]] = start + np.asarray(frac)[:, None] * (end - start)
     return q
 
 
@@ -396,8 +491,9 @@ def assign_speeds(steps: list[CycleStep], trajectory_m: NDArray[np.float64], max
     """Fill in each step's leg speed (m/s) from the final geometry.
 
     speed = leg length / leg time, clipped to ``max_speed_mps``; a leg slower than
-    ``min_speed_mps`` is flown at that speed and the step holds for the time saved. Returns
-    the steps and a problem for each leg whose speed exceeds V by more than 1 %.
+    ``min_speed_mps`` is flown at that speed and the step holds for the time saved; an
+    S-curve leg keeps its top speed. Returns the steps and a problem for each leg whose speed
+    exceeds V by more than 1 %.
     """
     out: list[CycleStep] = []
     problems: list[str] = []
@@ -409,7 +505,7 @@ def assign_speeds(steps: list[CycleStep], trajectory_m: NDArray[np.float64], max
         if s.leg_s <= 0:
             out.append(replace(s, leg_s=0.0, speed_mps=None))
             continue
-        speed = length / s.leg_s
+        speed = s.speed_mps if s.scurve and s.speed_mps is not None else length / s.leg_s
         hold = s.hold_s
         if speed > max_speed_mps:
             if speed > max_speed_mps * (1 + SPEED_EXCESS_ALLOWED):
@@ -503,7 +599,9 @@ def build_mission(solution: Solution, options: MissionOptions | None = None) -> 
         steps = merge_straight_steps(
             steps, q, angle_deg=opt.merge_angle_deg, speed_rel=opt.merge_speed_rel,
             offset_m=opt.merge_offset_m, min_speed_mps=opt.min_speed_mps,
-            nfz_xy_m=site.nfz_xy_m, nfz_radius_m=radii, clearance_target_m=opt.export_margin_m)
+            nfz_xy_m=site.nfz_xy_m, nfz_radius_m=radii, clearance_target_m=opt.export_margin_m,
+            scurve=lambda lengths: scurve_legs(site, lengths, site.max_speed_mps),
+            scurve_speed_mps=site.max_speed_mps)
     cyc_idx = [0] + [s.index for s in steps if s.index not in (0, len(q) - 1)]
     pts, moved = nudge_clear(q[cyc_idx], site.nfz_xy_m, radii, target_margin_m=opt.export_margin_m,
                              max_nudge_m=opt.max_nudge_m, closed=True)
@@ -727,7 +825,8 @@ def plan_problems(plan: Plan, site: Site, cycle_items: tuple[int, int] | None = 
 
 
 def planned_cycle_s(plan: Plan, frame: LocalFrame, cycle_items: tuple[int, int]) -> float:
-    """Duration (s) of one service cycle at the plan's own speeds and holds.
+    """Duration (s) of one service cycle at the plan's own speeds and holds, every leg at its
+    commanded speed throughout (an S-curve leg takes longer: see :func:`cycle_duration_s`).
 
     Walks items ``first..last``: each positional item adds the leg from the previous position
     at the speed in force (the last DO_CHANGE_SPEED before it) plus its hold (param1). The
@@ -755,13 +854,31 @@ def planned_cycle_s(plan: Plan, frame: LocalFrame, cycle_items: tuple[int, int])
     return total
 
 
+def cycle_duration_s(mission: Mission) -> float:
+    """Duration (s) of one service cycle as laid out: each leg at its speed (an S-curve leg
+    for its S-curve time) plus the holds as written in the plan."""
+    first, last = mission.cycle_items
+    holds = [it.params[0] for it in mission.plan.items[first:last + 1]
+             if it.command == Cmd.NAV_WAYPOINT]
+    q = mission.trajectory_m
+    prev = q[0]
+    total = 0.0
+    for s, hold in zip(mission.steps, holds, strict=True):
+        here = q[s.index]
+        if s.speed_mps is not None:
+            total += s.leg_s if s.scurve else float(np.hypot(*(here - prev))) / s.speed_mps
+        total += hold
+        prev = here
+    return total
+
+
 def mission_summary(mission: Mission) -> dict[str, Any]:
     """The mission part of the report: items, cycle duration, transits, fence, expanded radii."""
     plan = mission.plan
     site = mission.solution.site
     sol = mission.solution
     first, last = mission.cycle_items
-    cycle_s = planned_cycle_s(plan, site.frame, mission.cycle_items)
+    cycle_s = cycle_duration_s(mission)
     speeds = [it.params[1] for it in plan.items if it.command == Cmd.DO_CHANGE_SPEED]
     service_speeds = [s.speed_mps for s in mission.steps if s.speed_mps is not None]
     planned_hold = float(sum(s.hold_s for s in mission.steps))
@@ -781,6 +898,7 @@ def mission_summary(mission: Mission) -> dict[str, Any]:
         "items": len(plan.items),
         "service_waypoints": len(mission.steps),
         "service_waypoints_merged": mission.merged_waypoints,
+        "scurve_legs": sum(s.scurve for s in mission.steps),
         "merge_offset_max_m": mission.merge_offset_m,
         "speed_changes": len(speeds),
         "cycle_items": [first, last],
@@ -819,6 +937,7 @@ __all__ = [
     "CycleStep",
     "build_mission",
     "check_options",
+    "cycle_duration_s",
     "flown_legs",
     "merge_straight_steps",
     "mission_summary",
@@ -826,6 +945,7 @@ __all__ = [
     "place_on_legs",
     "plan_problems",
     "planned_cycle_s",
+    "scurve_legs",
     "service_steps",
     "whole_second_holds",
 ]

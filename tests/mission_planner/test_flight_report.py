@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import pytest
 
@@ -56,12 +57,19 @@ def test_a_cycle_more_than_ten_percent_late_is_one_warning_line(hurried):
     assert f"{hurried.replayed_cycle_s:.1f} s" in warning and "T = 60 s" in warning
 
 
-def test_late_corners_cost_min_rate(slow, hurried):
-    # The paper model serves each slot from its end point: flown exactly, the square gets a
-    # little less than planned; stopping at corners costs the hurried plan more.
-    assert slow.min_rate_ratio == pytest.approx(
-        slow.commanded_min_rate_bps_hz / slow.planned_min_rate_bps_hz, rel=0.01)
-    assert hurried.replayed_min_rate_bps_hz < hurried.commanded_min_rate_bps_hz
+def test_stopping_at_every_corner_costs_min_rate(slow, hurried):
+    # Flown as planned, the square still gets a little less than the paper model says (it
+    # scores each slot at its end point); the hurried plan's stops at corners cost more.
+    assert 0.9 < slow.min_rate_ratio < 1.0
+    assert hurried.min_rate_ratio < slow.min_rate_ratio
+
+
+@pytest.mark.parametrize("ratio, warns", [(1.09, False), (1.11, True), (0.91, False),
+                                          (0.89, True)])
+def test_warning_threshold_is_ten_percent_either_way(slow, ratio, warns):
+    cycle = replace(slow.report.cycle, flown_cycle_s=ratio * slow.period_s)
+    check = replace(slow, report=replace(slow.report, cycle=cycle))
+    assert (check.warning() is not None) == warns
 
 
 def test_flight_section_holds_what_the_issue_asks_for(hurried):
@@ -69,7 +77,6 @@ def test_flight_section_holds_what_the_issue_asks_for(hurried):
     json.dumps(section)  # plain JSON
     assert section["planned_cycle_s"] == 60.0
     assert section["replayed_cycle_s"] == pytest.approx(hurried.report.cycle.flown_cycle_s)
-    assert section["commanded_cycle_s"] == pytest.approx(60.0, abs=0.5)
     assert section["planned_min_rate_bps_hz"] > section["replayed_min_rate_bps_hz"] > 0
     assert set(section["replayed_clearance_by_nfz_m"]) == {"NFZ1", "NFZ2", "NFZ3"}
     assert section["replayed_clearance_min_m"] == min(

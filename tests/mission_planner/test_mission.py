@@ -11,12 +11,14 @@ from mission_planner.mission import (
     CLEARANCE_TOLERANCE_M,
     MissionOptions,
     build_mission,
+    cycle_duration_s,
     flown_legs,
     merge_straight_steps,
     mission_summary,
     nudge_clear,
     plan_problems,
     planned_cycle_s,
+    scurve_legs,
     service_steps,
     whole_second_holds,
 )
@@ -467,3 +469,51 @@ def test_merged_slot_end_points_lie_on_their_leg_at_their_planned_time(square_si
     t = np.cumsum(delta[:3])
     expect = q[0] + (t[:2] / t[2])[:, None] * (q[3] - q[0])
     np.testing.assert_allclose(q[1:3], expect, atol=1e-9)
+
+
+def _scurve_square(per_side=4, stretch=1.0):
+    """100 m sides timed as the autopilot's S-curve at V (side 2 ``stretch`` times slower),
+    ``per_side`` equal slots each, then a hover at the first corner for the rest of T."""
+    site = make_site(uav={"altitude": 30.0, "max_speed": 10.0, "period": 80.0,
+                          "slots": 4 * per_side + 1})
+    prof = scurve_legs(site, [100.0], site.max_speed_mps)
+    total = float(prof.total_s[0])
+    along, _, _ = prof.state(np.zeros(per_side, dtype=np.int64),
+                             total * np.arange(1, per_side + 1) / per_side)
+    corners = np.array(SQUARE)
+    points, delta = [corners[0]], []
+    for k in range(4):
+        a, b = corners[k], corners[(k + 1) % 4]
+        points += list(a + along[:, None] / 100.0 * (b - a))
+        delta += [total / per_side * (stretch if k == 1 else 1.0)] * per_side
+    points.append(corners[0])
+    delta.append(site.period_s - sum(delta))
+    return site, solution_for(site, np.array(points), np.array(delta))
+
+
+def test_slots_timed_as_the_autopilot_s_curve_become_one_leg_at_top_speed():
+    site, sol = _scurve_square()
+    m = build_mission(sol, MissionOptions(autopilot="px4"))
+    assert [(s.moving_slots, s.scurve) for s in m.steps] == [(4, True)] * 4
+    first, last = m.cycle_items
+    speeds = [it.params[1] for it in m.plan.items[first:last + 1]
+              if it.command == Cmd.DO_CHANGE_SPEED]
+    assert speeds == [site.max_speed_mps]
+    assert cycle_duration_s(m) == pytest.approx(site.period_s, abs=1e-6)
+    assert mission_summary(m)["scurve_legs"] == 4
+
+
+def test_slots_off_the_s_curve_are_not_merged_as_one():
+    _, sol = _scurve_square(stretch=1.05)  # side 2 flown 5 % slower than the autopilot would
+    m = build_mission(sol, MissionOptions(autopilot="px4"))
+    side2 = [s for s in m.steps if set(s.slots[:s.moving_slots]) <= {5, 6, 7, 8}]
+    assert side2 and not any(s.scurve for s in side2)
+    assert sum(s.scurve for s in m.steps) == 3
+
+
+def test_the_validator_scores_s_curve_legs():
+    site, sol = _scurve_square()
+    m = build_mission(sol, MissionOptions(autopilot="px4"))
+    flight = resolve_flight(m.plan, site)
+    rep = score_track(replay(flight, make_profile("arducopter", site)), flight, site, m.plan)
+    assert rep.throughput is not None, [f.message for f in rep.findings]
