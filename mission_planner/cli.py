@@ -292,10 +292,21 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
         f"({summary['service_waypoints_merged']} waypoints merged into longer legs), "
         f"cycle {summary['cycle_duration_s']:.1f} s (T = {summary['period_s']:g} s), "
         f"min rate {mission.solution.min_rate_bps_hz:.4f} bps/Hz, min NFZ clearance "
-        + ("none (no NFZ)" if clearance is None else f"{clearance:.3f} m"),
+        + ("none (no NFZ)" if clearance is None else f"{clearance:.3f} m")
+        + f"; {flight.profile.name} replay: " + _replay_summary(flight),
         file=sys.stderr,
     )
     return 0
+
+
+def _replay_summary(flight: FlightCheck) -> str:
+    cycle, rate = flight.replayed_cycle_s, flight.replayed_min_rate_bps_hz
+    clearance = min(flight.clearance_by_nfz_m.values(), default=None)
+    return ", ".join([
+        "cycle " + ("not completed" if cycle is None else f"{cycle:.1f} s"),
+        "min rate " + ("not scored" if rate is None else f"{rate:.4f} bps/Hz"),
+        "min NFZ clearance " + ("none (no NFZ)" if clearance is None else f"{clearance:.2f} m"),
+    ])
 
 
 def main() -> None:
