@@ -393,12 +393,20 @@ def merge_straight_steps(
         start = q[steps[i - 1].index] if i > 0 else q[0]
         return _Run.of(q, start, steps[i:j])
 
+    def from_rest(i: int) -> bool:
+        """Whether the plan may be at rest when step i starts: at q[0], after a hold or a
+        corner (an S-curve leg cannot start inside a straight stretch)."""
+        if i == 0 or steps[i - 1].hold_s > 0 or steps[i - 1].leg_s <= 0:
+            return True
+        before = run_at(i - 1, i + 1)
+        return before is None or not before.is_straight(angle_deg, offset_m)
+
     out: list[CycleStep] = []
     i = 0
     while i < len(steps):
         j = i + 1
         longest = i + 1  # the longest straight run from i, for the S-curve test
-        while longest < len(steps):
+        while scurve is not None and from_rest(i) and longest < len(steps):
             r = run_at(i, longest + 1)
             if r is None or not r.is_straight(angle_deg, offset_m):
                 break
