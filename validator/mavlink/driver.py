@@ -86,8 +86,8 @@ class Telemetry:
     ``t_s`` vehicle seconds since boot; ``lat_deg``/``lon_deg``; ``rel_alt_m`` above home;
     ``vel_mps`` (n, 3) north, east, down; ``mission_seq`` the vehicle's current mission item
     (its own numbering: ArduPilot counts home as 0); ``armed``; ``fence_breach``. ``reached``
-    lists (t_s, seq) of MISSION_ITEM_REACHED; ``mission_start_s`` when MISSION_START was
-    accepted; ``end_reason`` why recording stopped.
+    lists (t_s, seq) of MISSION_ITEM_REACHED; ``takeoff_start_s`` and ``mission_start_s`` when
+    NAV_TAKEOFF and MISSION_START were accepted; ``end_reason`` why recording stopped.
     """
 
     t_s: NDArray[np.float64]
@@ -100,6 +100,7 @@ class Telemetry:
     fence_breach: NDArray[np.bool_]
     reached: list[tuple[float, int]] = field(default_factory=list)
     mission_start_s: float = math.nan
+    takeoff_start_s: float = math.nan
     end_reason: str = ""
 
     @property
@@ -122,12 +123,11 @@ class _Recorder:
         self.t_s = math.nan
         self.home_amsl_m = math.nan
         self.last_heard = time.monotonic()
+        link.listeners.append(self.take)
 
     def pump(self, until: float, stop: Callable[[], bool]) -> bool:
         """Record until ``stop()`` holds (True) or ``until`` (monotonic) passes (False);
         :class:`LinkError` when the vehicle stays silent for the link's timeout."""
-        types = ("GLOBAL_POSITION_INT", "HEARTBEAT", "MISSION_CURRENT", "MISSION_ITEM_REACHED",
-                 "FENCE_STATUS")
         while True:
             if stop():
                 return True
@@ -137,13 +137,12 @@ class _Recorder:
             if now - self.last_heard > self.link.timeout_s:
                 raise LinkError(f"the vehicle stopped reporting for {self.link.timeout_s:g} s "
                                 "during the flight")
-            msg = self.link.recv(types, min(until, now + 0.2))
-            if msg is not None:
-                self.last_heard = time.monotonic()
-                self.take(msg)
+            self.link.recv((), min(until, now + 0.05))  # messages reach take() as listener
 
     def take(self, m: Any) -> None:
-        """Fold one pymavlink message into the state (fields are its attributes)."""
+        """Fold one pymavlink message into the state (fields are its attributes); the link
+        calls this for every message it reads from the vehicle."""
+        self.last_heard = time.monotonic()
         kind = m.get_type()
         if kind == "GLOBAL_POSITION_INT":
             self.t_s = m.time_boot_ms / 1000.0
@@ -162,7 +161,8 @@ class _Recorder:
         elif kind == "FENCE_STATUS":
             self.breach = bool(m.breach_status)
 
-    def telemetry(self, mission_start_s: float, end_reason: str) -> Telemetry:
+    def telemetry(self, takeoff_start_s: float, mission_start_s: float,
+                  end_reason: str) -> Telemetry:
         rows = self.rows or [(math.nan,) * 7 + (-1, False, False)]
         cols = list(zip(*rows, strict=True))
         return Telemetry(
@@ -176,6 +176,7 @@ class _Recorder:
             fence_breach=np.asarray(cols[9], dtype=bool),
             reached=list(self.reached),
             mission_start_s=mission_start_s,
+            takeoff_start_s=takeoff_start_s,
             end_reason=end_reason,
         )
 
@@ -246,6 +247,7 @@ def fly_mission(
     say(f"takeoff to {alt:g} m")
     # ArduPilot reads NAV_TAKEOFF's param7 above home, PX4 as AMSL.
     param7 = rec.home_amsl_m + alt if modes.px4 else alt
+    takeoff_s = rec.t_s  # before asking: a lost ACK delays the answer, not the climb
     _until_accepted(link, rec, mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, 0, 0, param7)
 
     def at_altitude() -> bool:
@@ -254,10 +256,10 @@ def fly_mission(
     if not _pump_vehicle_time(rec, 120.0 + alt / 0.5, at_altitude):
         raise LinkError(f"takeoff: the vehicle did not reach {alt:g} m")
     say("AUTO, MISSION_START")
+    start_s = rec.t_s  # AUTO alone starts ArduCopter's mission
+    rec.reached.clear()
     _set_mode(link, rec, modes, modes.auto)
     _until_accepted(link, rec, mavlink.MAV_CMD_MISSION_START, 0, 0)
-    start_s = rec.t_s
-    rec.reached.clear()
     nav = [i for i, it in enumerate(plan.items) if 16 <= it.command < 100]
     last_seq = (nav[-1] if nav else len(plan.items) - 1) + (1 if link.vehicle.is_ardupilot else 0)
     flown = {"airborne": False}
@@ -279,7 +281,7 @@ def fly_mission(
     else:
         reason = f"time limit ({time_limit_s:g} s)"
     say(f"recorded {len(rec.rows)} samples: {reason}")
-    return rec.telemetry(start_s, reason)
+    return rec.telemetry(takeoff_s, start_s, reason)
 
 
 def _pump_vehicle_time(rec: _Recorder, limit_s: float, stop: Callable[[], bool],
@@ -298,14 +300,23 @@ def _pump_vehicle_time(rec: _Recorder, limit_s: float, stop: Callable[[], bool],
 
 def telemetry_track(telemetry: Telemetry, flight: Flight, site: Site, *, ardupilot: bool,
                     source: str) -> Track:
-    """The recorded flight from MISSION_START on, as a :class:`Track` aligned with ``flight``
-    (ArduPilot's seq converted to plan item indices), its clock starting at MISSION_START."""
-    t0 = telemetry.mission_start_s if math.isfinite(telemetry.mission_start_s) else 0.0
+    """The recorded flight from NAV_TAKEOFF on as a :class:`Track` aligned with ``flight``,
+    its clock starting at the takeoff like the replay's. The climb flown in GUIDED before
+    MISSION_START counts as the mission's takeoff item when the mission starts with one;
+    ArduPilot's seq numbers become plan item indices."""
+    t0 = telemetry.takeoff_start_s
+    if not math.isfinite(t0):
+        t0 = telemetry.mission_start_s if math.isfinite(telemetry.mission_start_s) else 0.0
     keep = telemetry.t_s >= t0
+    t = telemetry.t_s[keep]
     seq = telemetry.mission_seq[keep] - (1 if ardupilot else 0)
+    if flight.legs and flight.legs[0].kind == "takeoff":
+        # until the vehicle reports an item past the takeoff, it is flying the takeoff
+        past = np.flatnonzero(seq > flight.legs[0].item)
+        seq[: past[0] if past.size else seq.size] = flight.legs[0].item
     return track_from_geodetic(
-        flight, site, telemetry.t_s[keep] - t0, telemetry.lat_deg[keep],
-        telemetry.lon_deg[keep], seq, alt_m=telemetry.rel_alt_m[keep], source=source,
+        flight, site, t - t0, telemetry.lat_deg[keep], telemetry.lon_deg[keep], seq,
+        alt_m=telemetry.rel_alt_m[keep], source=source,
     )
 
 

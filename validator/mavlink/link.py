@@ -190,7 +190,8 @@ class Link:
                                     source_component=source_component, timeout_s=timeout_s)
         self.mav = self.conn.mav
         self._last_gcs_heartbeat = 0.0
-        self._confirmation = 0
+        # called with every message from the vehicle that recv() reads, wanted or not
+        self.listeners: list[Callable[[Any], None]] = []
         try:
             self.vehicle = self._wait_vehicle(target_system)
         except BaseException:
@@ -225,7 +226,8 @@ class Link:
     def recv(self, types: Iterable[str], deadline: float,
              accept: Callable[[Any], bool] | None = None) -> Any | None:
         """The next message of one of ``types`` from our vehicle before ``deadline``
-        (``time.monotonic()``), or None. Others are dropped."""
+        (``time.monotonic()``), or None. Others go to :attr:`listeners` only, so a recorder
+        misses nothing while a request waits for its answer."""
         wanted = set(types)
         while True:
             self._heartbeat_if_due()
@@ -240,9 +242,11 @@ class Link:
                 else:
                     time.sleep(min(remaining, 0.01))
                 continue
-            if msg.get_type() not in wanted:
-                continue
             if hasattr(self, "vehicle") and msg.get_srcSystem() != self.vehicle.system_id:
+                continue
+            for listener in self.listeners:
+                listener(msg)
+            if msg.get_type() not in wanted:
                 continue
             target = getattr(msg, "target_system", 0)
             if target not in (0, self.conn.source_system):

@@ -1,6 +1,8 @@
 """MAVSDK 4.x as the outside ground station: what it uploads, sitl-vehicle holds, and what
 sitl-vehicle holds, it downloads."""
 
+import time
+
 import pytest
 from mavsdk import ComponentType, Configuration, Mavsdk
 from mavsdk.plugins.mission_raw import MissionItem, MissionRaw
@@ -37,6 +39,9 @@ def test_mavsdk_upload_is_what_the_vehicle_holds(plan, ground_station):
     wire = plan_to_wire(plan, home_item=True)
     mission_raw.upload_mission([_as_mavsdk(w) for w in wire.mission])
     mission_raw.upload_geofence([_as_mavsdk(w) for w in wire.fence])
+    deadline = time.monotonic() + 2.0  # the vehicle stores a list just after its final ACK
+    while not vehicle.lists().fence and time.monotonic() < deadline:
+        time.sleep(0.01)
     held = vehicle.lists()
     assert [w.content() for w in held.mission] == [w.content() for w in wire.mission]
     assert [w.content() for w in held.fence] == [w.content() for w in wire.fence]

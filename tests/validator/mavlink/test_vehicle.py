@@ -89,8 +89,8 @@ def test_the_vehicle_flies_the_validators_replay(start_vehicle):
     flight = resolve_flight(plan, site)
     model = replay(flight, profile)
     done = {leg.item: t for leg, t in zip(flight.legs, model.leg_done_s, strict=True)}
-    # ArduPilot seq -> plan item; times from MISSION_START, as the track's
-    reached = {seq - 1: t - tel.mission_start_s for t, seq in tel.reached}
+    # ArduPilot seq -> plan item; times from NAV_TAKEOFF, as the track's
+    reached = {seq - 1: t - tel.takeoff_start_s for t, seq in tel.reached}
     assert sorted(reached) == sorted(done)
     # The vehicle took off in GUIDED, the replay in AUTO: compare from the first waypoint.
     t0_flown, t0_model = reached[2], done[2]
