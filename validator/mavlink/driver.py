@@ -40,6 +40,7 @@ from validator.site import Site
 TAKEOFF_REACHED_FRACTION = 0.95
 LANDING_COMMANDS = (Cmd.NAV_LAND, Cmd.NAV_RETURN_TO_LAUNCH)
 DISARM_WAIT_S = 15.0  # vehicle seconds from the last item's completion to the disarm
+ARM_PATIENCE_S = 60.0  # a fresh ArduPilot/PX4 SITL refuses GUIDED and arming until its EKF is up
 TELEMETRY_HZ = 20.0
 
 
@@ -203,22 +204,27 @@ def _request_streams(link: Link) -> None:
         link.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, float(msg_id), us)
 
 
-def _until_accepted(link: Link, rec: _Recorder, command: int, *params: float) -> None:
-    """Repeat ``command`` until accepted; autopilots refuse arming while pre-arm checks run."""
+def _until_accepted(link: Link, rec: _Recorder, command: int, *params: float,
+                    patience_s: float | None = None) -> None:
+    """Repeat ``command`` once a second until accepted, for ``patience_s`` (default: the
+    link's timeout); a refusal is an answer, so waiting on it is not a hang."""
     start = time.monotonic()
+    patience = link.timeout_s if patience_s is None else max(patience_s, link.timeout_s)
     while True:
         result = link.command(command, *params)
         if result == mavlink.MAV_RESULT_ACCEPTED:
             return
-        if time.monotonic() - start > link.timeout_s:
+        if time.monotonic() - start > patience:
             name = mavlink.enums["MAV_RESULT"][result].name
             raise LinkError(f"command {command_name(command)}: vehicle answered {name} for "
-                            f"{link.timeout_s:g} s")
+                            f"{patience:g} s")
         rec.pump(time.monotonic() + 1.0, lambda: False)
 
 
-def _set_mode(link: Link, rec: _Recorder, modes: ModeNumbers, custom_mode: int) -> None:
-    _until_accepted(link, rec, mavlink.MAV_CMD_DO_SET_MODE, *modes.set_mode_params(custom_mode))
+def _set_mode(link: Link, rec: _Recorder, modes: ModeNumbers, custom_mode: int,
+              patience_s: float | None = None) -> None:
+    _until_accepted(link, rec, mavlink.MAV_CMD_DO_SET_MODE, *modes.set_mode_params(custom_mode),
+                    patience_s=patience_s)
 
 
 def fly_mission(
@@ -242,8 +248,9 @@ def fly_mission(
     if not rec.pump(time.monotonic() + link.timeout_s, lambda: bool(rec.rows)):
         raise LinkError(f"the vehicle sent no GLOBAL_POSITION_INT within {link.timeout_s:g} s")
     say("mode hold / arm")
-    _set_mode(link, rec, modes, modes.hold)
-    _until_accepted(link, rec, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0)
+    _set_mode(link, rec, modes, modes.hold, patience_s=ARM_PATIENCE_S)
+    _until_accepted(link, rec, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0,
+                    patience_s=ARM_PATIENCE_S)
     say(f"takeoff to {alt:g} m")
     # ArduPilot reads NAV_TAKEOFF's param7 above home, PX4 as AMSL.
     param7 = rec.home_amsl_m + alt if modes.px4 else alt
