@@ -81,7 +81,7 @@ def main() -> None:
             wall = time.perf_counter() - t0
     flown = telemetry_track(tel, flight, site, ardupilot=True, source="sitl")
     model = replay(flight, profile)
-    reached = {seq - 1: t - tel.mission_start_s for t, seq in tel.reached}
+    reached = {seq - 1: t - tel.takeoff_start_s for t, seq in tel.reached}
     first_wp = 2
     shift = model.item_reached_s(flight, first_wp)[0] - reached[first_wp]
     sel = flown.t_s >= reached[first_wp]

@@ -66,6 +66,7 @@ MAVSDK_PACKET_TYPES_TO_GCS = frozenset({
     "MISSION_REQUEST", "MISSION_ACK",
 })
 FORCE_DISARM_MAGIC = 21196
+MISSION_CURRENT_PERIOD_S = 0.2  # simulated seconds; HEARTBEAT and the rest once a second
 
 
 class CopterMode(IntEnum):
@@ -375,6 +376,7 @@ class SitlVehicle:
         next_step = 0.0
         last_slow_wall = -1.0
         last_slow_sim = -1.0
+        last_current_sim = -1.0
         fd = self.conn.port.fileno()
         while not self._stop.is_set():
             self._drain()
@@ -390,6 +392,10 @@ class SitlVehicle:
                 if next_step - last_slow_sim >= 1.0 or now - last_slow_wall >= 1.0:
                     self._send_slow()
                     last_slow_sim, last_slow_wall = next_step, now
+                elif next_step - last_current_sim >= MISSION_CURRENT_PERIOD_S:
+                    # often enough that a short leg shows up in a lossy recording
+                    self._send_mission_current()
+                    last_current_sim = next_step
                 next_step += step_s
             wait = wall0 + next_step / cfg.speedup - time.monotonic()
             if wait > 0:
