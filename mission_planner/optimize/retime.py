@@ -38,6 +38,8 @@ from validator.geometry import min_leg_clearance
 from validator.site import Site
 
 STATIONARY_M = 0.05  # a slot that moves less than this is hovering
+HOVER_SLOT_DISCOUNT = 0.25
+MIN_HOLD_S = 1.0  # every waypoint of a flyable plan holds this long at least (whole seconds)
 SIMPLIFY_STEPS_M = (10.0, 5.0, 2.0, 1.0, 0.5, 0.2, 0.0)
 
 
@@ -84,7 +86,22 @@ def skeleton(
     hover = {v for v, h in zip(verts, holds, strict=True) if h > 0}
     keep = _simplify(q[:n], verts, hover, centres_m, radii_m, tolerance_m)
     hold_of = dict(zip(verts, holds, strict=True))
-    return Skeleton(q[keep], np.array([hold_of[v] for v in keep]), np.array(keep, dtype=np.int64))
+    # Waypoints closer than a hover's wobble are one waypoint (no zero-length legs).
+    points: list[NDArray[np.float64]] = []
+    hold: list[float] = []
+    index: list[int] = []
+    for v in keep:
+        if points and np.hypot(*(q[v] - points[-1])) < STATIONARY_M:
+            hold[-1] += hold_of[v]
+            continue
+        points.append(q[v])
+        hold.append(hold_of[v])
+        index.append(v)
+    if len(points) > 1 and np.hypot(*(points[-1] - points[0])) < STATIONARY_M:
+        hold[0] += hold.pop()
+        points.pop()
+        index.pop()
+    return Skeleton(np.array(points), np.array(hold), np.array(index, dtype=np.int64))
 
 
 def _simplify(
@@ -144,19 +161,39 @@ def leg_profiles(site: Site, lengths_m: NDArray[np.float64]) -> Profiles1D:
     )
 
 
+def move_times(profiles: Profiles1D) -> NDArray[np.float64]:
+    """Duration (s) of each leg's move; a zero-length leg (a one-waypoint cycle) takes none."""
+    return np.asarray(np.where(profiles.length_m > 0, profiles.total_s, 0.0), dtype=float)
+
+
 def fit_holds(
-    hold_s: NDArray[np.float64], move_s: float, period_s: float
+    hold_s: NDArray[np.float64], move_s: float, period_s: float, min_hold_s: float = MIN_HOLD_S
 ) -> NDArray[np.float64] | None:
-    """Holds rescaled so moves plus holds last exactly the period; None if the moves overrun."""
-    spare = period_s - move_s
+    """Holds so that moves plus holds last exactly the period; None if they cannot.
+
+    Every waypoint holds at least ``min_hold_s`` (the first, where the cycle starts and ends,
+    twice that): a hold makes ArduCopter stop there, so its
+    legs are the rest-to-rest S-curves this module times (with no hold it blends the corner and
+    arrives early). The spare time goes to the optimiser's hover points in proportion to their
+    holds. All holds but the longest are whole seconds, as ArduCopter stores them, so that
+    exporting the plan does not shift its timing.
+    """
+    hold = np.asarray(hold_s, dtype=float)
+    # The first waypoint both starts and ends the cycle (see resample): it stops twice.
+    least = np.full(len(hold), min_hold_s)
+    if len(hold) > 1:
+        least[0] = 2 * min_hold_s
+    spare = period_s - move_s - float(np.sum(least))
     if spare < 0:
         return None
-    total = float(np.sum(hold_s))
-    if total > 0:
-        return np.asarray(hold_s * (spare / total), dtype=float)
-    out = np.zeros_like(hold_s)
-    out[0] = spare
-    return out
+    total = float(np.sum(hold))
+    share = hold * (spare / total) if total > 0 else np.full(len(hold), spare / len(hold))
+    out = least + share
+    longest = int(np.argmax(out))
+    whole = np.floor(out)
+    whole[longest] = out[longest]
+    whole[longest] += float(np.sum(out - whole))
+    return np.asarray(whole, dtype=float)
 
 
 def resample(
@@ -165,7 +202,7 @@ def resample(
     """N slots over the re-timed cycle: (trajectory (N+1, 2), slot lengths (N,)); None when
     the waypoints need more slots than there are."""
     w = len(sk.points_m)
-    move = profiles.total_s
+    move = move_times(profiles)
     # Intervals in time order: hold at waypoint k (if any), then the move of leg k.
     kinds: list[tuple[str, int, float]] = []
     for k in range(w):
@@ -173,12 +210,24 @@ def resample(
             kinds.append(("hold", k, float(hold_s[k])))
         if move[k] > 1e-9:
             kinds.append(("move", k, float(move[k])))
+    # The cycle also ends with a stop at its first waypoint: a whole second of that hold moves
+    # to the end, so that the last leg is flown rest-to-rest even when the mission goes on to
+    # its return transit instead of repeating the cycle.
+    if len(kinds) > 1 and kinds[0][0] == "hold" and kinds[0][2] >= 2 * MIN_HOLD_S:
+        kind, k, d = kinds[0]
+        kinds[0] = (kind, k, d - MIN_HOLD_S)
+        kinds.append((kind, k, MIN_HOLD_S))
     if not kinds or len(kinds) > slots:
         return None
     dur = np.array([d for _, _, d in kinds])
-    # Every interval gets one slot, the rest go where time is longest (largest remainder).
+    # Every interval gets one slot, the rest go by duration (largest remainder). A slot's rate
+    # is taken at its end point, exact while hovering but biased while moving, so a second of
+    # move earns HOVER_SLOT_DISCOUNT⁻¹ times the slots of a second of hover.
+    weight = dur * np.array(
+        [HOVER_SLOT_DISCOUNT if kind == "hold" else 1.0 for kind, _, _ in kinds]
+    )
     extra = slots - len(kinds)
-    share = dur / dur.sum() * extra
+    share = weight / weight.sum() * extra
     count = 1 + np.floor(share).astype(int)
     rest = slots - int(count.sum())
     count[np.argsort(-(share - np.floor(share)), kind="stable")[:rest]] += 1

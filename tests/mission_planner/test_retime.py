@@ -37,15 +37,19 @@ def test_skeleton_keeps_a_corner_that_would_cut_a_zone() -> None:
     assert any(np.allclose(p, [50.0, 40.0]) for p in sk.points_m)
 
 
-def test_fit_holds_gives_the_spare_time_to_the_holds() -> None:
-    holds = fit_holds(np.array([4.0, 2.0]), move_s=20.0, period_s=26.0)
+def test_fit_holds_fills_the_period_in_whole_seconds_but_one() -> None:
+    holds = fit_holds(np.array([4.0, 2.0, 0.0]), move_s=20.0, period_s=32.5)
     assert holds is not None
-    assert holds.sum() == pytest.approx(6.0)
-    assert holds[0] == pytest.approx(2 * holds[1])
+    assert holds.sum() == pytest.approx(12.5)
+    assert np.all(holds >= 1.0)
+    assert np.count_nonzero(holds != np.round(holds)) <= 1
+    # The spare 9.5 s beyond the 1 s minimum goes 2:1 to the two hover points.
+    assert holds[0] > holds[1] > holds[2] == 1.0
 
 
-def test_fit_holds_refuses_moves_longer_than_the_period() -> None:
+def test_fit_holds_refuses_moves_that_leave_no_time_to_stop() -> None:
     assert fit_holds(np.array([1.0]), move_s=30.0, period_s=26.0) is None
+    assert fit_holds(np.array([0.0, 0.0, 0.0]), move_s=24.0, period_s=26.0) is None
 
 
 def test_resample_lays_slots_on_the_s_curves(site: Site) -> None:
