@@ -355,7 +355,8 @@ class Link:
         out: list[WireItem] = []
         last_progress = last_open = time.monotonic()
         opened = False  # a MISSION_REQUEST_LIST re-sent mid-download awaits its answer
-        reopens = 0
+        best = 0  # most items any attempt got
+        fruitless = 0  # attempts in a row that got no further than ``best``
         while count is None or len(out) < count:
             now = time.monotonic()
             if now - last_progress > self.timeout_s:
@@ -364,10 +365,13 @@ class Link:
                 raise LinkError(f"{label} download: no answer to {what} within "
                                 f"{self.timeout_s:g} s")
             if count is not None and now - max(last_progress, last_open) > RESTART_AFTER_S:
-                reopens += 1
-                if reopens >= TRANSFER_ATTEMPTS:
+                # Each reopen starts again at item 0: go on while attempts get further.
+                fruitless = fruitless + 1 if len(out) <= best else 0
+                best = max(best, len(out))
+                if fruitless >= TRANSFER_ATTEMPTS:
                     raise LinkError(f"{label} download: gave up after {TRANSFER_ATTEMPTS} "
-                                    "attempts; the link loses too many packets")
+                                    "attempts without progress; the link loses too many "
+                                    "packets")
                 opened = True
                 last_open = now
                 self.mav.mission_request_list_send(ts, tc, mtype)
