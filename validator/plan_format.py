@@ -4,7 +4,8 @@ A :class:`Plan` holds what the file holds: mission items with MAVLink command nu
 planned home, geofence circles and polygons, rally points, and one extra key of our own
 (``EXTRA_KEY``, ignored by QGroundControl) that carries the planner's schedule and power so the
 validator can score a flown track. Angles are degrees WGS84; altitudes metres (item altitudes
-in the item's frame, home and rally AMSL unless a frame says otherwise).
+in the item's frame; the planned home AMSL; rally and breach-return points above home, as
+QGroundControl and ArduPilot read them).
 """
 
 from __future__ import annotations
@@ -109,7 +110,8 @@ class Plan:
     hover_speed_mps: float = 5.0
     circles: list[FenceCircle] = field(default_factory=list)
     polygons: list[FencePolygon] = field(default_factory=list)
-    rally: list[tuple[float, float, float]] = field(default_factory=list)  # lat, lon, alt
+    # lat, lon, alt above home
+    rally: list[tuple[float, float, float]] = field(default_factory=list)
     breach_return: tuple[float, float, float] | None = None
     extra: dict[str, Any] | None = None  # our EXTRA_KEY metadata, if any
 
