@@ -412,14 +412,16 @@ def merge_straight_steps(
                 break
             longest += 1
         is_scurve = False
-        if longest - i > 1 and (r := run_at(i, longest)) is not None and as_scurve(r):
+        if longest > i and (r := run_at(i, longest)) is not None and as_scurve(r):
             j, is_scurve = longest, True
         else:
             while j < len(steps) and (r := run_at(i, j + 1)) is not None and one_speed(r):
                 j += 1
         run = steps[i:j]
         if len(run) == 1:
-            out.append(run[0])
+            # A single slot timed as a rest-to-rest S-curve is still flown at V, not at L/δ.
+            out.append(replace(run[0], speed_mps=scurve_speed_mps, scurve=True) if is_scurve
+                       else run[0])
         else:
             moving = tuple(s.slots[0] for s in run)
             out.append(CycleStep(run[-1].index, (*moving, *run[-1].slots[1:]),

@@ -163,7 +163,7 @@ def _track_lines(title: str, rep: TrackReport) -> list[str]:
             per = " (" + ", ".join(f"{x:.1f}" for x in c.flown_cycles_s) + ")"
         lines.append(
             f"  cycle ({c.cycles} x, {c.source}): planned {c.planned_period_s:.1f} s, "
-            f"plan timing {c.ideal_cycle_s:.1f} s, flown {c.flown_cycle_s:.1f} s{per} "
+            f"at commanded speeds {c.ideal_cycle_s:.1f} s, flown {c.flown_cycle_s:.1f} s{per} "
             f"= {c.ratio:.2f} x planned"
         )
     lags = [w for w in rep.waypoint_lag if w["lag_s"] is not None]

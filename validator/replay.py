@@ -458,6 +458,24 @@ def slot_map(flight: Flight, service: ServicePlan) -> SlotMap | str:
     )
 
 
+def planned_leg_times(flight: Flight, service: ServicePlan) -> dict[int, float] | None:
+    """Planned arrival (s after the cycle's start) at each leg of the service span, from the
+    planner's slot lengths; None when the slots cannot be matched to the legs."""
+    sm = slot_map(flight, service)
+    if isinstance(sm, str) or flight.cycle is None:
+        return None
+    delta = service.delta_s
+    out: dict[int, float] = {}
+    t = 0.0
+    for k in range(flight.cycle.start_leg, flight.cycle.end_leg + 1):
+        if k in sm.moving:
+            t += float(np.sum(delta[sm.moving[k][:, 0].astype(int)]))
+        out[k] = t
+        if k in sm.hold:
+            t += float(np.sum(delta[sm.hold[k][:, 0].astype(int)]))
+    return out
+
+
 def planned_rates(service: ServicePlan, site: Site) -> NDArray[np.float64]:
     """Average rate (bps/Hz over T) of each GN in the paper's model: slot n's rate at q[n]."""
     k = service.schedule
@@ -595,10 +613,19 @@ def score_track(
 
     t0 = window[0] if window else float(track.t_s[0])
     r0 = ref_window[0] if ref_window else float(reference.t_s[0])
+    # Inside the service cycle the planner's own slot times are the plan's timing when the
+    # plan carries them; the ideal replay knows only commanded speeds, not S-curve timing.
+    slot_times = planned_leg_times(flight, flight.service) if flight.service else None
     lags = []
     for li, leg in enumerate(flight.legs):
         flown_t = track.leg_reached_s[li] - t0
-        plan_t = reference.leg_reached_s[li] - r0
+        if slot_times is not None and li in slot_times:
+            plan_t = slot_times[li]
+        elif slot_times is not None and li > max(slot_times):  # after the cycle: ideal legs
+            end = max(slot_times)
+            plan_t = slot_times[end] + reference.leg_reached_s[li] - reference.leg_reached_s[end]
+        else:
+            plan_t = reference.leg_reached_s[li] - r0
         lag = None if math.isnan(flown_t) or math.isnan(plan_t) else float(flown_t - plan_t)
         lags.append({"leg": li, "item": leg.item, "planned_s": float(plan_t),
                      "flown_s": None if math.isnan(flown_t) else float(flown_t), "lag_s": lag})

@@ -101,3 +101,25 @@ def test_flyable_moves_take_as_long_as_the_s_curves(site: Site, flyable: Solutio
 
 def test_flyable_plan_keeps_clear_of_every_zone(flyable: Solution) -> None:
     assert flyable.nfz_clearance_min_m >= flyable.site.buffer_m - 1e-6
+
+
+def test_flyable_plan_is_flown_on_time_by_the_arducopter_replay(flyable: Solution) -> None:
+    """Exported and replayed as ArduCopter flies it, the cycle keeps T, every cycle waypoint
+    is reached when the planner's slot times say, and the nodes get the planned min rate."""
+    from mission_planner.flight_report import replay_mission
+    from mission_planner.mission import build_mission
+
+    mission = build_mission(flyable)
+    report = replay_mission(mission).report
+    assert report.cycle is not None
+    assert report.cycle.ratio == pytest.approx(1.0, abs=0.05)
+    first, last = mission.cycle_items
+    in_cycle = [
+        w["lag_s"]
+        for w in report.waypoint_lag
+        if w["lag_s"] is not None and first <= w["item"] <= last
+    ]
+    assert len(in_cycle) >= 2
+    assert max(abs(x) for x in in_cycle) < 1.5
+    assert report.throughput is not None
+    assert report.throughput.flown_min == pytest.approx(report.throughput.planned_min, rel=0.05)
