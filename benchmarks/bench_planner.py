@@ -73,7 +73,7 @@ def main() -> None:
         depth = f", deepest {-min(cuts):.2f} m" if cuts else ""
         print(
             f"{scheme:>12}: mean min rate {statistics.mean(r for r, _, _ in rows):.4f} bps/Hz, "
-            f"mean ratio {statistics.mean(ratios):.3f}, lowest {min(ratios):.3f}; "
+            f"mean ratio {statistics.mean(ratios):.4f}, lowest {min(ratios):.3f}; "
             f"{len(cuts)}/{len(rows)} plans cut an NFZ{depth}"
         )
     prop = statistics.mean(r for r, _, _ in results["proposed"])
