@@ -67,16 +67,11 @@ import numpy as np
 import shapely
 from numpy.typing import ArrayLike, NDArray
 
+from mission_planner.optimize.retime import leg_profiles
 from mission_planner.optimize.solution import Solution
 from mission_planner.transit import DEFAULT_ARC_STEP_DEG, path_length_m, shortest_safe_path
 from validator.audit import audit
-from validator.dynamics import (
-    GRAVITY_MPS2,
-    Profiles1D,
-    jerk_ramp_s,
-    make_profile,
-    scurve_rest_to_rest,
-)
+from validator.dynamics import Profiles1D
 from validator.errors import InputError
 from validator.geodesy import LocalFrame, round_e7
 from validator.geometry import (
@@ -266,14 +261,8 @@ def service_steps(trajectory_m: ArrayLike, delta_s: ArrayLike,
 
 def scurve_legs(site: Site, lengths_m: ArrayLike, speed_mps: float) -> Profiles1D:
     """Rest-to-rest S-curves (the validator's ``arducopter`` model) of straight legs flown at
-    ``speed_mps`` within the site's limits: acceleration ``uav.max_accel`` (capped by
-    ArduCopter's default lean angle), jerk ``uav.max_jerk`` with ArduCopter's jerk ramp."""
-    profile = make_profile("arducopter", site)
-    accel = min(profile.si("WPNAV_ACCEL"), GRAVITY_MPS2 * math.tan(profile.si("ANGLE_MAX")))
-    lengths = np.atleast_1d(np.asarray(lengths_m, dtype=float))
-    jerk = np.full(lengths.shape, profile.si("WPNAV_JERK"))
-    return scurve_rest_to_rest(lengths, np.full(lengths.shape, float(speed_mps)),
-                               np.full(lengths.shape, accel), jerk, jerk_ramp_s(profile, jerk))
+    ``speed_mps`` within the site's limits: the timing dynamics-aware plans were made with."""
+    return leg_profiles(site, lengths_m, speed_mps)
 
 
 @dataclass(frozen=True)

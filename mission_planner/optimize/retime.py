@@ -24,7 +24,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from shapely.geometry import LineString
 
 from validator.dynamics import (
@@ -146,16 +146,24 @@ def _indices_of(line: LineString, pts: NDArray[np.float64]) -> list[int]:
     return out
 
 
-def leg_profiles(site: Site, lengths_m: NDArray[np.float64]) -> Profiles1D:
-    """Rest-to-rest S-curves of legs flown by ArduCopter at the site's limits (top speed V)."""
+def leg_profiles(site: Site, lengths_m: ArrayLike, speed_mps: float | None = None) -> Profiles1D:
+    """Rest-to-rest S-curves of straight legs as ArduCopter flies them (the validator's
+    ``arducopter`` model) at ``speed_mps`` (default: the site's V): acceleration
+    ``uav.max_accel`` capped by the default lean angle, jerk ``uav.max_jerk`` with
+    ArduCopter's jerk ramp."""
     profile = make_profile("arducopter", site)
+    lengths = np.atleast_1d(np.asarray(lengths_m, dtype=float))
     accel = min(profile.si("WPNAV_ACCEL"), GRAVITY_MPS2 * math.tan(profile.si("ANGLE_MAX")))
-    jerk = np.full(len(lengths_m), profile.si("WPNAV_JERK"))
-    speed = min(profile.si("WPNAV_SPEED"), profile.si("VEHICLE_SPEED_MAX"))
+    jerk = np.full(lengths.shape, profile.si("WPNAV_JERK"))
+    speed = (
+        speed_mps
+        if speed_mps is not None
+        else min(profile.si("WPNAV_SPEED"), profile.si("VEHICLE_SPEED_MAX"))
+    )
     return scurve_rest_to_rest(
-        np.asarray(lengths_m, dtype=float),
-        np.full(len(lengths_m), speed),
-        np.full(len(lengths_m), accel),
+        lengths,
+        np.full(lengths.shape, float(speed)),
+        np.full(lengths.shape, accel),
         jerk,
         jerk_ramp_s(profile, jerk),
     )
