@@ -31,7 +31,7 @@ from mission_planner.optimize.scaled import (
 )
 from mission_planner.optimize.scheduling import scheduling_problem
 from mission_planner.optimize.solution import SCHEMES, Solution
-from mission_planner.optimize.trajectory import trajectory_problem
+from mission_planner.optimize.trajectory import RELAXED_TERMS, trajectory_problem
 from validator.errors import InputError
 from validator.site import Site
 
@@ -128,13 +128,14 @@ def plan(
 def _algorithm1(sc: Scaled, scheme: str, opt: PlannerOptions, progress: Progress | None) -> _State:
     """The BCD loop of Algorithm 1 from the initial tour; returns the relaxed final state."""
     n = sc.num_slots
-    traj = trajectory_problem(n, sc.num_gns, sc.num_nfzs, scheme)
     q, delta = initial_tour(sc)
     # Uniform power just inside the budget: (7) then leaves (P3-2) free to move δ at first, and
     # it does not coincide with Σδ = T (which would leave the solver no interior point).
     state = _State(q, delta, _initial_schedule(sc, q), np.full(n, 1.0 - 1e-3))
 
     def trajectory_step(st: _State) -> None:
+        terms = 1 if _binary_gap(st.s) < 1e-6 else RELAXED_TERMS
+        traj = trajectory_problem(n, sc.num_gns, sc.num_nfzs, scheme, terms)
         step = traj.solve(sc, st.q, st.delta, st.power, st.s)
         objective = min_rate(sc, st.q, st.delta, st.power, st.s)
         if step is not None:

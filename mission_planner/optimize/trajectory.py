@@ -17,10 +17,11 @@ The average-power constraint (7) contains δ, which this block moves, so it is k
 the paper's list for (P3-2) omits it. λ, μ are set in closed form ((28), (29)) before each solve.
 Positions q̃[1..N] are the variable; q̃[0] is q̃[N] (closed cycle). Units: see :mod:`.scaled`.
 
-Size: only the GN with the largest s_k[n] gets a rate term in slot n (``MAX_TERMS``). Once the
-schedule is binary this is exact; while it is relaxed, the dropped terms are non-negative
-rates, so the surrogate stays a lower bound of the objective (measured on the ten benchmark
-sites: the same mean min rate as two terms per slot, 20-40 % faster solves). Everything that
+Size: only the ``terms`` GNs with the largest s_k[n] get a rate term in slot n. With a binary
+schedule one term is exact and 20-40 % faster; while the schedule is relaxed, two terms (see
+:data:`RELAXED_TERMS`) keep the surrogate tight at the current point, as SCA needs (with one,
+a quarter of the steps on the benchmark sites lowered the objective and were thrown away);
+the terms dropped are non-negative rates, so it stays a lower bound. Everything that
 depends on the site enters through parameters, so one compiled problem serves every site of
 the same shape (N, K, M, scheme) — see :func:`trajectory_problem`.
 """
@@ -40,7 +41,7 @@ from mission_planner.optimize.scaled import Scaled
 LN2 = float(np.log(2.0))
 TRUST_REGION = 1.0  # largest move of a waypoint per SCA step, per axis, in 100 m
 MIN_SLOT = 1e-2  # smallest δ̃ (fraction of T/N): δ[n] > 0 (1)
-MAX_TERMS = 1  # rate terms per slot: the GN with the largest s_k[n]
+RELAXED_TERMS = 2  # rate terms per slot while the schedule is fractional (1 once binary)
 
 
 @dataclass(frozen=True)
@@ -57,9 +58,11 @@ def _rows(x: cp.Expression, rows: int, n: int) -> cp.Expression:
 class TrajectoryProblem:
     """(P3-2) built once for a shape; :meth:`solve` re-solves around a new point of any site."""
 
-    def __init__(self, num_slots: int, num_gns: int, num_nfzs: int, scheme: str) -> None:
+    def __init__(
+        self, num_slots: int, num_gns: int, num_nfzs: int, scheme: str, terms: int = 1
+    ) -> None:
         n, k, m = num_slots, num_gns, num_nfzs
-        j = min(k, MAX_TERMS)
+        j = min(k, terms)
         self.shape = (n, k, m, j)
         prev = np.r_[n - 1, np.arange(n - 1)]
         self.q = cp.Variable((n, 2))
@@ -185,10 +188,10 @@ class TrajectoryProblem:
 
 @functools.lru_cache(maxsize=16)
 def trajectory_problem(
-    num_slots: int, num_gns: int, num_nfzs: int, scheme: str
+    num_slots: int, num_gns: int, num_nfzs: int, scheme: str, terms: int = 1
 ) -> TrajectoryProblem:
     """The compiled (P3-2) for this shape, shared by every site of that shape in the process.
 
     cvxpy compiles a DPP problem once (about a second here); later solves only refill parameters.
     """
-    return TrajectoryProblem(num_slots, num_gns, num_nfzs, scheme)
+    return TrajectoryProblem(num_slots, num_gns, num_nfzs, scheme, terms)
