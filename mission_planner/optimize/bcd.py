@@ -252,7 +252,11 @@ def _retimed(
     search = replace(opt, max_iterations=min(opt.max_iterations, SEARCH_ITERATIONS))
     state = _finish(psc, _algorithm1(psc, scheme, search, progress))
     paper = _solution(planning_site, scheme, psc, state, 0.0, {})
-    sk = retime.skeleton(paper.trajectory_m, paper.delta_s, site.nfz_xy_m, site.planning_radius_m)
+    # Simplified legs keep the planner's margin too, so the exporter need not nudge them (a
+    # nudged waypoint no longer lies on the S-curve it was timed with).
+    sk = retime.skeleton(
+        paper.trajectory_m, paper.delta_s, site.nfz_xy_m, site.planning_radius_m + opt.nfz_margin_m
+    )
     lengths = np.linalg.norm(np.roll(sk.points_m, -1, axis=0) - sk.points_m, axis=1)
     profiles = retime.leg_profiles(site, lengths)
     move_s = float(np.sum(retime.move_times(profiles)))

@@ -39,8 +39,9 @@ from validator.site import Site
 
 STATIONARY_M = 0.05  # a slot that moves less than this is hovering
 HOVER_SLOT_DISCOUNT = 0.25
+MIN_SLOT_MOVE_M = 0.1  # the first and last slot of a move travel at least this far
 MIN_HOLD_S = 1.0  # every waypoint of a flyable plan holds this long at least (whole seconds)
-SIMPLIFY_STEPS_M = (10.0, 5.0, 2.0, 1.0, 0.5, 0.2, 0.0)
+SIMPLIFY_STEPS_M = (50.0, 25.0, 10.0, 5.0, 2.0, 1.0, 0.5, 0.2, 0.0)
 
 
 @dataclass(frozen=True)
@@ -243,11 +244,12 @@ def resample(
     deltas: list[float] = []
     nxt = np.roll(sk.points_m, -1, axis=0)
     for (kind, k, d), c in zip(kinds, count, strict=True):
-        deltas.extend([d / c] * c)
         if kind == "hold":
+            deltas.extend([d / c] * c)
             points.extend([sk.points_m[k]] * c)
             continue
-        tau = d * np.arange(1, c + 1) / c
+        tau = _move_boundaries(profiles, k, d, c)
+        deltas.extend(np.diff(np.r_[0.0, tau]))
         along, _, _ = profiles.state(np.full(c, k), tau)
         length = float(profiles.length_m[k])
         unit = (nxt[k] - sk.points_m[k]) / length
@@ -255,3 +257,25 @@ def resample(
     traj = np.array(points)
     traj[-1] = traj[0]  # exactly closed (the last move ends at waypoint 0)
     return traj, np.array(deltas)
+
+
+def _move_boundaries(
+    profiles: Profiles1D, leg: int, duration_s: float, count: int
+) -> NDArray[np.float64]:
+    """End times (s) of ``count`` slots over a move: equal in time, except that every slot
+    moves at least :data:`MIN_SLOT_MOVE_M` (an S-curve starts and ends so slowly that an equal
+    share of time may move less than a hover's wobble, and the exporter would read the slot as
+    a hold)."""
+    tau = duration_s * np.arange(1, count + 1) / count
+    length = float(profiles.length_m[leg])
+    if count < 2 or length < (count + 1) * MIN_SLOT_MOVE_M:
+        return np.asarray(tau, dtype=float)
+    grid = np.linspace(0.0, duration_s, 4096)
+    pos, _, _ = profiles.state(np.full(grid.size, leg), grid)
+    pos = np.maximum.accumulate(pos)
+    step = MIN_SLOT_MOVE_M * 1.01  # a little over, against the grid's interpolation
+    ahead = np.interp(step * np.arange(1, count + 1), pos, grid)  # i+1 steps from the start
+    behind = np.interp(length - step * np.arange(count - 1, -1, -1), pos, grid)
+    out = np.minimum(np.maximum(tau, ahead), behind)
+    out[-1] = duration_s
+    return np.asarray(out, dtype=float)

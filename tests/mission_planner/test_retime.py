@@ -32,7 +32,7 @@ def test_skeleton_keeps_a_corner_that_would_cut_a_zone() -> None:
     # A detour round a zone: dropping its apex would send the leg through the zone.
     traj = np.array([[0.0, 0.0], [0.0, 0.0], [50.0, 40.0], [100.0, 0.0], [100.0, 0.0], [0.0, 0.0]])
     delta = np.array([5.0, 3.0, 3.0, 5.0, 4.0])
-    centres, radii = np.array([[50.0, 20.0]]), np.array([10.0])
+    centres, radii = np.array([[50.0, 5.0]]), np.array([10.0])
     sk = skeleton(traj, delta, centres, radii)
     assert any(np.allclose(p, [50.0, 40.0]) for p in sk.points_m)
 
@@ -123,3 +123,20 @@ def test_flyable_plan_is_flown_on_time_by_the_arducopter_replay(flyable: Solutio
     assert max(abs(x) for x in in_cycle) < 1.5
     assert report.throughput is not None
     assert report.throughput.flown_min == pytest.approx(report.throughput.planned_min, rel=0.05)
+
+
+def test_every_moving_slot_moves_visibly(site: Site) -> None:
+    """An S-curve starts and ends slowly; its first and last slots must still move, or the
+    exporter would read them as holds and split the leg."""
+    sk = skeleton(*_hover_dash(), np.zeros((0, 2)), np.zeros(0))
+    lengths = np.linalg.norm(np.roll(sk.points_m, -1, axis=0) - sk.points_m, axis=1)
+    profiles = leg_profiles(site, lengths)
+    move = float(profiles.total_s.sum())
+    holds = fit_holds(sk.hold_s, move, move + 6.0)
+    assert holds is not None
+    out = resample(sk, holds, profiles, 60)
+    assert out is not None
+    q, d = out
+    steps = np.linalg.norm(np.diff(q, axis=0), axis=1)
+    assert np.all(d > 0)
+    assert np.all((steps == 0.0) | (steps >= 0.1 - 1e-9))
