@@ -257,12 +257,8 @@ def _retimed(
     sk = retime.skeleton(
         paper.trajectory_m, paper.delta_s, site.nfz_xy_m, site.planning_radius_m + opt.nfz_margin_m
     )
-    lengths = np.linalg.norm(np.roll(sk.points_m, -1, axis=0) - sk.points_m, axis=1)
-    profiles = retime.leg_profiles(site, lengths)
-    move_s = float(np.sum(retime.move_times(profiles)))
+    move_s, timed = retime.time_cycle(site, sk, site.period_s, site.slots)
     paper_move_s = max(site.period_s - float(np.sum(sk.hold_s)), 1e-9)
-    holds = retime.fit_holds(sk.hold_s, move_s, site.period_s)
-    timed = None if holds is None else retime.resample(sk, holds, profiles, site.slots)
     if timed is None:
         return None, move_s / paper_move_s
     sc = scale_site(site, opt.nfz_margin_m, opt.gamma)

@@ -46,12 +46,17 @@ SIMPLIFY_STEPS_M = (50.0, 25.0, 10.0, 5.0, 2.0, 1.0, 0.5, 0.2, 0.0)
 
 @dataclass(frozen=True)
 class Skeleton:
-    """Waypoints of a closed path: ``points_m`` (W, 2), the hold at each (s), and the
-    trajectory index each came from. Leg w flies points[w] → points[w+1] (cyclic)."""
+    """Waypoints of a closed path: ``points_m`` (W, 2) and the hold at each (s).
+    Leg w flies points[w] → points[w+1] (cyclic)."""
 
     points_m: NDArray[np.float64]
     hold_s: NDArray[np.float64]
-    index: NDArray[np.int64]
+
+    @property
+    def leg_lengths_m(self) -> NDArray[np.float64]:
+        """(W,) length of each leg, the last one back to the first waypoint."""
+        nxt = np.roll(self.points_m, -1, axis=0)
+        return np.asarray(np.linalg.norm(nxt - self.points_m, axis=1), dtype=float)
 
 
 def skeleton(
@@ -90,19 +95,16 @@ def skeleton(
     # Waypoints closer than a hover's wobble are one waypoint (no zero-length legs).
     points: list[NDArray[np.float64]] = []
     hold: list[float] = []
-    index: list[int] = []
     for v in keep:
         if points and np.hypot(*(q[v] - points[-1])) < STATIONARY_M:
             hold[-1] += hold_of[v]
             continue
         points.append(q[v])
         hold.append(hold_of[v])
-        index.append(v)
     if len(points) > 1 and np.hypot(*(points[-1] - points[0])) < STATIONARY_M:
         hold[0] += hold.pop()
         points.pop()
-        index.pop()
-    return Skeleton(np.array(points), np.array(hold), np.array(index, dtype=np.int64))
+    return Skeleton(np.array(points), np.array(hold))
 
 
 def _simplify(
@@ -168,6 +170,17 @@ def leg_profiles(site: Site, lengths_m: ArrayLike, speed_mps: float | None = Non
         jerk,
         jerk_ramp_s(profile, jerk),
     )
+
+
+def time_cycle(
+    site: Site, sk: Skeleton, period_s: float, slots: int
+) -> tuple[float, tuple[NDArray[np.float64], NDArray[np.float64]] | None]:
+    """The vehicle's total move time (s) round ``sk``, and its timeline of ``slots`` slots
+    filling ``period_s`` (trajectory (N+1, 2), slot lengths (N,)); None when it cannot."""
+    profiles = leg_profiles(site, sk.leg_lengths_m)
+    move_s = float(np.sum(move_times(profiles)))
+    holds = fit_holds(sk.hold_s, move_s, period_s)
+    return move_s, None if holds is None else resample(sk, holds, profiles, slots)
 
 
 def move_times(profiles: Profiles1D) -> NDArray[np.float64]:

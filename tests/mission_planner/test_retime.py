@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from mission_planner.optimize import PlannerOptions, Solution, plan
-from mission_planner.optimize.retime import fit_holds, leg_profiles, resample, skeleton
+from mission_planner.optimize.retime import fit_holds, leg_profiles, skeleton, time_cycle
 from mission_planner.study.sites import random_site
 from validator.site import Site
 
@@ -55,12 +55,9 @@ def test_fit_holds_refuses_moves_that_leave_no_time_to_stop() -> None:
 def test_resample_lays_slots_on_the_s_curves(site: Site) -> None:
     traj, delta = _hover_dash()
     sk = skeleton(traj, delta, np.zeros((0, 2)), np.zeros(0))
-    lengths = np.linalg.norm(np.roll(sk.points_m, -1, axis=0) - sk.points_m, axis=1)
-    profiles = leg_profiles(site, lengths)
-    move = float(profiles.total_s.sum())
-    holds = fit_holds(sk.hold_s, move, move + 10.0)
-    assert holds is not None
-    out = resample(sk, holds, profiles, 12)
+    move = float(leg_profiles(site, sk.leg_lengths_m).total_s.sum())
+    move_s, out = time_cycle(site, sk, move + 10.0, 12)
+    assert move_s == pytest.approx(move)
     assert out is not None
     q, d = out
     assert q.shape == (13, 2) and d.shape == (12,)
@@ -129,12 +126,8 @@ def test_every_moving_slot_moves_visibly(site: Site) -> None:
     """An S-curve starts and ends slowly; its first and last slots must still move, or the
     exporter would read them as holds and split the leg."""
     sk = skeleton(*_hover_dash(), np.zeros((0, 2)), np.zeros(0))
-    lengths = np.linalg.norm(np.roll(sk.points_m, -1, axis=0) - sk.points_m, axis=1)
-    profiles = leg_profiles(site, lengths)
-    move = float(profiles.total_s.sum())
-    holds = fit_holds(sk.hold_s, move, move + 6.0)
-    assert holds is not None
-    out = resample(sk, holds, profiles, 60)
+    move = float(leg_profiles(site, sk.leg_lengths_m).total_s.sum())
+    _, out = time_cycle(site, sk, move + 6.0, 60)
     assert out is not None
     q, d = out
     steps = np.linalg.norm(np.diff(q, axis=0), axis=1)
