@@ -229,12 +229,11 @@ def _solution(
 
 @dataclass
 class _Flyable:
-    """A re-timed candidate: the planning top speed, its skeleton and slot timeline."""
+    """A re-timed candidate: the planning top speed, the trajectory indices of its waypoints,
+    the vehicle's move time (s), and the optimised state on that timeline."""
 
     speed_mps: float
-    skeleton: retime.Skeleton
-    trajectory_m: NDArray[np.float64]
-    delta_s: NDArray[np.float64]
+    waypoint_slots: list[int]
     move_s: float
     state: _State
     min_rate: float
@@ -275,9 +274,8 @@ def _retimed(
     _descend(sc, timed_state, opt, None, None)
     _finish(sc, timed_state)
     rate = min_rate(sc, timed_state.q, timed_state.delta, timed_state.power, timed_state.s)
-    return _Flyable(
-        speed, sk, trajectory_m, delta_s, move_s, timed_state, rate
-    ), move_s / paper_move_s
+    cand = _Flyable(speed, _waypoint_slots(trajectory_m, sk), move_s, timed_state, rate)
+    return cand, move_s / paper_move_s
 
 
 def _plan_flyable(
@@ -316,7 +314,7 @@ def _plan_flyable(
         "dynamics": "vehicle",
         "planning_speed_mps": best.speed_mps,
         "speeds_tried": iterations,
-        "waypoint_slots": _waypoint_slots(best.trajectory_m, best.skeleton),
+        "waypoint_slots": best.waypoint_slots,
         "move_s": best.move_s,
     }
     return _solution(site, scheme, sc, best.state, started, notes)
