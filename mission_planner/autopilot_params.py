@@ -19,13 +19,17 @@ PX4 (multicopter position control and navigator)
 - ``MPC_ACC_HOR`` (m/s², 2–15): ``uav.max_accel``; ``MPC_JERK_AUTO`` (m/s³, 1–80): ``uav.max_jerk``;
 - ``NAV_ACC_RAD`` (m, 0.05–200): :func:`waypoint_radius_m`.
 
+Both: the geofence switched on with a breach action that never flies straight across another
+zone (:mod:`validator.autopilot.fence`: ArduCopter FENCE_TYPE 4, FENCE_ACTION 5 SmartRTL or
+Land, FENCE_ENABLE 1, written last so it is set after the others; PX4 GF_ACTION 2 Hold).
+
 A value outside the documented range is still written (the plan needs it) and listed in
 ``notes``, so the operator can check that the vehicle accepts it.
 
 :func:`dumps_params` writes them as an ArduPilot ``.param`` file (``NAME VALUE`` per line, as
 Mission Planner and MAVProxy load) or, for PX4, as a QGroundControl parameter file
-(``SYSID COMPID NAME VALUE TYPE``, tab-separated); ``#`` lines are comments in both, and
-``upload-mission --set-params`` reads both.
+(``SYSID COMPID NAME VALUE TYPE``, tab-separated; :mod:`validator.autopilot.param_file`);
+``#`` lines are comments in both, and ``upload-mission --set-params`` reads both.
 """
 
 from __future__ import annotations
@@ -34,10 +38,11 @@ import math
 from dataclasses import dataclass, field
 
 from mission_planner.mission import Mission
+from validator.autopilot.fence import FENCE_RULES
+from validator.autopilot.param_file import MAV_PARAM_TYPE_INT32, format_params
 from validator.plan_format import Cmd
 from validator.site import Site
 
-MAV_PARAM_TYPE_REAL32 = 9
 ARDUPILOT_DEFAULT_RADIUS_M = 2.0  # WPNAV_RADIUS default (200 cm): no reason to cut wider
 ARDUPILOT_MIN_RADIUS_M = 0.05  # WPNAV_RADIUS minimum (5 cm), AC_WPNav enforces it
 
@@ -47,6 +52,9 @@ ARDUPILOT_PARAMS: dict[str, tuple[str, float, float]] = {
     "WPNAV_ACCEL": ("cm/s/s", 50.0, 500.0),
     "WPNAV_JERK": ("m/s/s/s", 1.0, 20.0),
     "WPNAV_RADIUS": ("cm", 5.0, 1000.0),
+    "FENCE_TYPE": ("bitmask", 0.0, 15.0),
+    "FENCE_ACTION": ("enum", 0.0, 5.0),
+    "FENCE_ENABLE": ("boolean", 0.0, 1.0),
 }
 PX4_PARAMS: dict[str, tuple[str, float, float]] = {
     "MPC_XY_CRUISE": ("m/s", 3.0, 20.0),
@@ -54,7 +62,9 @@ PX4_PARAMS: dict[str, tuple[str, float, float]] = {
     "MPC_ACC_HOR": ("m/s/s", 2.0, 15.0),
     "MPC_JERK_AUTO": ("m/s/s/s", 1.0, 80.0),
     "NAV_ACC_RAD": ("m", 0.05, 200.0),
+    "GF_ACTION": ("enum", 0.0, 5.0),
 }
+PX4_INTEGER_PARAMS = {"GF_ACTION": MAV_PARAM_TYPE_INT32}  # the rest are REAL32
 PARAM_TABLES = {"ardupilot": ARDUPILOT_PARAMS, "px4": PX4_PARAMS}
 
 
@@ -127,6 +137,7 @@ def recommended_params(mission: Mission) -> AutopilotParams:
             "WPNAV_JERK": site.max_jerk_mps3,
             "WPNAV_RADIUS": round(radius * 100.0, 6),
         }
+    values.update(FENCE_RULES[autopilot].recommended)
     table = PARAM_TABLES[autopilot]
     notes = tuple(
         f"{name} {value:g} {table[name][0]} is outside the documented range "
@@ -138,18 +149,12 @@ def recommended_params(mission: Mission) -> AutopilotParams:
 
 
 def dumps_params(params: AutopilotParams, title: str = "") -> str:
-    """The parameter file text: ArduPilot ``NAME VALUE`` lines, or a QGroundControl parameter
-    file (``1 1 NAME VALUE 9``, tab-separated) for PX4; ``#`` comments name units and notes."""
-    head = [f"# {title}"] if title else []
-    head.append("# " + ", ".join(f"{n} in {params.unit(n)}" for n in params.values))
-    head += [f"# note: {note}" for note in params.notes]
-    if params.autopilot == "px4":
-        head.append("# Vehicle-Id Component-Id Name Value Type")
-        body = [f"1\t1\t{n}\t{v:.9g}\t{MAV_PARAM_TYPE_REAL32}" for n, v in params.values.items()]
-    else:
-        width = max(len(n) for n in params.values)
-        body = [f"{n:<{width}} {v:.9g}" for n, v in params.values.items()]
-    return "\n".join(head + body) + "\n"
+    """The parameter file text (:func:`validator.autopilot.param_file.format_params`), with
+    ``#`` comments naming the title, units and notes."""
+    comments = [title] if title else []
+    comments.append(", ".join(f"{n} in {params.unit(n)}" for n in params.values))
+    comments += [f"note: {note}" for note in params.notes]
+    return format_params(params.values, params.autopilot, comments, PX4_INTEGER_PARAMS)
 
 
 __all__ = [

@@ -129,7 +129,10 @@ def replay_mission(
     if params is None:
         params = recommended_params(mission)
     values = dict(params.values if isinstance(params, AutopilotParams) else params)
-    prof = make_profile(profile or PROFILE_FOR[mission.options.autopilot], site, values)
+    name = profile or PROFILE_FOR[mission.options.autopilot]
+    motion = make_profile(name, site).params  # the rest (the fence) does not move the vehicle
+    values = {k: v for k, v in values.items() if k in motion}
+    prof = make_profile(name, site, values)
     flight = resolve_flight(mission.plan, site, "mission")
     track = replay(flight, prof, dt_s=dt_s)
     report = score_track(track, flight, site, mission.plan)

@@ -1,12 +1,16 @@
 """``validate-mission``: audit a ``.plan`` against a site, optionally replay it in time.
 
     validate-mission PLAN --site SITE [--json OUT] [--replay] [--profile ideal|arducopter|px4]
-                     [--param NAME=VALUE ...] [--dt SECONDS]
+                     [--params FILE] [--param NAME=VALUE ...] [--dt SECONDS]
+                     [--sitl [--sitl-binary PATH | --sitl-url URL] ...]
 
 Prints a table; ``--json OUT`` also writes the full report atomically. Exit status: 0 clear,
 1 a violation (audit or replay), 2 bad input (one line on stderr, no output file).
 ``--profile`` or ``--param`` imply ``--replay``; the default profile follows the plan's
-firmware (PX4 -> ``px4``, otherwise ``arducopter``).
+firmware (PX4 -> ``px4``, otherwise ``arducopter``). ``--params FILE`` is the parameter file
+the vehicle will fly with (``plan-mission`` writes one beside the plan): its motion parameters
+feed the replay, it is set on the vehicle of a ``--sitl`` flight, and a file that leaves the
+geofence off or with a breach action that can cross another zone is flagged.
 
 Everything here is a thin wrapper over :func:`validate_mission`, which notebooks can call.
 """
@@ -23,11 +27,13 @@ from pathlib import Path
 from typing import Any
 
 from validator.audit import AuditReport, audit
+from validator.autopilot.fence import FENCE_RULES
+from validator.autopilot.param_file import read_params
 from validator.dynamics import PROFILES, Profile, make_profile, parse_param_overrides
 from validator.errors import InputError
 from validator.fileio import write_atomic
 from validator.flight import Finding, Flight, resolve_flight
-from validator.mavlink.cli import add_sitl_arguments, run_sitl
+from validator.mavlink.cli import add_sitl_arguments, run_sitl, split_sitl_url
 from validator.plan_format import Autopilot, Plan, read_plan
 from validator.replay import TrackReport, replay, score_track
 from validator.site import Site, load_site
@@ -58,6 +64,8 @@ class Validation:
     dt_s: float = 0.05
     replay: TrackReport | None = None
     sitl: TrackReport | None = None
+    vehicle_params: dict[str, float] = field(default_factory=dict)
+    param_findings: list[Finding] = field(default_factory=list)
     extra: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -89,6 +97,8 @@ class Validation:
             "exit_status": self.exit_status,
             "violations": [f.as_dict() for f in self.violations],
             "audit": self.audit.as_dict(),
+            "vehicle_params": dict(self.vehicle_params),
+            "param_findings": [f.as_dict() for f in self.param_findings],
             "replay": track(self.replay),
             "sitl": track(self.sitl),
             **self.extra,
@@ -119,12 +129,16 @@ def validate_mission(
     profile: str | None = None,
     params: dict[str, float] | None = None,
     dt_s: float = 0.05,
+    vehicle_params: dict[str, float] | None = None,
 ) -> Validation:
     """Audit ``plan_path`` against ``site_path`` and, with ``replay_flight``, replay it.
 
     ``profile`` (default: by the plan's firmware) and ``params`` (autopilot names and units)
-    choose the flight model; the track is sampled every ``dt_s`` seconds. Raises
-    :class:`InputError` for bad input.
+    choose the flight model; the track is sampled every ``dt_s`` seconds. ``vehicle_params``
+    are the parameters the vehicle will hold (a parameter file): those of the flight model
+    replay the flight under ``params``' overrides, and a geofence they leave off or unsafe is
+    flagged in ``param_findings`` (for a plan with a fence). Raises :class:`InputError` for bad
+    input.
     """
     if not (dt_s > 0 and dt_s <= 0.05):
         raise InputError(f"--dt: must be > 0 and <= 0.05 s (at least 20 Hz), got {dt_s}")
@@ -132,9 +146,18 @@ def validate_mission(
     plan = read_plan(plan_path)
     flight = resolve_flight(plan, site, str(plan_path))
     report = audit(plan, site, flight, source=str(plan_path))
-    v = Validation(str(plan_path), str(site_path), plan, site, flight, report, dt_s=dt_s)
-    if replay_flight or profile is not None or params:
-        prof = make_profile(profile or default_profile_name(plan), site, params)
+    v = Validation(str(plan_path), str(site_path), plan, site, flight, report, dt_s=dt_s,
+                   vehicle_params=dict(vehicle_params or {}))
+    if vehicle_params is not None and (plan.circles or plan.polygons):
+        rules = FENCE_RULES["px4" if plan.firmware_type == Autopilot.PX4 else "ardupilot"]
+        v.param_findings = [Finding("warning", f"parameter file: {p}", None)
+                            for p in rules.problems(vehicle_params)]
+    if replay_flight or profile is not None or params or vehicle_params:
+        name = profile or default_profile_name(plan)
+        motion = make_profile(name, site).params
+        merged = {**{k: x for k, x in (vehicle_params or {}).items() if k in motion},
+                  **(params or {})}
+        prof = make_profile(name, site, merged)
         v.profile = prof
         if flight.legs:
             track = replay(flight, prof, dt_s=dt_s)
@@ -215,8 +238,11 @@ def format_report(v: Validation) -> str:
         lines += ["", *_track_lines(f"Replay ({v.profile.name}, {1 / v.dt_s:g} Hz, "
                                     f"{v.replay.samples} samples): {params}", v.replay)]
     if v.sitl is not None:
-        lines += ["", *_track_lines(f"Flown by a vehicle ({v.sitl.source})", v.sitl)]
-    findings = list(rep.findings)
+        flown = v.extra.get("sitl_flight", {})
+        who = (f"the built-in model vehicle ({flown.get('profile')} profile): a model, not an "
+               "autopilot" if flown.get("builtin") else flown.get("vehicle", "a vehicle"))
+        lines += ["", *_track_lines(f"Flown by {who} ({v.sitl.source})", v.sitl)]
+    findings = list(rep.findings) + list(v.param_findings)
     for r in (v.replay, v.sitl):
         if r is not None:
             findings += list(r.findings)
@@ -254,6 +280,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--replay", action="store_true", help="fly the mission in time")
     p.add_argument("--profile", choices=PROFILES,
                    help="flight model (default: by the plan's firmware); implies --replay")
+    p.add_argument("--params", metavar="FILE",
+                   help="the parameter file the vehicle flies with (as plan-mission writes "
+                        "beside the plan): feeds the replay, is set on a --sitl vehicle, and "
+                        "a geofence it leaves off is flagged")
     p.add_argument("--param", action="append", metavar="NAME=VALUE",
                    help="profile parameter in the autopilot's units, e.g. WPNAV_ACCEL=500 "
                         "(repeatable); implies --replay")
@@ -265,13 +295,15 @@ def build_parser() -> argparse.ArgumentParser:
 
 def validate_mission_main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``validate-mission``; returns the exit status."""
-    args = build_parser().parse_args(argv)
+    args = build_parser().parse_args(split_sitl_url(sys.argv[1:] if argv is None else argv))
     try:
         params = parse_param_overrides(args.param)
+        vehicle_params = read_params(args.params) if args.params else None
         v = validate_mission(args.plan, args.site, replay_flight=args.replay,
-                             profile=args.profile, params=params or None, dt_s=args.dt)
-        if args.sitl is not None:
-            run_sitl(v, args)
+                             profile=args.profile, params=params or None, dt_s=args.dt,
+                             vehicle_params=vehicle_params)
+        if args.sitl or args.sitl_binary or args.sitl_url:
+            run_sitl(v, args, vehicle_params)
         text = json.dumps(v.as_dict(), indent=1, allow_nan=False) + "\n" if args.json else ""
         if args.json:
             write_atomic(args.json, text)

@@ -14,7 +14,8 @@ from mission_planner.autopilot_params import (
 )
 from mission_planner.mission import MissionOptions, build_mission
 from tests.mission_planner.solutions import make_site, solution_for, subdivided
-from validator.mavlink.link import parse_params
+from validator.autopilot.fence import FENCE_RULES
+from validator.autopilot.param_file import parse_params
 
 SQUARE = [(150.0, 150.0), (250.0, 150.0), (250.0, 250.0), (150.0, 250.0)]
 
@@ -33,14 +34,21 @@ def test_ardupilot_params_come_from_the_fastest_leg_and_the_site_limits():
     p = recommended_params(m)
     assert fastest_leg_mps(m) == pytest.approx(100.0 / 12.0)
     assert p.values == {"WPNAV_SPEED": 834.0,  # 833.3 cm/s rounded up to a whole cm/s
-                        "WPNAV_ACCEL": 400.0, "WPNAV_JERK": 3.0, "WPNAV_RADIUS": 100.0}
+                        "WPNAV_ACCEL": 400.0, "WPNAV_JERK": 3.0, "WPNAV_RADIUS": 100.0,
+                        "FENCE_TYPE": 4.0, "FENCE_ACTION": 5.0, "FENCE_ENABLE": 1.0}
     assert p.notes == ()
+
+
+@pytest.mark.parametrize("autopilot", ["ardupilot", "px4"])
+def test_the_parameters_switch_the_fence_on_with_a_safe_breach_action(autopilot):
+    p = recommended_params(_mission(autopilot))
+    assert FENCE_RULES[autopilot].problems(p.values) == []
 
 
 def test_px4_params_use_px4_names_and_si_units():
     p = recommended_params(_mission("px4", max_accel=4.0, max_jerk=3.0))
     assert p.values == {"MPC_XY_CRUISE": 8.34, "MPC_XY_VEL_MAX": 8.34, "MPC_ACC_HOR": 4.0,
-                        "MPC_JERK_AUTO": 3.0, "NAV_ACC_RAD": 1.0}
+                        "MPC_JERK_AUTO": 3.0, "NAV_ACC_RAD": 1.0, "GF_ACTION": 2.0}
 
 
 def test_transit_speed_counts_as_a_planned_leg():
@@ -86,8 +94,11 @@ def test_ardupilot_file_is_name_value_lines_px4_file_is_qgc_format():
     ap_lines = [ln for ln in ap.splitlines() if not ln.startswith("#")]
     px_lines = [ln for ln in px.splitlines() if not ln.startswith("#")]
     assert [ln.split()[0] for ln in ap_lines] == ["WPNAV_SPEED", "WPNAV_ACCEL", "WPNAV_JERK",
-                                                  "WPNAV_RADIUS"]
+                                                  "WPNAV_RADIUS", "FENCE_TYPE", "FENCE_ACTION",
+                                                  "FENCE_ENABLE"]
     assert all(len(ln.split()) == 2 for ln in ap_lines)
     for ln in px_lines:
         sysid, compid, name, value, ptype = ln.split("\t")
-        assert (sysid, compid, ptype) == ("1", "1", "9") and math.isfinite(float(value))
+        # MAV_PARAM_TYPE as PX4 declares it: GF_ACTION is an INT32 enum, the rest REAL32
+        assert (sysid, compid, ptype) == ("1", "1", "6" if name == "GF_ACTION" else "9")
+        assert math.isfinite(float(value))

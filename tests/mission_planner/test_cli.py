@@ -16,8 +16,8 @@ from mission_planner.mission import CLEARANCE_TOLERANCE_M, flown_legs, planned_c
 from tests.mission_planner.mavsdk_peer import mavsdk_import
 from tests.mission_planner.solutions import circle_points, site_dict, solution_for, subdivided
 from validator.audit import audit
+from validator.autopilot.param_file import parse_params
 from validator.geometry import segment_point_distance
-from validator.mavlink.link import parse_params
 from validator.plan_format import Autopilot, Cmd, read_plan
 from validator.site import load_site
 from validator.waypoints_format import read_waypoints
@@ -254,7 +254,9 @@ def test_param_file_is_written_beside_the_mission(tmp_path, capsys, square_plann
     assert code == 0, err
     params = parse_params((tmp_path / "m.param").read_text())
     assert params == {"WPNAV_SPEED": 1000.0, "WPNAV_ACCEL": 250.0, "WPNAV_JERK": 1.0,
-                      "WPNAV_RADIUS": 100.0}
+                      "WPNAV_RADIUS": 100.0, "FENCE_TYPE": 4.0, "FENCE_ACTION": 5.0,
+                      "FENCE_ENABLE": 1.0}
+    assert list(params)[-1] == "FENCE_ENABLE"  # switched on after the rest is set
 
 
 def test_params_option_names_the_file_px4_gets_px4_names(tmp_path, capsys, square_planner):
@@ -264,7 +266,8 @@ def test_params_option_names_the_file_px4_gets_px4_names(tmp_path, capsys, squar
     assert code == 0, err
     assert not (tmp_path / "m.param").exists()
     assert set(parse_params(pfile.read_text())) == {"MPC_XY_CRUISE", "MPC_XY_VEL_MAX",
-                                                    "MPC_ACC_HOR", "MPC_JERK_AUTO", "NAV_ACC_RAD"}
+                                                    "MPC_ACC_HOR", "MPC_JERK_AUTO", "NAV_ACC_RAD",
+                                                    "GF_ACTION"}
 
 
 def test_params_file_colliding_with_the_mission_is_refused(tmp_path, capsys, square_planner):
@@ -285,7 +288,9 @@ def test_report_has_the_replayed_flight_and_no_warning_when_on_time(tmp_path, ca
     assert flight["profile"] == "arducopter" and flight["params"]["WPNAV_RADIUS"] == 100.0
     assert flight["replayed_cycle_s"] == pytest.approx(180.0, rel=0.02)
     assert flight["replayed_min_rate_bps_hz"] > 0 and flight["warning"] is None
-    assert data["autopilot_params"]["values"] == flight["params"]
+    motion = {k: v for k, v in data["autopilot_params"]["values"].items()
+              if not k.startswith("FENCE_")}
+    assert motion == flight["params"]
     assert data["mission"]["service_waypoints_merged"] == 8
     assert "warning" not in err
 

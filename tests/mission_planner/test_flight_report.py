@@ -36,7 +36,9 @@ def hurried():
 def test_flies_the_arducopter_model_with_the_recommended_parameters(slow):
     m = _square(180.0)
     assert slow.profile.name == "arducopter"
-    assert slow.params == recommended_params(m).values
+    recommended = recommended_params(m).values
+    # the replay flies with every recommended motion parameter; the fence ones do not move it
+    assert slow.params == {k: v for k, v in recommended.items() if not k.startswith("FENCE_")}
     assert {k: slow.profile.params[k] for k in slow.params} == slow.params
 
 

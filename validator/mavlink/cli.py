@@ -18,17 +18,20 @@ command needs them, so ``validate-mission`` without ``--sitl`` starts as fast as
 from __future__ import annotations
 
 import argparse
+import re
 import signal
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from validator.errors import InputError
+from validator.mavlink.sitl_process import BINARY_ENV, DEFAULTS_ENV
 
 if TYPE_CHECKING:
     from validator.cli import Validation
 
 DEFAULT_SITL_SPEEDUP = 20.0
+DEFAULT_BINARY_SPEEDUP = 10.0  # ArduCopter SITL in lockstep; the shared real flights used 10
 # Profile parameters that are the model's, not an autopilot's: never sent with PARAM_SET.
 MODEL_ONLY_PARAMS = frozenset({"VEHICLE_SPEED_MAX", "SPEED", "SPEED_UP", "SPEED_DN"})
 
@@ -95,7 +98,8 @@ def upload_mission_main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``upload-mission``; returns the exit status."""
     args = upload_parser().parse_args(argv)
     try:
-        from validator.mavlink.link import read_params, upload_plan
+        from validator.autopilot.param_file import read_params
+        from validator.mavlink.link import upload_plan
         from validator.plan_format import read_plan
 
         plan = read_plan(args.plan)
@@ -261,16 +265,53 @@ def sitl_vehicle_main(argv: Sequence[str] | None = None) -> int:
 # validate-mission --sitl
 
 
+_URL = re.compile(r"^(udp|udpin|udpout|udpbcast|tcp|tcpin|mcast|ws|wss|wsserver):|^/dev/|^COM\\d")
+
+
+def split_sitl_url(argv: Sequence[str]) -> list[str]:
+    """``--sitl URL`` (the old spelling) as ``--sitl --sitl-url URL``, with a deprecation line
+    on stderr; a ``--sitl`` followed by anything that is not a connection string stays a flag,
+    so it no longer swallows the plan path."""
+    out: list[str] = []
+    items = list(argv)
+    i = 0
+    while i < len(items):
+        a = items[i]
+        if a.startswith("--sitl="):
+            a, items[i + 1:i + 1] = "--sitl", [a.split("=", 1)[1]]
+        if a == "--sitl" and i + 1 < len(items) and _URL.match(items[i + 1]):
+            print("validate-mission: --sitl URL is deprecated: use --sitl-url URL",
+                  file=sys.stderr)
+            out += ["--sitl", "--sitl-url", items[i + 1]]
+            i += 2
+            continue
+        out.append(a)
+        i += 1
+    return out
+
+
 def add_sitl_arguments(p: argparse.ArgumentParser) -> None:
-    """Add ``--sitl [URL]`` and its options to ``validate-mission``'s parser."""
+    """Add ``--sitl`` and its options to ``validate-mission``'s parser."""
     g = p.add_argument_group("flight on a MAVLink vehicle")
-    g.add_argument("--sitl", nargs="?", const="", default=None, metavar="URL",
-                   help="upload, fly and score the mission on a vehicle: without URL the "
-                        "built-in SITL vehicle on a free loopback port; with URL an external "
-                        "autopilot (ArduPilot or PX4 SITL) at that pymavlink address")
-    g.add_argument("--sitl-speedup", type=_positive, default=DEFAULT_SITL_SPEEDUP, metavar="X",
-                   help=f"built-in vehicle: simulated seconds per wall second "
-                        f"(default {DEFAULT_SITL_SPEEDUP:g})")
+    g.add_argument("--sitl", action="store_true",
+                   help="upload, fly and score the mission on a vehicle: the autopilot SITL "
+                        f"binary of --sitl-binary (default ${BINARY_ENV}), else the built-in "
+                        "model vehicle")
+    g.add_argument("--sitl-binary", metavar="PATH",
+                   help="start this ArduCopter SITL binary at the plan's home for the flight "
+                        f"and stop it afterwards (default ${BINARY_ENV}); implies --sitl")
+    g.add_argument("--sitl-defaults", metavar="FILE",
+                   help="the SITL's default parameter file (default $" + DEFAULTS_ENV +
+                        ", else Tools/autotest/default_params/copter.parm of the binary's "
+                        "source tree)")
+    g.add_argument("--sitl-url", metavar="URL",
+                   help="fly on an autopilot someone else runs (ArduPilot or PX4 SITL, or a "
+                        "vehicle) at this pymavlink address, e.g. tcp:127.0.0.1:5760; "
+                        "implies --sitl")
+    g.add_argument("--sitl-speedup", type=_positive, default=None, metavar="X",
+                   help=f"simulated seconds per wall second (default {DEFAULT_SITL_SPEEDUP:g} "
+                        f"for the built-in vehicle, {DEFAULT_BINARY_SPEEDUP:g} for a SITL "
+                        "binary)")
     g.add_argument("--sitl-timeout", type=_positive, default=10.0, metavar="S",
                    help="give up when the vehicle does not answer for S seconds (default 10)")
     g.add_argument("--sitl-time-limit", type=_positive, metavar="S",
@@ -280,11 +321,21 @@ def add_sitl_arguments(p: argparse.ArgumentParser) -> None:
                    help="external vehicle's system id (default: the first one heard)")
 
 
-def run_sitl(v: Validation, args: argparse.Namespace) -> None:
-    """Fly ``v``'s plan as ``args`` say and put the scored track into ``v.sitl``."""
+def run_sitl(v: Validation, args: argparse.Namespace,
+             vehicle_params: Mapping[str, float] | None = None) -> None:
+    """Fly ``v``'s plan as ``args`` say and put the scored track into ``v.sitl``.
+
+    ``vehicle_params`` (a parameter file's values and the autopilot's own ``--param``
+    overrides) are set on the vehicle before the flight."""
     from validator.cli import default_profile_name
     from validator.dynamics import make_profile, parse_param_overrides
     from validator.mavlink.driver import builtin_vehicle, default_time_limit_s, fly_and_score
+    from validator.mavlink.sitl_process import (
+        ardupilot_sitl,
+        find_binary,
+        find_defaults,
+        terminate_on_sigterm,
+    )
 
     overrides = parse_param_overrides(getattr(args, "param", None))
     profile = v.profile or make_profile(getattr(args, "profile", None)
@@ -292,22 +343,41 @@ def run_sitl(v: Validation, args: argparse.Namespace) -> None:
     limit = args.sitl_time_limit or default_time_limit_s(v.flight, profile)
     if not v.flight.legs:
         raise InputError(f"{v.plan_path}: nothing to fly (no navigation items)")
-    if args.sitl:
-        sent = {k: x for k, x in overrides.items() if k not in MODEL_ONLY_PARAMS}
-        result = fly_and_score(v.plan, v.site, v.flight, args.sitl, time_limit_s=limit,
+    sent = {**(vehicle_params or {}),
+            **{k: x for k, x in overrides.items() if k not in MODEL_ONLY_PARAMS}}
+    binary = None if args.sitl_url else find_binary(args.sitl_binary)
+    home = (v.plan.home_lat_deg, v.plan.home_lon_deg, v.plan.home_alt_m)
+    if args.sitl_url:
+        kind = "external"
+        result = fly_and_score(v.plan, v.site, v.flight, args.sitl_url, time_limit_s=limit,
                                timeout_s=args.sitl_timeout, sysid=args.sitl_sysid,
                                params=sent or None)
-    else:
-        with builtin_vehicle(v.plan, profile=profile, speedup=args.sitl_speedup) as url:
+    elif binary is not None:
+        kind = "sitl-binary"
+        defaults = find_defaults(binary, args.sitl_defaults)
+        speedup = args.sitl_speedup or DEFAULT_BINARY_SPEEDUP
+        terminate_on_sigterm()
+        with ardupilot_sitl(binary, home, speedup=speedup, defaults=defaults) as url:
             result = fly_and_score(v.plan, v.site, v.flight, url, time_limit_s=limit,
-                                   timeout_s=args.sitl_timeout)
+                                   timeout_s=args.sitl_timeout, params=sent or None,
+                                   wait_ready=True)
+    else:
+        kind = "builtin"
+        with builtin_vehicle(v.plan, profile=profile,
+                             speedup=args.sitl_speedup or DEFAULT_SITL_SPEEDUP) as url:
+            result = fly_and_score(v.plan, v.site, v.flight, url, time_limit_s=limit,
+                                   timeout_s=args.sitl_timeout, params=sent or None)
     v.sitl = result.report
     v.extra["sitl_flight"] = {
         "vehicle": result.vehicle,
-        "builtin": not args.sitl,
-        "profile": profile.name if not args.sitl else None,
+        "kind": kind,
+        "builtin": kind == "builtin",
+        "binary": str(binary) if binary is not None else None,
+        "profile": profile.name if kind == "builtin" else None,
         "upload": result.upload_summary,
+        "params_set": dict(sent),
         "samples": result.telemetry.samples,
         "end": result.telemetry.end_reason,
         "fence_breach_samples": int(result.telemetry.fence_breach.sum()),
+        "mode_changes": [{"t_s": t, "mode": m} for t, m in result.telemetry.mode_changes],
     }

@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 
 from validator.dynamics import Profile
 from validator.flight import Finding, Flight
-from validator.mavlink.link import Link, LinkError, command_name, upload_to
+from validator.mavlink.link import Link, LinkError, command_name, fence_problems, upload_to
 from validator.mavlink.wire import mavlink, mavutil
 from validator.plan_format import Cmd, Plan
 from validator.replay import Track, TrackReport, replay, score_track, track_from_geodetic
@@ -41,7 +41,9 @@ TAKEOFF_REACHED_FRACTION = 0.95
 LANDING_COMMANDS = (Cmd.NAV_LAND, Cmd.NAV_RETURN_TO_LAUNCH)
 DISARM_WAIT_S = 15.0  # vehicle seconds from the last item's completion to the disarm
 ARM_PATIENCE_S = 60.0  # a fresh ArduPilot/PX4 SITL refuses GUIDED and arming until its EKF is up
+READY_PATIENCE_S = 120.0  # wall seconds for a freshly started SITL to pass its pre-arm checks
 TELEMETRY_HZ = 20.0
+MISSION_CURRENT_HZ = 10.0  # the item changes are the timing signal: MISSION_ITEM_REACHED is not
 
 
 @dataclass(frozen=True)
@@ -86,9 +88,13 @@ class Telemetry:
 
     ``t_s`` vehicle seconds since boot; ``lat_deg``/``lon_deg``; ``rel_alt_m`` above home;
     ``vel_mps`` (n, 3) north, east, down; ``mission_seq`` the vehicle's current mission item
-    (its own numbering: ArduPilot counts home as 0); ``armed``; ``fence_breach``. ``reached``
-    lists (t_s, seq) of MISSION_ITEM_REACHED; ``takeoff_start_s`` and ``mission_start_s`` when
-    NAV_TAKEOFF and MISSION_START were accepted; ``end_reason`` why recording stopped.
+    (its own numbering: ArduPilot counts home as 0; from MISSION_CURRENT, the timing signal);
+    ``armed``; ``fence_breach``. ``reached`` lists (t_s, seq) of MISSION_ITEM_REACHED, a hint
+    only (ArduCopter sends one per loop, so an item followed by a DO command or the final LAND
+    is never reported); ``mode_changes`` (t_s, mode name) each time the vehicle left the
+    mission mode on its own (a fence breach action, a failsafe); ``takeoff_start_s`` and
+    ``mission_start_s`` when NAV_TAKEOFF and MISSION_START were asked for; ``end_reason`` why
+    recording stopped.
     """
 
     t_s: NDArray[np.float64]
@@ -100,6 +106,7 @@ class Telemetry:
     armed: NDArray[np.bool_]
     fence_breach: NDArray[np.bool_]
     reached: list[tuple[float, int]] = field(default_factory=list)
+    mode_changes: list[tuple[float, str]] = field(default_factory=list)
     mission_start_s: float = math.nan
     takeoff_start_s: float = math.nan
     end_reason: str = ""
@@ -121,6 +128,9 @@ class _Recorder:
         self.breach = False
         self.mission_state = 0
         self.reached: list[tuple[float, int]] = []
+        self.mission_mode: int | None = None  # set once the mission runs: leaving it is news
+        self.mode_changes: list[tuple[float, str]] = []
+        self.prearm_ok = False
         self.t_s = math.nan
         self.home_amsl_m = math.nan
         self.last_heard = time.monotonic()
@@ -153,7 +163,15 @@ class _Recorder:
                               self.seq, self.armed, self.breach))
         elif kind == "HEARTBEAT":
             self.armed = bool(m.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
-            self.custom_mode = int(m.custom_mode)
+            mode = int(m.custom_mode)
+            if (self.mission_mode is not None and mode != self.custom_mode
+                    and mode != self.mission_mode and self.armed):
+                self.mode_changes.append((self.t_s, mode_name(self.link, mode)))
+            self.custom_mode = mode
+        elif kind == "SYS_STATUS":
+            bit = mavlink.MAV_SYS_STATUS_PREARM_CHECK
+            self.prearm_ok = bool(m.onboard_control_sensors_present & bit
+                                  and m.onboard_control_sensors_health & bit)
         elif kind == "MISSION_CURRENT":
             self.seq = int(m.seq)
             self.mission_state = int(getattr(m, "mission_state", 0))
@@ -176,6 +194,7 @@ class _Recorder:
             armed=np.asarray(cols[8], dtype=bool),
             fence_breach=np.asarray(cols[9], dtype=bool),
             reached=list(self.reached),
+            mode_changes=list(self.mode_changes),
             mission_start_s=mission_start_s,
             takeoff_start_s=takeoff_start_s,
             end_reason=end_reason,
@@ -192,12 +211,21 @@ def takeoff_altitude(plan: Plan, default_m: float = 10.0) -> float:
     return default_m
 
 
+def mode_name(link: Link, custom_mode: int) -> str:
+    """The vehicle's name for ``custom_mode`` (ArduCopter's or PX4's), or its number."""
+    if link.vehicle.is_px4:
+        px4 = {_px4_mode(main, sub): name for name, (_, main, sub) in mavutil.px4_map.items()}
+        return str(px4.get(custom_mode, custom_mode))
+    names = mavutil.mode_mapping_bynumber(mavlink.MAV_TYPE_QUADROTOR) or {}
+    return str(names.get(custom_mode, custom_mode))
+
+
 def _request_streams(link: Link) -> None:
-    """Ask for position at 20 Hz and mission/fence status at 2 Hz; vehicles that stream
-    these anyway may refuse, which is fine."""
+    """Ask for position at 20 Hz, the current mission item at 10 Hz and fence status at
+    2 Hz; vehicles that stream these anyway may refuse, which is fine."""
     interval = {
         mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 1e6 / TELEMETRY_HZ,
-        mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: 5e5,
+        mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: 1e6 / MISSION_CURRENT_HZ,
         mavlink.MAVLINK_MSG_ID_FENCE_STATUS: 5e5,
     }
     for msg_id, us in interval.items():
@@ -266,6 +294,7 @@ def fly_mission(
     start_s = rec.t_s  # AUTO alone starts ArduCopter's mission
     rec.reached.clear()
     _set_mode(link, rec, modes, modes.auto)
+    rec.mission_mode = modes.auto
     _until_accepted(link, rec, mavlink.MAV_CMD_MISSION_START, 0, 0)
     nav = [i for i, it in enumerate(plan.items) if 16 <= it.command < 100]
     last_seq = (nav[-1] if nav else len(plan.items) - 1) + (1 if link.vehicle.is_ardupilot else 0)
@@ -345,6 +374,37 @@ def default_time_limit_s(flight: Flight, profile: Profile) -> float:
     return 2.0 * float(replay(flight, profile, dt_s=0.5).t_s[-1]) + 120.0
 
 
+def wait_until_ready(link: Link, patience_s: float = READY_PATIENCE_S) -> None:
+    """Wait until the vehicle says its pre-arm checks pass (SYS_STATUS's PREARM_CHECK bit,
+    which ArduPilot and PX4 both report): a freshly started SITL answers heartbeats long
+    before its estimator has a position, and refuses missions, modes and arming until then.
+    A vehicle that does not report the bit is taken as ready."""
+    link.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL,
+                 float(mavlink.MAVLINK_MSG_ID_SYS_STATUS), 5e5)
+    rec = _Recorder(link)
+    reported = {"any": False}
+
+    def ready() -> bool:
+        return rec.prearm_ok
+
+    def watch(m: Any) -> None:
+        if m.get_type() == "SYS_STATUS":
+            reported["any"] = bool(
+                m.onboard_control_sensors_present & mavlink.MAV_SYS_STATUS_PREARM_CHECK)
+
+    link.listeners.append(watch)
+    try:
+        if not rec.pump(time.monotonic() + 5.0, lambda: ready() or reported["any"]):
+            return  # no SYS_STATUS with the pre-arm bit: nothing to wait for
+        if not rec.pump(time.monotonic() + patience_s, ready):
+            why = [t for t in link.statustexts if "PreArm" in t]
+            raise LinkError(f"the vehicle did not pass its pre-arm checks within "
+                            f"{patience_s:g} s" + (f" (last: {why[-1]})" if why else ""))
+    finally:
+        link.listeners.remove(watch)
+        link.listeners.remove(rec.take)
+
+
 def fly_and_score(
     plan: Plan,
     site: Site,
@@ -356,13 +416,23 @@ def fly_and_score(
     sysid: int | None = None,
     params: Mapping[str, float] | None = None,
     progress: Callable[[str], None] | None = None,
+    wait_ready: bool = False,
 ) -> SitlResult:
-    """Upload ``plan`` to the vehicle at ``url`` (verified by read-back, ``params`` set
-    first), fly it and score the recorded track with :func:`score_track`."""
+    """Upload ``plan`` to the vehicle at ``url`` (``params`` set after the lists, everything
+    verified by read-back), fly it and score the recorded track with :func:`score_track`.
+
+    ``wait_ready`` first waits for a freshly started vehicle to pass its pre-arm checks. A
+    fence the vehicle holds switched off (or with a breach action that can cross another
+    zone), and every time the vehicle left the mission mode on its own, are findings of the
+    report."""
+    say = progress or (lambda _text: None)
     with Link(url, timeout_s=timeout_s, target_system=sysid) as link:
-        up = upload_to(link, plan, params)
-        if progress:
-            progress(up.summary())
+        if wait_ready:
+            say("waiting for the vehicle's pre-arm checks")
+            wait_until_ready(link)
+        up = upload_to(link, plan, params, require_fence=False)
+        say(up.summary())
+        fence = fence_problems(link, plan)
         telemetry = fly_mission(link, plan, time_limit_s=time_limit_s, progress=progress)
         vehicle = f"{link.vehicle.autopilot_name} system {link.vehicle.system_id}"
         ardupilot = link.vehicle.is_ardupilot
@@ -371,9 +441,15 @@ def fly_and_score(
     track = telemetry_track(telemetry, flight, site, ardupilot=ardupilot,
                             source=f"sitl:{url}")
     report = score_track(track, flight, site, plan)
+    extra = [Finding("warning", f"geofence on the vehicle: {p}", None) for p in fence]
+    extra += [Finding("warning", f"the vehicle left the mission for {mode} at "
+                                 f"{t - telemetry.mission_start_s:.1f} s into it", None)
+              for t, mode in telemetry.mode_changes]
     if telemetry.end_reason.startswith("time limit"):
-        cut = Finding("warning", f"the flight was cut at the {telemetry.end_reason}", None)
-        report = dataclasses.replace(report, findings=(*report.findings, cut))
+        extra.append(Finding("warning", f"the flight was cut at the {telemetry.end_reason}",
+                             None))
+    if extra:
+        report = dataclasses.replace(report, findings=(*report.findings, *extra))
     return SitlResult(report, telemetry, up.summary(), vehicle)
 
 

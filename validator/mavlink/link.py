@@ -17,22 +17,23 @@ back from the vehicle are identical, item by item, to what was sent.
 
 from __future__ import annotations
 
-import math
 import re
 import select
 import struct
 import time
+from collections import deque
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from validator.autopilot.fence import FENCE_RULES
 from validator.errors import InputError
+from validator.mavlink.storage import first_stored_difference, storage_losses
 from validator.mavlink.wire import (
     MissionType,
     WireItem,
     WireLists,
-    first_difference,
     mavlink,
     mavutil,
     mission_result_name,
@@ -50,6 +51,10 @@ RESENDS_BEFORE_RESTART = 4  # of the last item, waiting for the final ACK
 # Silence mid-upload after which the vehicle has given up re-requesting and MISSION_COUNT
 # starts the transfer again (MAVSDK gives up after 5 requests 0.5 s apart, ArduPilot later).
 RESTART_AFTER_S = 3.0
+# A booting ArduPilot answers MISSION_COUNT with NO_SPACE until its mission storage is set up
+# ("Only 0 items are supported"): keep asking this long before calling the refusal final.
+BOOT_PATIENCE_S = 60.0
+_ROOM = re.compile(r"Only (\d+) items are supported")
 
 _MISSION_REQUESTS = ("MISSION_REQUEST_INT", "MISSION_REQUEST")
 # Results after which starting the transfer again can succeed (lost or duplicated packets).
@@ -191,7 +196,8 @@ class Link:
         self.mav = self.conn.mav
         self._last_gcs_heartbeat = 0.0
         # called with every message from the vehicle that recv() reads, wanted or not
-        self.listeners: list[Callable[[Any], None]] = []
+        self.listeners: list[Callable[[Any], None]] = [self._keep_statustext]
+        self.statustexts: deque[str] = deque(maxlen=50)  # the vehicle's latest STATUSTEXTs
         try:
             self.vehicle = self._wait_vehicle(target_system)
         except BaseException:
@@ -211,6 +217,19 @@ class Link:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+    def _keep_statustext(self, msg: Any) -> None:
+        if msg.get_type() == "STATUSTEXT":
+            self.statustexts.append(str(msg.text))
+
+    def _mission_room(self) -> int | None:
+        """How many mission items the vehicle last said it has room for (ArduPilot says so
+        in a STATUSTEXT with its NO_SPACE refusal), or None if it never said."""
+        for text in reversed(self.statustexts):
+            m = _ROOM.search(text)
+            if m:
+                return int(m.group(1))
+        return None
 
     @property
     def target(self) -> tuple[int, int]:
@@ -290,8 +309,11 @@ class Link:
         label = mission_type.label
         count = len(items)
         ts, tc = self.target
-        last_progress = time.monotonic()
-        for _attempt in range(TRANSFER_ATTEMPTS):
+        last_progress = first_refusal = time.monotonic()
+        refused = False
+        attempt = 0
+        while attempt < TRANSFER_ATTEMPTS:
+            attempt += 1
             self.mav.mission_count_send(ts, tc, count, int(mission_type))
             last_send = time.monotonic()
             last_sent: int | None = None
@@ -333,6 +355,21 @@ class Link:
                     if msg.type in _RESTARTABLE:
                         last_progress = time.monotonic()
                         break  # start the transfer again
+                    if msg.type == mavlink.MAV_MISSION_NO_SPACE and last_sent is None:
+                        # ArduPilot says its room in a STATUSTEXT that may follow the ACK
+                        self.recv((), time.monotonic() + 1.0)
+                        room = self._mission_room()
+                        if room:
+                            raise LinkError(f"{label} upload: vehicle rejected it with {name}: "
+                                            f"it has room for {room} items, the plan needs "
+                                            f"{count}")
+                        if not refused:
+                            refused, first_refusal = True, time.monotonic()
+                        patience = BOOT_PATIENCE_S if room == 0 else self.timeout_s
+                        if time.monotonic() - first_refusal < patience:
+                            last_progress = time.monotonic()  # booting: ask again
+                            attempt -= 1
+                            break
                     at = f" at item {last_sent}" if last_sent is not None else ""
                     raise LinkError(f"{label} upload: vehicle rejected it with {name}{at}")
                 seq = int(msg.seq)
@@ -518,70 +555,60 @@ def command_name(command: int) -> str:
     return entry.name if entry is not None else str(command)
 
 
-# -- parameter files -----------------------------------------------------------------------
-
-_PARAM_NAME = re.compile(r"^[A-Za-z0-9_]{1,16}$")
-
-
-def parse_params(text: str, source: str = "params") -> dict[str, float]:
-    """Parameters from a ``.param`` / ``.parm`` file (``NAME VALUE`` or ``NAME,VALUE`` per line,
-    as ArduPilot tools write) or a QGroundControl parameter file (``SYSID COMPID NAME VALUE
-    TYPE``, tab-separated, as PX4 users save). ``#`` starts a comment."""
-    out: dict[str, float] = {}
-    for lineno, raw in enumerate(text.splitlines(), start=1):
-        line = raw.split("#", 1)[0].strip()
-        if not line:
-            continue
-        parts = [p for p in re.split(r"[\s,]+", line) if p]
-        if len(parts) == 5 and parts[0].isdigit() and parts[1].isdigit():
-            parts = parts[2:4]
-        if len(parts) != 2:
-            raise InputError(f"{source}:{lineno}: expected 'NAME VALUE', got {raw.strip()!r}")
-        name, value_text = parts
-        if not _PARAM_NAME.match(name):
-            raise InputError(f"{source}:{lineno}: {name!r} is not a parameter name "
-                             "(letters, digits, _; at most 16)")
-        try:
-            value = float(value_text)
-        except ValueError:
-            raise InputError(f"{source}:{lineno}: {name}: {value_text!r} is not a number") from None
-        if not math.isfinite(value):
-            raise InputError(f"{source}:{lineno}: {name}: value must be finite")
-        out[name] = value
-    return out
-
-
-def read_params(path: str | Path) -> dict[str, float]:
-    """Read a parameter file (see :func:`parse_params`)."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise InputError(f"{path}: cannot read parameter file ({err})") from None
-    return parse_params(text, str(path))
-
-
 # -- what the commands do ------------------------------------------------------------------
 
 
 def verify_lists(link: Link, sent: WireLists) -> None:
-    """Download all three lists and raise :class:`LinkError` at the first difference."""
+    """Download all three lists and raise :class:`LinkError` at the first item the vehicle
+    does not hold as sent (verbatim, or as its autopilot documents to store it:
+    :mod:`validator.mavlink.storage`)."""
     held = link.download()
     for mtype in MissionType:
-        diff = first_difference(sent.of(mtype), held.of(mtype), mtype,
-                                skip_seq0=mtype == MissionType.MISSION
-                                and link.vehicle.is_ardupilot)
+        diff = first_stored_difference(sent.of(mtype), held.of(mtype), mtype,
+                                       link.vehicle.autopilot,
+                                       skip_seq0=mtype == MissionType.MISSION
+                                       and link.vehicle.is_ardupilot)
         if diff is not None:
             raise LinkError(f"read-back differs from the upload: {diff}")
 
 
-def upload_to(link: Link, plan: Plan, params: Mapping[str, float] | None = None) -> UploadReport:
-    """Set ``params`` (read back), upload ``plan``'s three lists and verify them by
-    downloading them again; raises :class:`LinkError` on any failure or difference."""
+def fence_problems(link: Link, plan: Plan) -> list[str]:
+    """Why the fence the vehicle holds for ``plan`` is off or has an unsafe breach action,
+    read from the vehicle's own parameters (empty when fine, or when ``plan`` has no fence or
+    the autopilot is neither ArduPilot nor PX4)."""
+    if not (plan.circles or plan.polygons):
+        return []
+    rules = FENCE_RULES["ardupilot" if link.vehicle.is_ardupilot else "px4"] if (
+        link.vehicle.is_ardupilot or link.vehicle.is_px4) else None
+    if rules is None:
+        return []
+    names = [n for n in (rules.enable, rules.type_param, rules.action) if n is not None]
+    return rules.problems({n: link.read_param(n).value for n in names})
+
+
+def upload_to(link: Link, plan: Plan, params: Mapping[str, float] | None = None, *,
+              require_fence: bool = True) -> UploadReport:
+    """Upload ``plan``'s three lists, set ``params`` (each read back, in order, after the
+    lists: a fence is switched on only once it is loaded) and verify the lists by downloading
+    them again. Raises :class:`InputError` before sending anything when the autopilot would
+    store an item with another meaning (a fractional ArduPilot hold), and :class:`LinkError`
+    on any failure, any difference, or, with ``require_fence``, a plan whose fence the vehicle
+    then holds switched off or with a breach action that can cross another zone."""
     sent = plan_to_wire(plan, home_item=link.vehicle.is_ardupilot)
-    got_params = link.set_params(params) if params else {}
+    losses = [line for mtype in MissionType
+              for line in storage_losses(sent.of(mtype), link.vehicle.autopilot)]
+    if losses:
+        raise InputError(f"the vehicle would not keep the plan as written: {losses[0]}"
+                         + (f" (and {len(losses) - 1} more)" if len(losses) > 1 else ""))
     link.upload(sent)
+    got_params = link.set_params(params) if params else {}
     verify_lists(link, sent)
+    if require_fence:
+        problems = fence_problems(link, plan)
+        if problems:
+            raise LinkError(f"the mission is on the vehicle but its geofence is not protecting "
+                            f"it: {problems[0]}; set the plan's parameter file (--set-params "
+                            "X.param) or pass --allow-fence-off")
     return UploadReport(
         link.vehicle,
         {t.label: len(sent.of(t)) for t in MissionType},
@@ -596,10 +623,12 @@ def upload_plan(
     timeout_s: float = DEFAULT_TIMEOUT_S,
     sysid: int | None = None,
     params: Mapping[str, float] | None = None,
+    require_fence: bool = True,
 ) -> UploadReport:
-    """Upload ``plan`` to the vehicle at ``url`` and verify it (``upload-mission``)."""
+    """Upload ``plan`` to the vehicle at ``url`` and verify it (``upload-mission``; see
+    :func:`upload_to`)."""
     with Link(url, timeout_s=timeout_s, target_system=sysid) as link:
-        return upload_to(link, plan, params)
+        return upload_to(link, plan, params, require_fence=require_fence)
 
 
 def home_of(link: Link) -> tuple[float, float, float] | None:

@@ -103,6 +103,7 @@ BASE_PARAMS: dict[str, tuple[float, int]] = {
     "RTL_ALT": (1500.0, INT16),
     "RTL_SPEED": (0.0, INT16),
     "FENCE_ENABLE": (1.0, INT8),
+    "FENCE_TYPE": (7.0, INT8),
     "FENCE_ACTION": (0.0, INT8),
 }
 SITL_TOP_SPEED_MPS = 10.4  # ArduPilot's SITL quad at ANGLE_MAX 30 deg (mavlink-facts.md)

@@ -375,12 +375,12 @@ def wire_to_plan(
 
 def first_difference(
     sent: tuple[WireItem, ...], held: tuple[WireItem, ...], mission_type: MissionType,
-    *, skip_seq0: bool = False,
+    *, skip_seq0: bool = False, expected: str = "sent",
 ) -> str | None:
     """One line describing the first difference between two lists, or None if identical.
 
     ``skip_seq0``: ArduPilot replaces the mission's seq 0 with its own home, so it is not
-    compared.
+    compared. ``expected`` names the first list in the message.
     """
     label = mission_type.label
     if len(sent) != len(held):
@@ -394,7 +394,7 @@ def first_difference(
         for name, va, vb in zip(names, ca, cb, strict=True):
             if va != vb:
                 shown_a, shown_b = getattr(a, name), getattr(b, name)
-                return (f"{label} item {a.seq}: {name} sent {shown_a!r}, "
+                return (f"{label} item {a.seq}: {name} {expected} {shown_a!r}, "
                         f"vehicle holds {shown_b!r}")
     return None
 

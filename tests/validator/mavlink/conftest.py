@@ -52,14 +52,20 @@ def plan(site: Site) -> Plan:
     return p
 
 
+# The built-in vehicle's fence is report-only by default; uploads check for a safe breach action.
+FENCE_ON = {"FENCE_ACTION": 5.0}
+
+
 @pytest.fixture()
 def start_vehicle() -> Iterator[Callable[..., SitlVehicle]]:
-    """``start_vehicle(plan_or_home, **VehicleConfig fields)``: a running SITL vehicle,
+    """``start_vehicle(plan_or_home, **VehicleConfig fields)``: a running SITL vehicle whose
+    fence has a safe breach action (:data:`FENCE_ON`, unless ``params`` say otherwise),
     stopped after the test."""
     started: list[SitlVehicle] = []
 
     def start(where: Plan | tuple[float, float, float], **config: Any) -> SitlVehicle:
         home = home_of(where) if isinstance(where, Plan) else where
+        config["params"] = {**FENCE_ON, **config.get("params", {})}
         v = SitlVehicle("udpin:127.0.0.1:0", VehicleConfig(home=home, **config)).start()
         started.append(v)
         return v
@@ -83,16 +89,20 @@ class FakeVehicle:
     everything but report param2 + 1 for that seq on download. ``drop_download_at``: when
     that item is first requested, abandon the download as MAVSDK does after its retries: say
     nothing more until a new MISSION_REQUEST_LIST, then serve items only from 0 in order.
-    ``mute_items``: answer MISSION_REQUEST_LIST but never an item.
+    ``mute_items``: answer MISSION_REQUEST_LIST but never an item. ``booting``: refuse that
+    many MISSION_COUNTs with NO_SPACE and "Only 0 items are supported", as a booting
+    ArduPilot does; ``room``: say "Only ROOM items are supported" with every ``nack``.
     """
 
     def __init__(self, *, nack: int | None = None, silent_after: int | None = None,
                  corrupt_seq: int | None = None, drop_download_at: int | None = None,
-                 mute_items: bool = False, sysid: int = 1) -> None:
+                 mute_items: bool = False, sysid: int = 1, booting: int = 0,
+                 room: int | None = None) -> None:
         self.conn = mavutil.mavlink_connection("udpin:127.0.0.1:0", source_system=sysid,
                                                source_component=1)
         self.nack, self.silent_after, self.corrupt_seq = nack, silent_after, corrupt_seq
         self.drop_download_at, self.mute_items = drop_download_at, mute_items
+        self.booting, self.room = booting, room
         self.serving: int | None = None  # next item a download may ask for; None: abandoned
         self.list_requests = 0
         self.lists: dict[int, list[WireItem]] = {0: [], 1: [], 2: []}
@@ -131,8 +141,16 @@ class FakeVehicle:
             if kind == "MISSION_COUNT":
                 count, mtype = msg.count, msg.mission_type
                 self.incoming = []
-                if self.nack is not None:
+                if self.booting > 0:
+                    self.booting -= 1
+                    mav.mission_ack_send(*src, mavlink.MAV_MISSION_NO_SPACE, mtype)
+                    mav.statustext_send(mavlink.MAV_SEVERITY_WARNING,
+                                        b"Only 0 items are supported")
+                elif self.nack is not None:
                     mav.mission_ack_send(*src, self.nack, mtype)
+                    if self.room is not None:
+                        mav.statustext_send(mavlink.MAV_SEVERITY_WARNING,
+                                            f"Only {self.room} items are supported".encode())
                 elif count == 0:
                     self.lists[mtype] = []
                     mav.mission_ack_send(*src, mavlink.MAV_MISSION_ACCEPTED, mtype)

@@ -3,12 +3,12 @@ import time
 import pytest
 
 from tests.validator.mavlink.conftest import FakeVehicle, free_udp_port, url_of
+from validator.autopilot.param_file import parse_params
 from validator.errors import InputError
 from validator.mavlink.link import (
     Link,
     LinkError,
     download_plan,
-    parse_params,
     upload_plan,
     upload_to,
 )
@@ -46,8 +46,8 @@ def test_download_gives_back_the_plan(plan, start_vehicle):
 def test_parameters_are_set_and_read_back(plan, start_vehicle):
     vehicle = start_vehicle(plan)
     report = upload_plan(plan, url_of(vehicle), timeout_s=5,
-                         params={"WPNAV_SPEED": 750.0, "FENCE_ACTION": 1.0})
-    assert report.params == {"WPNAV_SPEED": 750.0, "FENCE_ACTION": 1.0}
+                         params={"WPNAV_SPEED": 750.0, "FENCE_ACTION": 4.0})
+    assert report.params == {"WPNAV_SPEED": 750.0, "FENCE_ACTION": 4.0}
     assert vehicle.params["WPNAV_SPEED"][0] == 750.0
 
 
@@ -73,9 +73,9 @@ def test_wrong_system_id_is_named(plan, start_vehicle):
 
 
 def test_nack_is_reported_by_its_result_name(plan):
-    with FakeVehicle(nack=mavlink.MAV_MISSION_NO_SPACE) as fake:
+    with FakeVehicle(nack=mavlink.MAV_MISSION_INVALID_PARAM1) as fake:
         with pytest.raises(LinkError, match="mission upload: vehicle rejected it with "
-                                            "MAV_MISSION_NO_SPACE"):
+                                            "MAV_MISSION_INVALID_PARAM1"):
             upload_plan(plan, fake.url, timeout_s=2)
 
 
@@ -91,14 +91,47 @@ def test_vehicle_going_silent_half_way_is_a_failure_within_the_timeout(plan):
 
 def test_read_back_difference_fails_the_upload(plan):
     with FakeVehicle(corrupt_seq=3) as fake:
-        with pytest.raises(LinkError, match="read-back differs from the upload: mission item "
-                                            "3: param2 sent 0.0, vehicle holds 1.0"):
-            upload_plan(plan, fake.url, timeout_s=2)
+        with pytest.raises(LinkError, match=r"read-back differs from the upload: mission item "
+                                            r"3: param2 expected \(as ArduPilot stores what we "
+                                            r"sent\) 0.0, vehicle holds 1.0"):
+            upload_plan(plan, fake.url, timeout_s=2, require_fence=False)
 
 
 def test_a_fake_vehicle_that_behaves_passes(plan):
     with FakeVehicle() as fake:
-        assert upload_plan(plan, fake.url, timeout_s=2).counts["mission"] == 7
+        assert upload_plan(plan, fake.url, timeout_s=2,
+                           require_fence=False).counts["mission"] == 7
+
+
+def test_a_booting_vehicle_that_has_no_room_yet_is_asked_again(plan):
+    with FakeVehicle(booting=2) as fake:
+        upload_plan(plan, fake.url, timeout_s=2, require_fence=False)
+        assert fake.booting == 0 and len(fake.lists[0]) == 7
+
+
+def test_a_vehicle_without_room_for_the_plan_is_a_clear_failure(plan):
+    with FakeVehicle(nack=mavlink.MAV_MISSION_NO_SPACE, room=5) as fake:
+        with pytest.raises(LinkError, match="vehicle rejected it with MAV_MISSION_NO_SPACE: it "
+                                            "has room for 5 items, the plan needs 7"):
+            upload_plan(plan, fake.url, timeout_s=2)
+
+
+def test_an_upload_that_leaves_the_fence_report_only_fails(plan, start_vehicle):
+    vehicle = start_vehicle(plan, params={"FENCE_ACTION": 0.0})
+    with pytest.raises(LinkError, match=r"geofence is not protecting it: FENCE_ACTION is 0 "
+                                        r"\(Report Only\)"):
+        upload_plan(plan, url_of(vehicle), timeout_s=5)
+    assert vehicle.lists().fence  # the mission is there: the failure says so
+    report = upload_plan(plan, url_of(vehicle), timeout_s=5, params={"FENCE_ACTION": 5.0})
+    assert report.params == {"FENCE_ACTION": 5.0}
+
+
+def test_a_fence_switched_off_fails_and_the_check_can_be_waived(plan, start_vehicle):
+    vehicle = start_vehicle(plan, params={"FENCE_ENABLE": 0.0})
+    with pytest.raises(LinkError, match="FENCE_ENABLE is 0, not 1: the uploaded fence is "
+                                        "inactive"):
+        upload_plan(plan, url_of(vehicle), timeout_s=5)
+    upload_plan(plan, url_of(vehicle), timeout_s=5, require_fence=False)
 
 
 def test_param_file_formats():

@@ -110,7 +110,7 @@ def test_fence_breach_is_reported_and_fence_action_rtl_brings_it_home(start_vehi
     plan = waypoint_plan(site, [(40.0, 0.0), (160.0, 0.0)], v=8.0, end="none")
     vehicle = start_vehicle(plan, speedup=FAST, params={"FENCE_ACTION": 1})
     with Link(url_of(vehicle), timeout_s=3) as link:
-        upload_to(link, plan)
+        upload_to(link, plan, require_fence=False)
         tel = fly_mission(link, plan, time_limit_s=300)
     assert tel.fence_breach.any()
     assert vehicle.breach_count == 1
@@ -141,10 +141,12 @@ def test_rtl_command_flies_home_and_lands(start_vehicle):
 
 def test_loss_drops_about_that_fraction(plan, start_vehicle):
     vehicle = start_vehicle(plan, speedup=FAST, loss=0.3, seed=1)
-    time.sleep(1.0)
     w = vehicle.writer
+    deadline = time.monotonic() + 30.0  # a busy machine sends slower: count, not time
+    while w.sent + w.dropped < 500 and time.monotonic() < deadline:
+        time.sleep(0.1)
     n = w.sent + w.dropped
-    assert n > 500
+    assert n >= 500
     assert w.dropped / n == pytest.approx(0.3, abs=4 * (0.3 * 0.7 / n) ** 0.5)
 
 

@@ -1,0 +1,1 @@
+"""What the validator knows about each autopilot: parameter files and geofence rules."""

@@ -1,0 +1,76 @@
+"""Autopilot parameter files: read and write, in ArduPilot's and QGroundControl's formats.
+
+ArduPilot tools (Mission Planner, MAVProxy) write ``NAME VALUE`` (or ``NAME,VALUE``) per line;
+QGroundControl saves PX4 parameters as ``SYSID COMPID NAME VALUE TYPE``, tab-separated. ``#``
+starts a comment in both. :func:`parse_params` reads either; :func:`format_params` writes the
+one that suits the autopilot.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+
+from validator.errors import InputError
+
+MAV_PARAM_TYPE_INT32 = 6
+MAV_PARAM_TYPE_REAL32 = 9
+_PARAM_NAME = re.compile(r"^[A-Za-z0-9_]{1,16}$")
+
+
+def parse_params(text: str, source: str = "params") -> dict[str, float]:
+    """Parameters from a ``.param`` / ``.parm`` file (``NAME VALUE`` or ``NAME,VALUE`` per line,
+    as ArduPilot tools write) or a QGroundControl parameter file (``SYSID COMPID NAME VALUE
+    TYPE``, tab-separated, as PX4 users save). ``#`` starts a comment."""
+    out: dict[str, float] = {}
+    for lineno, raw in enumerate(text.splitlines(), start=1):
+        line = raw.split("#", 1)[0].strip()
+        if not line:
+            continue
+        parts = [p for p in re.split(r"[\s,]+", line) if p]
+        if len(parts) == 5 and parts[0].isdigit() and parts[1].isdigit():
+            parts = parts[2:4]
+        if len(parts) != 2:
+            raise InputError(f"{source}:{lineno}: expected 'NAME VALUE', got {raw.strip()!r}")
+        name, value_text = parts
+        if not _PARAM_NAME.match(name):
+            raise InputError(f"{source}:{lineno}: {name!r} is not a parameter name "
+                             "(letters, digits, _; at most 16)")
+        try:
+            value = float(value_text)
+        except ValueError:
+            raise InputError(f"{source}:{lineno}: {name}: {value_text!r} is not a number") from None
+        if not math.isfinite(value):
+            raise InputError(f"{source}:{lineno}: {name}: value must be finite")
+        out[name] = value
+    return out
+
+
+def read_params(path: str | Path) -> dict[str, float]:
+    """Read a parameter file (see :func:`parse_params`)."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        raise InputError(f"{path}: cannot read parameter file ({err})") from None
+    return parse_params(text, str(path))
+
+
+def format_params(values: Mapping[str, float], autopilot: str,
+                  comments: Iterable[str] = (), types: Mapping[str, int] | None = None) -> str:
+    """The file text for ``values``: ArduPilot ``NAME VALUE`` lines, or for ``px4`` a
+    QGroundControl parameter file (``1 1 NAME VALUE TYPE``, tab-separated, TYPE the
+    MAV_PARAM_TYPE from ``types``, default REAL32); each comment line is written first, after
+    ``# ``."""
+    head = [f"# {c}" for c in comments]
+    if autopilot == "px4":
+        head.append("# Vehicle-Id Component-Id Name Value Type")
+        kinds = types or {}
+        body = [f"1\t1\t{n}\t{v:.9g}\t{kinds.get(n, MAV_PARAM_TYPE_REAL32)}"
+                for n, v in values.items()]
+    else:
+        width = max((len(n) for n in values), default=0)
+        body = [f"{n:<{width}} {v:.9g}" for n, v in values.items()]
+    return "\n".join(head + body) + "\n"
