@@ -2,7 +2,7 @@
 ``validate-mission``.
 
     upload-mission PLAN --connect URL [--timeout S] [--sysid N] [--set-params FILE]
-                   [--site SITE [--force]]
+                   [--site SITE [--force]] [--allow-fence-off]
     download-mission --connect URL -o PLAN [--timeout S] [--sysid N]
     sitl-vehicle --listen URL --home LAT,LON,ALT [--speedup X] [--loss P] [--seed N]
                  [--profile NAME] [--param NAME=VALUE ...] [--sysid N]
@@ -80,8 +80,10 @@ def upload_parser() -> argparse.ArgumentParser:
         prog="upload-mission",
         description="Upload a .plan's mission, geofence and rally points over MAVLink 2, then "
                     "download all three again and compare them item by item.",
-        epilog="Exit status: 0 uploaded and identical on read-back, 1 refused (the plan fails "
-               "the audit against --site), 2 bad input or a failed link.",
+        epilog="Exit status: 0 uploaded, held by the vehicle as sent (by its own storage "
+               "rules) and its geofence on with a safe breach action; 1 refused (the plan "
+               "fails the audit against --site); 2 bad input, a failed link, a read-back "
+               "difference or a fence left off.",
     )
     p.add_argument("plan", help="QGroundControl .plan file")
     _link_args(p)
@@ -91,6 +93,9 @@ def upload_parser() -> argparse.ArgumentParser:
     p.add_argument("--site", metavar="SITE",
                    help="audit the plan against this site first and refuse a violating plan")
     p.add_argument("--force", action="store_true", help="upload even if the audit fails")
+    p.add_argument("--allow-fence-off", action="store_true",
+                   help="succeed even when the vehicle's geofence stays off or its breach "
+                        "action can fly across another zone (checked after the upload)")
     return p
 
 
@@ -110,7 +115,7 @@ def upload_mission_main(argv: Sequence[str] | None = None) -> int:
                 print(f"upload-mission: {refused}; --force uploads it anyway", file=sys.stderr)
                 return 1
         report = upload_plan(plan, args.connect, timeout_s=args.timeout, sysid=args.sysid,
-                             params=params)
+                             params=params, require_fence=not args.allow_fence_off)
     except InputError as err:
         return _fail("upload-mission", err)
     print(report.summary())
