@@ -26,7 +26,19 @@ SITL):
 - rally: frame as for mission locations, altitude in an int16 of whole metres, params 0,
   autocontinue 0.
 
-Commands without a rule here are compared param for param, with NaN read back as 0.
+PX4 v1.15 (``MavlinkMissionManager::parse_mavlink_mission_item`` and
+``format_mavlink_mission_item``):
+
+- items with a position read back in the int frames: 5 (absolute, from 0 or 5) or 6 (above
+  home, from 3 or 6), coordinates and altitude as sent, autocontinue as sent; each command keeps
+  its own params (NAV_WAYPOINT: hold, acceptance radius and yaw; NAV_TAKEOFF and NAV_LAND:
+  yaw; fence circles: radius; polygon vertices: count; rally and return points: none), the rest
+  0; yaw is kept in radians in [0, 2pi), so it reads back wrapped to [0, 360) degrees.
+- items in MAV_FRAME_MISSION (DO commands) keep params and x, y, z as sent, DO_JUMP's target
+  and repeat count as uint16.
+
+Commands without a rule here are compared param for param, with NaN read back as 0 (ArduPilot)
+or as sent (PX4).
 """
 
 from __future__ import annotations
@@ -135,9 +147,68 @@ def _ardupilot_rally(item: WireItem) -> WireItem:
                                z=I16(item.z), autocontinue=0)
 
 
+def _yaw(v: float) -> float:
+    """PX4's yaw: kept in radians wrapped to [0, 2pi), read back in degrees."""
+    return v if math.isnan(v) else f32(math.fmod(math.fmod(f32(v), 360.0) + 360.0, 360.0))
+
+
+def _zero(_v: float) -> float:
+    return 0.0
+
+
+def _same(v: float) -> float:
+    return f32(v)
+
+
+YAW_TOLERANCE_DEG = 1e-3  # PX4's float32 degree-radian round trip moves a yaw by ~1e-5 deg
+_PX4_POSITIONED: dict[int, tuple[Store, Store, Store, Store]] = {
+    int(Cmd.NAV_WAYPOINT): (_same, _same, _zero, _yaw),
+    int(Cmd.NAV_LOITER_UNLIM): (_zero, _zero, _same, _yaw),
+    int(Cmd.NAV_LOITER_TIME): (_same, lambda v: float(v > 0), _same, lambda v: float(v > 0)),
+    int(Cmd.NAV_LAND): (_zero, U8, _zero, _yaw),
+    int(Cmd.NAV_TAKEOFF): (_zero, _zero, _zero, _yaw),
+    int(Cmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION): (lambda v: U16(v + 0.5), _zero, _zero, _zero),
+    int(Cmd.NAV_FENCE_POLYGON_VERTEX_EXCLUSION): (lambda v: U16(v + 0.5), _zero, _zero, _zero),
+    int(Cmd.NAV_FENCE_CIRCLE_INCLUSION): (_same, _zero, _zero, _zero),
+    int(Cmd.NAV_FENCE_CIRCLE_EXCLUSION): (_same, _zero, _zero, _zero),
+    5000: (_zero, _zero, _zero, _zero),  # NAV_FENCE_RETURN_POINT
+    int(Cmd.NAV_RALLY_POINT): (_zero, _zero, _zero, _zero),
+}
+_PX4_INT_FRAME = {0: 5, 5: 5, 3: 6, 6: 6}
+
+
+def _px4(item: WireItem) -> WireItem:
+    raw = (item.param1, item.param2, item.param3, item.param4)
+    if item.frame == 2:
+        keep: tuple[Store, ...] = ((U16, U16, _same, _same) if item.command == int(Cmd.DO_JUMP)
+                                   else (_same,) * 4)
+        frame = 2
+    elif item.frame in _PX4_INT_FRAME:
+        keep = _PX4_POSITIONED.get(item.command, (_same,) * 4)
+        frame = _PX4_INT_FRAME[item.frame]
+    else:
+        return item
+    p = tuple(k(v) for k, v in zip(keep, raw, strict=True))
+    return dataclasses.replace(item, frame=frame, param1=p[0], param2=p[1], param3=p[2],
+                               param4=p[3])
+
+
+def _yaw_close(expected: WireItem, held: WireItem) -> WireItem:
+    """``expected`` with ``held``'s yaw when the two are the same angle to within
+    :data:`YAW_TOLERANCE_DEG` (PX4's float32 radian round trip is not bit-exact)."""
+    a, b = expected.param4, held.param4
+    if math.isfinite(a) and math.isfinite(b):
+        diff = abs((a - b + 180.0) % 360.0 - 180.0)
+        if diff < YAW_TOLERANCE_DEG:
+            return dataclasses.replace(expected, param4=b)
+    return expected
+
+
 def stored_form(item: WireItem, autopilot: int) -> WireItem:
     """``item`` as ``autopilot`` (MAV_AUTOPILOT) holds it after accepting it; unchanged for an
     autopilot without known rules (our built-in vehicle stores verbatim)."""
+    if autopilot == PX4:
+        return _px4(item)
     if autopilot != ARDUPILOT:
         return item
     kind = MissionType(item.mission_type)
@@ -185,5 +256,9 @@ def first_stored_difference(
         return first_difference(sent, held, mission_type)
     expected = tuple(h if h.content() == s.content() else stored_form(s, autopilot)
                      for s, h in zip(sent, held, strict=True))
-    label = "sent" if autopilot != ARDUPILOT else "expected (as ArduPilot stores what we sent)"
+    if autopilot == PX4:
+        expected = tuple(_yaw_close(e, h) if e.command in _PX4_POSITIONED else e
+                         for e, h in zip(expected, held, strict=True))
+    label = {ARDUPILOT: "expected (as ArduPilot stores what we sent)",
+             PX4: "expected (as PX4 stores what we sent)"}.get(autopilot, "sent")
     return first_difference(expected, held, mission_type, skip_seq0=skip_seq0, expected=label)

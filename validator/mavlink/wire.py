@@ -81,8 +81,12 @@ def f32(v: float) -> float:
     return float(struct.unpack("<f", struct.pack("<f", float(v)))[0])
 
 
+_NAN_BITS = struct.pack("<f", math.nan)
+
+
 def _f32_bits(v: float) -> bytes:
-    return struct.pack("<f", float(v))
+    """``v`` as float32 bytes; every NaN alike (autopilots return NaNs of either sign)."""
+    return _NAN_BITS if math.isnan(v) else struct.pack("<f", float(v))
 
 
 @dataclass(frozen=True)

@@ -101,7 +101,33 @@ def test_a_vehicle_that_stores_verbatim_also_passes():
 
 def test_other_autopilots_are_compared_verbatim():
     wp = item(Cmd.NAV_WAYPOINT, (0.0, 0.0, 0.0, NAN))
-    assert stored_form(wp, PX4) == wp and storage_losses((wp,), PX4) == []
+    assert stored_form(wp, 0) == wp and storage_losses((wp,), 0) == []
+
+
+@pytest.mark.parametrize("sent, kept", [(3, 6), (0, 5), (6, 6), (2, 2)])
+def test_px4_reads_positions_back_in_the_int_frames(sent, kept):
+    assert stored_form(item(Cmd.NAV_WAYPOINT, frame=sent), PX4).frame == kept
+
+
+def test_px4_keeps_waypoint_hold_and_radius_and_wraps_the_yaw():
+    held = stored_form(item(Cmd.NAV_WAYPOINT, (2.5, 1.0, 7.0, -90.0)), PX4)
+    assert (held.param1, held.param2, held.param3, held.param4) == (2.5, 1.0, 0.0, 270.0)
+    nan_yaw = stored_form(item(Cmd.NAV_WAYPOINT, (2.5, 1.0, 0.0, NAN)), PX4)
+    assert math.isnan(nan_yaw.param4)  # "keep the current heading" survives
+    assert storage_losses((item(Cmd.NAV_WAYPOINT, (2.5, 0.0, 0.0, NAN)),), PX4) == []
+
+
+def test_px4_yaw_within_its_float_round_trip_is_not_a_difference():
+    wp = item(Cmd.NAV_WAYPOINT, (0.0, 0.0, 0.0, 45.0))
+    held = dataclasses.replace(stored_form(wp, PX4), param4=45.00001)
+    assert first_stored_difference((wp,), (held,), MissionType.MISSION, PX4) is None
+    turned = dataclasses.replace(held, param4=46.0)
+    assert "param4" in first_stored_difference((wp,), (turned,), MissionType.MISSION, PX4)
+
+
+def test_px4_keeps_do_commands_as_sent():
+    sp = item(Cmd.DO_CHANGE_SPEED, (1.0, 7.25, -1.0, 0.0), frame=2, z=0.0, x=0, y=0)
+    assert stored_form(sp, PX4) == sp
 
 
 def test_our_plans_lose_nothing_in_ardupilot_storage(plan):

@@ -1,0 +1,157 @@
+"""The real ArduCopter firmware in the loop: upload, read-back, fence and flights.
+
+These tests run an ArduCopter SITL binary built for this machine: ``$ARDUPILOT_SITL``, else
+``/opt/sitl/arducopter`` (see the README's *Real autopilots*). Without one they are skipped,
+saying how to enable them. Plans are made by ``plan-mission`` as a user makes them.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+from validator.autopilot.param_file import read_params
+from validator.cli import validate_mission_main
+from validator.mavlink.cli import download_mission_main, upload_mission_main
+from validator.mavlink.link import Link
+from validator.mavlink.sitl_process import ardupilot_sitl, find_defaults
+from validator.plan_format import read_plan
+
+REPO = Path(__file__).resolve().parents[3]
+DOCUMENTED_PATH = Path("/opt/sitl/arducopter")
+
+
+def _binary() -> Path | None:
+    given = os.environ.get("ARDUPILOT_SITL")
+    path = Path(given) if given else DOCUMENTED_PATH
+    return path if path.is_file() and os.access(path, os.X_OK) else None
+
+
+BINARY = _binary()
+pytestmark = pytest.mark.skipif(
+    BINARY is None,
+    reason="no ArduCopter SITL binary: build ArduCopter 4.5 SITL for this machine and set "
+           "ARDUPILOT_SITL=/path/to/build/sitl/bin/arducopter (or link it at "
+           "/opt/sitl/arducopter) to run the real-autopilot tests")
+PLAN_MISSION = shutil.which("plan-mission", path=str(Path(sys.executable).parent))
+
+
+def _plan(tmp: Path, site: Path, *extra: str) -> tuple[Path, Path]:
+    out = tmp / f"{site.stem}.plan"
+    subprocess.run([str(PLAN_MISSION), str(site), "-o", str(out), *extra],
+                   check=True, capture_output=True)
+    return out, out.with_suffix(".param")
+
+
+@pytest.fixture(scope="module")
+def sample(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, Path]:
+    tmp = tmp_path_factory.mktemp("sample")
+    site = REPO / "samples" / "paper-default.yaml"
+    plan, params = _plan(tmp, site)
+    return site, plan, params
+
+
+@pytest.fixture()
+def sitl_url(sample: tuple[Path, Path, Path]):
+    _, plan_path, _ = sample
+    plan = read_plan(plan_path)
+    assert BINARY is not None
+    with ardupilot_sitl(BINARY, (plan.home_lat_deg, plan.home_lon_deg, plan.home_alt_m),
+                        speedup=10.0, defaults=find_defaults(BINARY)) as url:
+        yield url
+
+
+def test_upload_verifies_against_ardupilots_storage_and_the_fence_is_on(sample, sitl_url,
+                                                                       tmp_path, capsys):
+    _, plan, params = sample
+    assert upload_mission_main([str(plan), "--connect", sitl_url, "--set-params", str(params),
+                                "--timeout", "20"]) == 0
+    assert capsys.readouterr().out.startswith("uploaded and verified")
+    with Link(sitl_url, timeout_s=10) as link:
+        assert link.read_param("FENCE_ENABLE").value == 1.0
+        assert link.read_param("FENCE_ACTION").value == 5.0
+        assert link.read_param("WPNAV_SPEED").value == read_params(params)["WPNAV_SPEED"]
+    back = tmp_path / "back.plan"
+    assert download_mission_main(["--connect", sitl_url, "-o", str(back)]) == 0
+    sent, held = read_plan(plan), read_plan(back)
+    assert [it.command for it in held.items] == [it.command for it in sent.items]
+    assert len(held.circles) == len(sent.circles) and len(held.rally) == len(sent.rally)
+    holds = [it.params[0] for it in sent.items if it.command == 16]
+    assert [it.params[0] for it in held.items if it.command == 16] == holds
+
+
+def test_an_upload_without_the_parameter_file_leaves_the_fence_off_and_fails(sample, sitl_url,
+                                                                            capsys):
+    _, plan, _ = sample
+    assert upload_mission_main([str(plan), "--connect", sitl_url, "--timeout", "20"]) == 2
+    assert "FENCE_ENABLE is 0, not 1" in capsys.readouterr().err
+
+
+def test_the_sample_plan_flies_to_the_end_clear_of_every_nfz(sample, tmp_path, capsys):
+    site, plan, params = sample
+    out = tmp_path / "flown.json"
+    status = validate_mission_main([str(plan), "--site", str(site), "--params", str(params),
+                                    "--sitl-binary", str(BINARY), "--json", str(out)])
+    text = capsys.readouterr().out
+    report = json.loads(out.read_text())
+    assert status == 0, text
+    assert report["sitl_flight"]["kind"] == "sitl-binary"
+    assert report["sitl_flight"]["vehicle"].startswith("ArduPilot")
+    assert report["sitl_flight"]["end"] == "landed"
+    assert report["sitl_flight"]["fence_breach_samples"] == 0
+    assert all(z["clearance_m"] > 0 for z in report["sitl"]["nfz"])
+    assert "flown clearance (m)" in text
+
+
+def _crossing_site(tmp: Path) -> Path:
+    """Two nodes either side of a zone, few slots: the conventional plan hops across it."""
+    site = yaml.safe_load((REPO / "samples" / "paper-default.yaml").read_text())
+    site.update(name="crossing",
+                uav={"altitude": 30.0, "max_speed": 10.0, "period": 40.0, "slots": 6},
+                ground_nodes=[{"name": "W", "x": 0.0, "y": 0.0}, {"name": "E", "x": 240.0,
+                                                                 "y": 0.0}],
+                no_fly_zones=[{"name": "MID", "x": 120.0, "y": 0.0, "radius": 40.0}])
+    site.pop("home", None)
+    path = tmp / "crossing.yaml"
+    path.write_text(yaml.safe_dump(site))
+    return path
+
+
+@pytest.fixture(scope="module")
+def crossing(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, Path]:
+    tmp = tmp_path_factory.mktemp("crossing")
+    site = _crossing_site(tmp)
+    plan, params = _plan(tmp, site, "--scheme", "conventional", "--dynamics", "none", "--force")
+    return site, plan, params
+
+
+def test_a_leg_across_a_zone_is_caught_by_the_flown_track_and_the_fence(crossing, tmp_path):
+    site, plan, params = crossing
+    report_only = tmp_path / "report-only.param"
+    report_only.write_text(params.read_text().replace("FENCE_ACTION 5", "FENCE_ACTION 0"))
+    out = tmp_path / "crossed.json"
+    status = validate_mission_main([str(plan), "--site", str(site), "--params",
+                                    str(report_only), "--sitl-binary", str(BINARY),
+                                    "--json", str(out)])
+    report = json.loads(out.read_text())
+    assert status == 1
+    assert min(z["clearance_m"] for z in report["sitl"]["nfz"]) < 0  # flown into the zone
+    assert report["sitl_flight"]["fence_breach_samples"] > 0  # and the autopilot said so
+
+
+def test_with_the_plans_parameters_a_breach_retraces_the_flown_path(crossing, tmp_path):
+    site, plan, params = crossing
+    out = tmp_path / "smartrtl.json"
+    validate_mission_main([str(plan), "--site", str(site), "--params", str(params),
+                           "--sitl-binary", str(BINARY), "--json", str(out)])
+    report = json.loads(out.read_text())
+    assert report["sitl_flight"]["fence_breach_samples"] > 0
+    assert [c["mode"] for c in report["sitl_flight"]["mode_changes"]][:1] == ["SMART_RTL"]
+    assert report["sitl_flight"]["end"] == "landed"
