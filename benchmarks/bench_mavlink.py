@@ -14,6 +14,7 @@ Prints
 from __future__ import annotations
 
 import argparse
+import socket
 import time
 
 import numpy as np
@@ -21,7 +22,7 @@ import numpy as np
 from validator.dynamics import make_profile
 from validator.flight import resolve_flight
 from validator.mavlink.driver import builtin_vehicle, fly_mission, telemetry_track
-from validator.mavlink.link import Link, upload_to
+from validator.mavlink.link import Link, LinkError, upload_plan, upload_to
 from validator.mavlink.vehicle import SitlVehicle, VehicleConfig
 from validator.plan_format import Cmd, FenceCircle, Frame, MissionItem, Plan
 from validator.replay import replay
@@ -65,7 +66,7 @@ def main() -> None:
         try:
             with Link(f"udpout:127.0.0.1:{vehicle.address[1]}", timeout_s=10) as link:
                 t0 = time.perf_counter()
-                upload_to(link, plan)
+                upload_to(link, plan, require_fence=False)  # the transfer is what is timed
                 print(f"  loss {loss:4.0%}: {time.perf_counter() - t0:6.2f} s")
         finally:
             vehicle.stop()
@@ -75,7 +76,7 @@ def main() -> None:
     flight = resolve_flight(plan, site)
     with builtin_vehicle(plan, profile=profile, speedup=args.speedup) as url:
         with Link(url, timeout_s=10) as link:
-            upload_to(link, plan)
+            upload_to(link, plan, require_fence=False)
             t0 = time.perf_counter()
             tel = fly_mission(link, plan, time_limit_s=3600)
             wall = time.perf_counter() - t0
@@ -91,6 +92,23 @@ def main() -> None:
     print(f"SITL flight at x{args.speedup:g}: {wall:.1f} s wall for "
           f"{tel.t_s[-1] - tel.mission_start_s:.1f} vehicle s ({tel.samples} samples, "
           f"{tel.end_reason}); largest distance from the replay {gap:.3f} m")
+
+
+    for timeout_s in (1.0, 3.0):
+        port = _free_udp_port()
+        t0 = time.perf_counter()
+        try:
+            upload_plan(plan, f"udpout:127.0.0.1:{port}", timeout_s=timeout_s)
+        except LinkError:
+            pass
+        print(f"dead link with --timeout {timeout_s:g}: failed after "
+              f"{time.perf_counter() - t0:.2f} s")
+
+
+def _free_udp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
 
 
 if __name__ == "__main__":

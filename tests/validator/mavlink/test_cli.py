@@ -4,7 +4,6 @@ errors, no partial output file."""
 import signal
 import subprocess
 import sys
-import time
 
 import pytest
 import yaml
@@ -78,12 +77,12 @@ def test_download_mission_writes_what_the_vehicle_holds(tmp_path, plan, start_ve
 
 def test_download_mission_from_a_dead_link_writes_nothing(tmp_path, capsys):
     out = tmp_path / "held.plan"
-    t0 = time.monotonic()
     status = download_mission_main(["--connect", f"udpout:127.0.0.1:{free_udp_port()}",
                                     "--timeout", "1", "-o", str(out)])
-    assert status == 2 and time.monotonic() - t0 < 2.0
+    assert status == 2
     assert not out.exists() and list(tmp_path.iterdir()) == []
-    assert capsys.readouterr().err.count("\n") == 1
+    err = capsys.readouterr().err  # how long it takes is benchmarks/bench_mavlink.py's figure
+    assert err.count("\n") == 1 and "no heartbeat within 1 s" in err
 
 
 def test_sitl_vehicle_bad_home_exits_2(capsys):
