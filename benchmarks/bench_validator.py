@@ -10,15 +10,15 @@ Prints
   Target: audit + arducopter replay of the 3-cycle plan in well under 1 s;
 - the ``validate-mission --replay --json`` command end to end (a fresh process, imports
   included);
-- when the shared ArduCopter SITL data set is beside the repository: each flight's measured
-  cycle time against the arducopter replay's.
+- when the shared ArduCopter SITL flights of our plans are beside the repository
+  (``../shared/data/arducopter-sitl-2``): per flight, the arducopter replay (at the flown
+  .param) against the flight: cycle, whole mission (arming to land complete), top speed,
+  cross-track RMS and the min rate along the track. Targets: mission within 5 %, cycle 3 %.
 """
 
 from __future__ import annotations
 
 import argparse
-import csv
-import json
 import statistics
 import subprocess
 import sys
@@ -34,13 +34,15 @@ import numpy as np
 from validator.audit import audit
 from validator.dynamics import make_profile
 from validator.flight import resolve_flight
-from validator.plan_format import Cmd, FenceCircle, Frame, MissionItem, Plan, read_plan, write_plan
-from validator.replay import replay, score_track, track_from_geodetic
+from validator.plan_format import Cmd, FenceCircle, Frame, MissionItem, Plan, write_plan
+from validator.replay import replay, score_track
 from validator.site import Site, load_site
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the tests' flight loader
+from tests.validator import sitl_flights  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "samples" / "paper-default.yaml"
-SITL = ROOT.parent / "shared" / "data" / "arducopter-sitl"
 
 
 def service_trajectory(site: Site) -> tuple[np.ndarray, np.ndarray, list[str | None]]:
@@ -166,29 +168,28 @@ def cli_figure() -> None:
 
 
 def calibration() -> None:
-    if not (SITL / "flights.json").is_file():
-        print(f"calibration: shared SITL data not found at {SITL}; skipped")
+    """Predicted (arducopter replay at the flown .param) vs flown, per shared SITL flight."""
+    if not sitl_flights.available():
+        print(f"calibration: shared SITL flights not found at {sitl_flights.DATA}; skipped")
         return
-    print("arducopter profile vs ArduCopter 4.5.6 SITL (VEHICLE_SPEED_MAX 10.4 m/s)")
-    print(f"  {'track':<40} {'measured':>9} {'model':>8} {'error':>7} {'top speed':>15} "
-          f"{'cross-track max':>17}")
-    for rec in json.loads((SITL / "flights.json").read_text()):
-        site = load_site(SITL / rec["site"])
-        plan = read_plan(SITL / rec["plan"])
-        flight = resolve_flight(plan, site)
-        prof = make_profile("arducopter", site, {**rec["params"], "VEHICLE_SPEED_MAX": 10.4})
-        model = score_track(replay(flight, prof), flight, site, plan)
-        with open(SITL / rec["track"], newline="") as f:
-            rows = [r for r in csv.DictReader(f) if r["mode"] == "AUTO"]
-        tel = score_track(track_from_geodetic(
-            flight, site, [float(r["t_s"]) for r in rows], [float(r["lat"]) for r in rows],
-            [float(r["lon"]) for r in rows], [int(r["mission_seq"]) - 1 for r in rows]),
-            flight, site, plan)
+    print("arducopter replay vs ArduCopter 4.5.6 SITL (../shared/data/arducopter-sitl-2; "
+          "predicted / flown; mission = arming to land complete)")
+    print(f"  {'flight':<15} {'cycle (s)':>15} {'err':>7} {'mission (s)':>15} {'err':>7} "
+          f"{'top speed (m/s)':>16} {'cross-track RMS (m)':>20} {'min rate (bps/Hz)':>18}")
+    for name in sitl_flights.names():
+        rec = sitl_flights.load(name)
+        prof = make_profile("arducopter", rec.site, rec.params)
+        model = score_track(replay(rec.flight, prof), rec.flight, rec.site, rec.plan)
+        flown = score_track(rec.track(), rec.flight, rec.site, rec.plan)
         assert model.cycle is not None
-        err = model.cycle.flown_cycle_s / rec["cycle_s"] - 1.0
-        print(f"  {rec['track']:<40} {rec['cycle_s']:>8.1f}s {model.cycle.flown_cycle_s:>7.1f}s "
-              f"{err:>+7.1%} {rec['flown_speed_max_mps']:>6.2f}/{model.speed_max_mps:<5.2f}m/s "
-              f"{tel.cross_track_max_m:>7.2f}/{model.cross_track_max_m:<5.2f} m")
+        cyc = model.cycle.flown_cycle_s
+        mission = model.duration_s
+        rates = (f"{model.throughput.flown_min:.3f}/{flown.throughput.flown_min:.3f}"
+                 if model.throughput and flown.throughput else "-")
+        print(f"  {name:<15} {cyc:>7.1f}/{rec.cycle_s:<7.1f} {cyc / rec.cycle_s - 1:>+7.1%} "
+              f"{mission:>7.1f}/{rec.mission_s:<7.1f} {mission / rec.mission_s - 1:>+7.1%} "
+              f"{model.speed_max_mps:>7.2f}/{flown.speed_max_mps:<8.2f} "
+              f"{model.cross_track_rms_m:>9.2f}/{flown.cross_track_rms_m:<10.2f} {rates:>18}")
 
 
 def main() -> None:

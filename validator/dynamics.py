@@ -17,6 +17,12 @@ Three profiles (:func:`make_profile`), parameters in the autopilot's own names a
     WPNAV_ACCEL): the two profiles add up, which rounds the corner on the inside of the turn
     and passes collinear waypoints without stopping. The waypoint counts as reached half-way
     through that overlap. Holds are truncated to whole seconds, as ArduCopter stores them.
+    Speed is capped by the lean-limited top speed (:func:`top_speed_mps`: ANGLE_MAX or
+    PSC_ANGLE_MAX against a drag fitted to the SITL quad, VEHICLE_DRAG, at the air density of
+    ALT_AMSL). A takeoff from the ground climbs after the lift-off delay; a landing descends at
+    WPNAV_SPEED_DN to LAND_ALT_LOW, then at LAND_SPEED, and ends when the land detector
+    fires; every stop at a waypoint is counted STOP_LAG_S after the S-curve ends (all three
+    fitted to ArduCopter 4.5.6 SITL flights, ``../shared/data/arducopter-sitl-2``).
 ``px4``
     PX4 mission following: corners rounded by an arc inside NAV_ACC_RAD, corner speed
     sqrt(MPC_ACC_HOR · r) (PX4's waypoint speed rule), speed along the path driven by a
@@ -50,10 +56,24 @@ from validator.site import Site
 ProfileName = Literal["ideal", "arducopter", "px4"]
 PROFILES: tuple[ProfileName, ...] = ("ideal", "arducopter", "px4")
 GRAVITY_MPS2 = 9.80665
-SEG_CRUISE = 7  # rest-to-rest profiles: segments 0-6 accelerate, 7 cruises, 8-14 decelerate
+SEG_CRUISE = 7  # S-curves: segments 0-6 accelerate, 7 cruises, 8-14 decelerate, 15 end run
 SEG_DECEL_START = 8
 CORNER_SEARCH_STEP_S = 0.0025  # ArduCopter checks the corner condition at its 400 Hz loop rate
 STOP_TOLERANCE_M = 0.01  # a vehicle creeping to a stop counts as there this close
+# Fitted to ArduCopter 4.5.6 SITL (quad, `+` frame; ../shared/data/arducopter-sitl-2): level
+# top speed 10.03 m/s at 40 m AMSL and 10.37 m/s at 584 m, both at the 30° lean limit.
+SITL_QUAD_DRAG_PER_M = 0.0561
+# Arming to the start of the climb: the arming delay, motor spool-up and throttle slew until
+# the land detector lets go (TKOFF_SLEW_TIME); measured 3.1 s in every SITL flight (fitted with
+# the climb below so that NAV_TAKEOFF completes when it did, 18.2 s after arming from 30 m).
+LIFTOFF_DELAY_S = 3.1
+# Touchdown to "land complete": ArduCopter's land detector needs a second of low throttle and
+# no descent; measured 1.57 s in every SITL flight (disarm follows 0.5 s later).
+LAND_DETECT_S = 1.57
+# A stop at a waypoint comes later than the S-curve's own end: ArduCopter slows the S-curve's
+# clock while the vehicle lags its target (AC_WPNav's track scaler). Measured 0.3-1.2 s per
+# horizontal rest-to-rest leg in the SITL flights, median 0.6 s.
+STOP_LAG_S = 0.6
 
 
 @dataclass(frozen=True)
@@ -96,6 +116,17 @@ PARAM_SPECS: dict[str, dict[str, ParamSpec]] = {
         "ATC_ACCEL_R_MAX": ParamSpec("cdeg/s/s", 0.01, "roll acceleration limit; bounds how "
                                      "fast jerk can change (default 110000)"),
         "RTL_LOIT_TIME": ParamSpec("ms", 0.001, "hover over home before landing (default 5000)"),
+        "PSC_ANGLE_MAX": ParamSpec("deg", 1.0, "position controller lean limit, 0 = ANGLE_MAX "
+                                   "(default 0)"),
+        "LAND_SPEED": ParamSpec("cm/s", 0.01, "final descent speed below LAND_ALT_LOW "
+                                "(default 50)"),
+        "LAND_ALT_LOW": ParamSpec("cm", 0.01, "altitude where a landing slows to LAND_SPEED "
+                                  "(default 1000)"),
+        "VEHICLE_DRAG": ParamSpec("1/m", 1.0, "drag deceleration over speed squared at sea "
+                                  "level; with the lean limit it sets the top speed (default "
+                                  f"{SITL_QUAD_DRAG_PER_M}, ArduPilot's SITL quad)"),
+        "ALT_AMSL": ParamSpec("m", 1.0, "flight altitude above mean sea level, for the air "
+                              "density (default: the site's ground altitude + H)"),
         **_COMMON,
     },
     "px4": {
@@ -134,6 +165,11 @@ def _defaults(name: ProfileName, site: Site) -> dict[str, float]:
             "ATC_INPUT_TC": 0.15,
             "ATC_ACCEL_R_MAX": 110000.0,
             "RTL_LOIT_TIME": 5000.0,
+            "PSC_ANGLE_MAX": 0.0,
+            "LAND_SPEED": 50.0,
+            "LAND_ALT_LOW": 1000.0,
+            "VEHICLE_DRAG": SITL_QUAD_DRAG_PER_M,
+            "ALT_AMSL": site.frame.alt0_m + site.altitude_m,
             **common,
         }
     return {
@@ -169,7 +205,8 @@ def make_profile(
     """The profile ``name`` with the site's defaults and ``overrides`` (autopilot units).
 
     Raises :class:`InputError` for an unknown profile or parameter, or a value that is not a
-    finite number > 0 (>= 0 for WPNAV_ACCEL_C and RTL_LOIT_TIME).
+    finite number > 0 (>= 0 for WPNAV_ACCEL_C, RTL_LOIT_TIME, PSC_ANGLE_MAX, VEHICLE_DRAG and
+    ALT_AMSL).
     """
     if name not in PROFILES:
         raise InputError(f"--profile: unknown profile {name!r} (choose from {', '.join(PROFILES)})")
@@ -182,7 +219,8 @@ def make_profile(
                 f"--param {key}: unknown parameter for profile {name} (known: {known})"
             )
         v = float(value)
-        may_be_zero = key in ("WPNAV_ACCEL_C", "RTL_LOIT_TIME")
+        may_be_zero = key in ("WPNAV_ACCEL_C", "RTL_LOIT_TIME", "PSC_ANGLE_MAX", "VEHICLE_DRAG",
+                              "ALT_AMSL")
         if not math.isfinite(v) or v < 0 or (v == 0 and not may_be_zero):
             raise InputError(f"--param {key}: must be a number > 0, got {value}")
         params[key] = v
@@ -202,6 +240,58 @@ def parse_param_overrides(pairs: list[str] | None) -> dict[str, float]:
         except ValueError:
             raise InputError(f"--param {name}: {value!r} is not a number") from None
     return out
+
+
+# --------------------------------------------------------------------------------------------
+# the vehicle's own limits
+
+
+def air_density_ratio(alt_amsl_m: float) -> float:
+    """Air density at ``alt_amsl_m`` metres above mean sea level over sea level's (ISA
+    troposphere: (1 − 2.25577e-5·h)^4.2559)."""
+    return float((1.0 - 2.25577e-5 * alt_amsl_m) ** 4.2559)
+
+
+def lean_angle_max_deg(angle_max_cdeg: float, psc_angle_max_deg: float = 0.0) -> float:
+    """The lean limit (degrees) ArduCopter's position controller flies with: PSC_ANGLE_MAX
+    (degrees) when set, else ANGLE_MAX (centidegrees)."""
+    return psc_angle_max_deg if psc_angle_max_deg > 0 else angle_max_cdeg / 100.0
+
+
+def top_speed_mps(
+    angle_max_deg: float,
+    drag_per_m: float = SITL_QUAD_DRAG_PER_M,
+    density_ratio: float = 1.0,
+) -> float:
+    """Fastest level speed (m/s) of a multicopter leaning at most ``angle_max_deg`` degrees.
+
+    Holding altitude at lean θ leaves g·tan θ (m/s²) of horizontal thrust, which the air's drag
+    ``drag_per_m``·σ·v² (m/s², σ = ``density_ratio``, the air density over sea level's, see
+    :func:`air_density_ratio`) balances at v = sqrt(g·tan θ / (k·σ)). The default k (1/m) is
+    fitted to ArduPilot's SITL quad: 10.07 m/s at 30° near sea level. No drag: infinite.
+    """
+    if not 0.0 < angle_max_deg < 90.0:
+        raise InputError(f"lean angle limit: must be between 0 and 90 degrees, got "
+                         f"{angle_max_deg}")
+    drag = drag_per_m * density_ratio
+    if drag <= 0:
+        return math.inf
+    return math.sqrt(GRAVITY_MPS2 * math.tan(math.radians(angle_max_deg)) / drag)
+
+
+def arducopter_lean_max_deg(profile: Profile) -> float:
+    """The lean limit (degrees) of an ``arducopter`` profile."""
+    return lean_angle_max_deg(float(profile.params["ANGLE_MAX"]),
+                              float(profile.params["PSC_ANGLE_MAX"]))
+
+
+def arducopter_top_speed_mps(profile: Profile) -> float:
+    """The fastest an ``arducopter`` profile's vehicle flies (m/s), whatever WPNAV_SPEED says:
+    its lean-limited top speed (:func:`top_speed_mps` at the profile's air density), capped by
+    VEHICLE_SPEED_MAX."""
+    v = top_speed_mps(arducopter_lean_max_deg(profile), profile.si("VEHICLE_DRAG"),
+                      air_density_ratio(profile.si("ALT_AMSL")))
+    return min(v, profile.si("VEHICLE_SPEED_MAX"))
 
 
 # --------------------------------------------------------------------------------------------
@@ -348,18 +438,62 @@ def scurve_rest_to_rest(
     classic seven-segment profile (jerk +J, accel A, jerk −J, cruise, ...) and a long move
     lasts L/V + V/A + A/J; jerk ramps add ``jerk_ramp_s`` to that.
     """
+    return scurve_to_touchdown(length_m, speed_mps, accel_mps2, jerk_mps3, jerk_ramp_s, 0.0, 0.0)
+
+
+def scurve_to_touchdown(
+    length_m: NDArray[np.float64],
+    speed_mps: NDArray[np.float64],
+    accel_mps2: NDArray[np.float64],
+    jerk_mps3: NDArray[np.float64],
+    jerk_ramp_s: NDArray[np.float64] | float,
+    end_speed_mps: NDArray[np.float64] | float,
+    end_run_m: NDArray[np.float64] | float,
+) -> Profiles1D:
+    """Jerk-limited moves from rest that end with ``end_run_m`` metres at ``end_speed_mps``.
+
+    ArduCopter's landing: the descent runs at ``speed_mps`` (at least the end speed), slows
+    jerk-limited to the end speed as it reaches the end run (LAND_ALT_LOW) and touches down at
+    that speed. With no end speed (0) this is :func:`scurve_rest_to_rest`. Same segments as
+    that (accelerate, cruise, decelerate) plus the end run.
+    """
     L = np.maximum(np.asarray(length_m, dtype=float), 0.0)
     shape = L.shape
-    V, A, J, tj = (np.broadcast_to(np.asarray(x, dtype=float), shape).astype(float)
-                   for x in (speed_mps, accel_mps2, jerk_mps3, jerk_ramp_s))
-    v = np.where(L > 0, scurve_peak_speed(L, V, A, J, tj), 0.0)
-    jm, t2, t4, phase = _accel_phase(v, A, J, tj)
-    tc = np.divide(np.maximum(L - v * phase, 0.0), v, out=np.zeros_like(v), where=v > 0)
-    snap = np.divide(jm, tj, out=np.zeros_like(jm), where=tj > 0)
+    V, A, J, tj, ve, run = (np.broadcast_to(np.asarray(x, dtype=float), shape).astype(float)
+                            for x in (speed_mps, accel_mps2, jerk_mps3, jerk_ramp_s,
+                                      end_speed_mps, end_run_m))
+    ramp_to_ve = ve * _accel_phase(ve, A, J, tj)[3] / 2.0
+    ve = np.where(L >= ramp_to_ve, ve, 0.0)  # too short to reach the end speed: stop instead
+    run = np.where(ve > 0, np.clip(run, 0.0, L - ramp_to_ve), 0.0)
+    V = np.maximum(V, ve)
+
+    def distance(v: NDArray[np.float64]) -> NDArray[np.float64]:
+        up = _accel_phase(v, A, J, tj)[3]
+        down = _accel_phase(v - ve, A, J, tj)[3]
+        return v * up / 2.0 + (v + ve) * down / 2.0 + run
+
+    lo, hi = ve.copy(), V.copy()
+    for _ in range(60):  # bisection: distance(v) is increasing in v
+        mid = (lo + hi) / 2.0
+        longer = distance(mid) > L
+        hi = np.where(longer, mid, hi)
+        lo = np.where(longer, lo, mid)
+    v = np.where(L <= 0, 0.0, np.where(distance(V) <= L, V, lo))
+    jm, t2, t4, up = _accel_phase(v, A, J, tj)
+    jd, t2d, t4d, down = _accel_phase(v - ve, A, J, tj)
+    cruise = L - v * up / 2.0 - (v + ve) * down / 2.0 - run
+    tc = np.divide(np.maximum(cruise, 0.0), v, out=np.zeros_like(v), where=v > 0)
+    t_run = np.divide(run, ve, out=np.zeros_like(ve), where=ve > 0)
+    tu = np.where(up > 0, tj, 0.0)  # no move, no jerk ramps: a zero-length leg takes no time
+    td = np.where(down > 0, tj, 0.0)
+    snap = np.divide(jm, tu, out=np.zeros_like(jm), where=tu > 0)
+    snap_d = np.divide(jd, td, out=np.zeros_like(jd), where=td > 0)
     z = np.zeros_like(L)
-    up = [(tj, z, snap), (t2, jm, z), (tj, jm, -snap)]  # jerk pulse 0 -> +J -> 0
-    down = [(tj, z, -snap), (t2, -jm, z), (tj, -jm, snap)]  # jerk pulse 0 -> -J -> 0
-    segs = up + [(t4, z, z)] + down + [(tc, z, z)] + down + [(t4, z, z)] + up
+    up_segs = [(tu, z, snap), (t2, jm, z), (tu, jm, -snap)]
+    down_segs = [(tu, z, -snap), (t2, -jm, z), (tu, -jm, snap)]
+    brake = [(td, z, -snap_d), (t2d, -jd, z), (td, -jd, snap_d), (t4d, z, z),
+             (td, z, snap_d), (t2d, jd, z), (td, jd, -snap_d)]
+    segs = up_segs + [(t4, z, z)] + down_segs + [(tc, z, z)] + brake + [(t_run, z, z)]
     dur, jerk0, snaps = (np.stack([seg[i] for seg in segs], axis=1) for i in range(3))
     return Profiles1D(L, np.zeros_like(L), dur, jerk0, snaps)
 
@@ -516,10 +650,12 @@ def _fly_ideal(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
 def _ardu_limits(
     flight: Flight, profile: Profile, geom: LegGeometry
 ) -> tuple[Profiles1D, NDArray[np.float64]]:
-    """Rest-to-rest S-curves of every leg, and each leg's speed limit along its track (m/s)."""
+    """Every leg's S-curve (rest to rest; a landing ends at LAND_SPEED below LAND_ALT_LOW), and
+    each leg's speed limit along its track (m/s)."""
     legs = flight.legs
-    a_xy = min(profile.si("WPNAV_ACCEL"), GRAVITY_MPS2 * math.tan(profile.si("ANGLE_MAX")))
-    v_cap = profile.si("VEHICLE_SPEED_MAX")
+    a_xy = min(profile.si("WPNAV_ACCEL"),
+               GRAVITY_MPS2 * math.tan(math.radians(arducopter_lean_max_deg(profile))))
+    v_cap = arducopter_top_speed_mps(profile)
     wpnav = profile.si("WPNAV_SPEED")
     cmd = np.array(
         [wpnav if leg.kind == "rtl" or leg.speed_mps is None else leg.speed_mps for leg in legs],
@@ -532,7 +668,15 @@ def _ardu_limits(
     accel = kinematic_limit(unit, np.full(len(legs), a_xy), a_z, a_z)
     vertical = np.hypot(unit[:, 0], unit[:, 1]) < 1e-9
     jerk = np.where(vertical, profile.si("PSC_JERK_Z"), profile.si("WPNAV_JERK"))
-    return scurve_rest_to_rest(geom.length_m, speed, accel, jerk, jerk_ramp_s(profile, jerk)), speed
+    # ArduCopter lands at WPNAV_SPEED_DN (never slower than LAND_SPEED) down to LAND_ALT_LOW,
+    # then at LAND_SPEED until the ground stops it
+    landing = np.array([leg.kind == "land" for leg in legs]) & vertical
+    land_speed = profile.si("LAND_SPEED")
+    speed = np.where(landing, np.maximum(speed, land_speed), speed)
+    prof = scurve_to_touchdown(geom.length_m, speed, accel, jerk, jerk_ramp_s(profile, jerk),
+                               np.where(landing, land_speed, 0.0),
+                               np.where(landing, profile.si("LAND_ALT_LOW"), 0.0))
+    return prof, speed
 
 
 def jerk_ramp_s(profile: Profile, jerk_mps3: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -631,6 +775,14 @@ def _fly_arducopter(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
     corners = np.flatnonzero(blend)
     overlap = np.zeros(n)
     overlap[corners] = corner_overlaps_s(geom, prof, corners, speed, radius, corner_acc)
+    # on the ground the climb waits for spool-up and lift-off; a landing ends when the land
+    # detector has seen the touchdown
+    liftoff = np.array([LIFTOFF_DELAY_S if leg.kind == "takeoff" and leg.start_alt_m <= 0
+                        else 0.0 for leg in legs])
+    hold += np.array([LAND_DETECT_S if leg.kind == "land" else 0.0 for leg in legs])
+    stop_lag = np.where((geom.length_m > 0) & (np.hypot(geom.unit[:, 0], geom.unit[:, 1]) > 0.5),
+                        STOP_LAG_S, 0.0)
+    start[0] = liftoff[0]
     for i in range(n):
         end = start[i] + total[i]
         if blend[i]:
@@ -638,10 +790,10 @@ def _fly_arducopter(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
             start[i + 1] = end - tau
             reached[i] = done[i] = end - tau / 2.0
         else:
-            reached[i] = end
-            done[i] = end + hold[i]
+            reached[i] = end + stop_lag[i]
+            done[i] = reached[i] + hold[i]
             if i + 1 < n:
-                start[i + 1] = done[i]
+                start[i + 1] = done[i] + liftoff[i + 1]
     t = _time_grid(float(done[-1]), dt_s)
     pos, vel = _superpose(geom, prof, start, t)
     return FlownPath(t, pos, vel, _active_leg(done, t), start, reached, done)

@@ -537,15 +537,23 @@ class _Resolver:
 
 
 def _mark_pass_through(legs: list[Leg]) -> list[Leg]:
-    """A leg may blend into the next one when it has no hold and both are waypoint legs."""
+    """A leg may blend into the next one when it has no hold and both are waypoint legs.
+
+    Not into a LAND's approach (a waypoint leg followed by the land leg of the same item):
+    ArduCopter queues only a waypoint or loiter as the next destination, so it stops first.
+    """
     out = []
     for i, leg in enumerate(legs):
         nxt = legs[i + 1] if i + 1 < len(legs) else None
+        after = legs[i + 2] if i + 2 < len(legs) else None
+        approach = (nxt is not None and after is not None and after.kind == "land"
+                    and after.item == nxt.item)
         blend = (
             nxt is not None
             and leg.hold_s == 0.0
             and leg.kind == "waypoint"
             and nxt.kind in ("waypoint", "loiter")
+            and not approach
         )
         out.append(dataclasses.replace(leg, pass_through=blend))
     return out

@@ -104,16 +104,22 @@ def track_from_samples(
     *,
     alt_m: ArrayLike | None = None,
     radius_m: float = 2.0,
+    stopped_mps: float = 0.3,
     source: str = "telemetry",
 ) -> Track:
     """A recorded track (local metres) aligned with ``flight``'s legs.
 
     ``mission_seq`` is the current mission item per sample as a 0-based ``.plan`` item index
     (subtract 1 from ArduPilot's MISSION_CURRENT seq); values that are not items, such as -1,
-    mean "not flying the mission". Legs are matched in order to the runs of their item; a leg's
-    destination counts as reached at the first sample of its run within ``radius_m`` of it (or
-    when the run ends), and its item as done when the run ends; a recording that ends on an
-    item's run after its hold time counts that item as done at the last sample.
+    mean "not flying the mission". Legs are matched in order to the runs of their item, and
+    arrivals are timed as the autopilot times them: an item is done when its run ends (the
+    autopilot moved on), and its destination was reached its hold earlier (ArduCopter starts
+    the hold timer on arrival and stores whole seconds), so a pass-through waypoint is reached
+    when the next item starts. Only where the run has no end in the recording does position
+    decide (the first sample within ``radius_m`` of the destination), and for the approach of
+    a LAND or RTL, which shares its item's run, position and speed (the first sample there
+    slower than ``stopped_mps``, else the first there); a recording that ends on an item's run
+    after its hold time counts that item as done at the last sample.
     """
     t = np.asarray(t_s, dtype=float).reshape(-1)
     xy = np.asarray(xy_m, dtype=float).reshape(-1, 2)
@@ -124,6 +130,22 @@ def track_from_samples(
         raise InputError(f"{source}: t_s must not decrease")
     alt = (np.full(t.size, np.nan) if alt_m is None
            else np.asarray(alt_m, dtype=float).reshape(-1))
+    speed = np.zeros(t.size)
+    dt = np.diff(t)
+    v = np.divide(np.diff(xy, axis=0), dt[:, None], out=np.zeros((t.size - 1, 2)),
+                  where=dt[:, None] > 0)
+    speed[1:] = np.hypot(v[:, 0], v[:, 1])
+
+    def arrival(lo: int, hi: int, end_xy: NDArray[np.float64], stop: bool) -> int | None:
+        """First sample in [lo, hi) at the destination: within radius_m (and, with ``stop``,
+        stopped if it stops there); None when none is."""
+        d = np.hypot(*(xy[lo:hi] - end_xy).T)
+        near = d <= radius_m
+        if not near.any():
+            return None
+        still = np.flatnonzero(near & (speed[lo:hi] <= stopped_mps)) if stop else np.zeros(0)
+        return lo + int(still[0] if still.size else np.flatnonzero(near)[0])
+
     n_legs = len(flight.legs)
     start = np.full(n_legs, np.nan)
     reached = np.full(n_legs, np.nan)
@@ -151,27 +173,25 @@ def track_from_samples(
         for g in group:
             leg = flight.legs[g]
             start[g] = t[cursor] if math.isnan(prev_done) else prev_done
-            d = np.hypot(*(xy[cursor:hi] - leg.end_xy_m).T)
-            inside = np.flatnonzero(d <= radius_m)
+            at = arrival(cursor, hi, leg.end_xy_m, stop=g != group[-1])
             if g != group[-1]:
-                stop = cursor + int(inside[0]) if inside.size else hi - 1
+                stop = at if at is not None else hi - 1
                 leg_of[cursor:stop + 1] = g
                 reached[g] = done[g] = prev_done = float(t[stop])
                 cursor = min(stop + 1, hi - 1)
                 continue
             leg_of[cursor:hi] = g
-            reached[g] = float(t[cursor + int(inside[0])]) if inside.size else end_t
+            hold = math.floor(leg.hold_s + 1e-9)  # as ArduCopter stores it
+            if not math.isnan(end_t) and leg.kind in ("waypoint", "loiter"):
+                reached[g] = max(float(t[cursor]), end_t - hold)
+            else:
+                reached[g] = float(t[at]) if at is not None else end_t
             done[g] = end_t
-            if math.isnan(end_t) and inside.size and t[-1] >= reached[g] + leg.hold_s - 1e-6:
+            if math.isnan(end_t) and at is not None and t[-1] >= reached[g] + hold - 1e-6:
                 done[g] = float(t[-1])  # the recording ends once the last item is complete
             prev_done = done[g]
         r += 1
         k = group[-1] + 1
-    speed = np.zeros(t.size)
-    dt = np.diff(t)
-    v = np.divide(np.diff(xy, axis=0), dt[:, None], out=np.zeros((t.size - 1, 2)),
-                  where=dt[:, None] > 0)
-    speed[1:] = np.hypot(v[:, 0], v[:, 1])
     items = np.array([leg.item for leg in flight.legs], dtype=np.int64)
     seq_out = np.where(leg_of >= 0, items[np.maximum(leg_of, 0)], -1)
     return Track(t, xy, alt, speed, seq_out, leg_of, start, reached, done, source)
@@ -187,12 +207,13 @@ def track_from_geodetic(
     *,
     alt_m: ArrayLike | None = None,
     radius_m: float = 2.0,
+    stopped_mps: float = 0.3,
     source: str = "telemetry",
 ) -> Track:
     """:func:`track_from_samples` for a track in WGS84 degrees (e.g. GLOBAL_POSITION_INT)."""
     xy = site.frame.to_local(np.asarray(lat_deg, dtype=float), np.asarray(lon_deg, dtype=float))
     return track_from_samples(flight, t_s, xy, mission_seq, alt_m=alt_m, radius_m=radius_m,
-                              source=source)
+                              stopped_mps=stopped_mps, source=source)
 
 
 # --------------------------------------------------------------------------------------------

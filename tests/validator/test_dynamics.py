@@ -7,13 +7,18 @@ import pytest
 
 from tests.validator.builders import make_site, nav, plan_of, speed
 from validator.dynamics import (
+    LAND_DETECT_S,
+    LIFTOFF_DELAY_S,
+    STOP_LAG_S,
     LegGeometry,
+    air_density_ratio,
     corner_overlaps_s,
     fly,
     make_profile,
     parse_param_overrides,
     scurve_peak_speed,
     scurve_rest_to_rest,
+    top_speed_mps,
 )
 from validator.errors import InputError
 from validator.flight import resolve_flight
@@ -119,14 +124,15 @@ def test_arducopter_speed_never_exceeds_its_limits(open_site):
 
 def test_arducopter_speed_change_follows_wpnav_accel_and_jerk(open_site):
     # from rest to 10 m/s along a 200 m leg: S-curve with A = 2.5 (WPNAV_ACCEL 250) and
-    # J = 1, jerk ramps of 2·ATC_INPUT_TC = 0.3 s: 200/10 + 10/2.5 + 2.5/1 + 0.3 = 26.8 s
+    # J = 1, jerk ramps of 2·ATC_INPUT_TC = 0.3 s: 200/10 + 10/2.5 + 2.5/1 + 0.3 = 26.8 s, and the
+    # autopilot counts the stop STOP_LAG_S later
     items = [nav(open_site, Cmd.NAV_TAKEOFF, (0, 0)), speed(10.0),
              nav(open_site, Cmd.NAV_WAYPOINT, (0, 0), p1=1.0),
              nav(open_site, Cmd.NAV_WAYPOINT, (200, 0), p1=1.0)]
     flight = resolve_flight(plan_of(open_site, items, fence=False), open_site)
     path = fly(flight, make_profile("arducopter", open_site), dt_s=0.01)
     leg = 2
-    assert path.reached_s[leg] - path.start_s[leg] == pytest.approx(26.8, abs=1e-6)
+    assert path.reached_s[leg] - path.start_s[leg] == pytest.approx(26.8 + STOP_LAG_S, abs=1e-6)
     moving = (path.t_s >= path.start_s[leg]) & (path.t_s <= path.reached_s[leg])
     v = np.hypot(path.vel_mps[moving, 0], path.vel_mps[moving, 1])
     a = np.diff(v) / 0.01
@@ -192,3 +198,74 @@ def test_px4_straight_run_lasts_as_long_as_the_s_curve(open_site):
     path = fly(flight, make_profile("px4", open_site), dt_s=0.01)
     # (the follower reaches the final stop a little late: it creeps the last centimetres)
     assert path.reached_s[2] - path.start_s[2] == pytest.approx(16.5, rel=0.05)
+
+
+def test_top_speed_is_where_drag_uses_up_the_lean_limit():
+    # g·tan θ = k·σ·v²: 30° and k = 0.0561 1/m at sea level give sqrt(5.662 / 0.0561) m/s
+    v = math.sqrt(9.80665 * math.tan(math.radians(30.0)) / 0.0561)
+    assert top_speed_mps(30.0, 0.0561) == pytest.approx(v, rel=1e-12)
+    assert v == pytest.approx(10.05, abs=0.01)
+    # thinner air, less drag: faster by 1/sqrt(σ); steeper lean, faster
+    sigma = air_density_ratio(584.0)
+    assert sigma == pytest.approx(0.9448, abs=1e-3)
+    assert top_speed_mps(30.0, 0.0561, sigma) == pytest.approx(v / math.sqrt(sigma), rel=1e-12)
+    assert top_speed_mps(45.0, 0.0561) > v
+    assert top_speed_mps(30.0, 0.0) == math.inf
+    with pytest.raises(InputError, match="lean angle limit"):
+        top_speed_mps(90.0)
+
+
+def test_arducopter_flies_no_faster_than_its_lean_limit_allows(open_site):
+    # WPNAV_SPEED 30 m/s on a 500 m leg: the SITL quad still tops out at its 30° lean
+    items = [nav(open_site, Cmd.NAV_TAKEOFF, (0, 0)), nav(open_site, Cmd.NAV_WAYPOINT, (0, 0)),
+             nav(open_site, Cmd.NAV_WAYPOINT, (500, 0), p1=1.0)]
+    flight = resolve_flight(plan_of(open_site, items, fence=False), open_site)
+    fast = {"WPNAV_SPEED": 3000, "VEHICLE_SPEED_MAX": 30, "ALT_AMSL": 0}
+    path = fly(flight, make_profile("arducopter", open_site, fast), dt_s=0.02)
+    top = top_speed_mps(30.0)
+    assert np.hypot(path.vel_mps[:, 0], path.vel_mps[:, 1]).max() == pytest.approx(top, rel=1e-6)
+    # PSC_ANGLE_MAX, when set, is the limit instead of ANGLE_MAX
+    path = fly(flight, make_profile("arducopter", open_site, {**fast, "PSC_ANGLE_MAX": 20}),
+               dt_s=0.02)
+    assert np.hypot(path.vel_mps[:, 0], path.vel_mps[:, 1]).max() == pytest.approx(
+        top_speed_mps(20.0), rel=1e-6)
+
+
+def test_takeoff_waits_for_liftoff_and_landing_slows_below_land_alt_low(open_site):
+    # climb 30 m: lift-off delay, then a rest-to-rest S-curve at 2.5 m/s, 1 m/s², 5 m/s³ with
+    # jerk ramps of 0.3 s, which bound the jerk to 1/0.3: a speed change by dv takes dv/1 + 0.6 s
+    # over its mean speed times that, so the climb lasts 30/2.5 + 2.5 + 0.6 = 15.1 s. Land from
+    # 30 m: 1.5 m/s down to 10 m, then 0.5 m/s: the start takes 2.1 s over 1.575 m, the slow-down
+    # 1.6 s over 1.6 m, leaving 16.825 m at 1.5 m/s and 10 m at 0.5 m/s; then the land detector
+    items = [nav(open_site, Cmd.NAV_TAKEOFF, (0, 0)), nav(open_site, Cmd.NAV_LAND, (0, 0), alt=0)]
+    flight = resolve_flight(plan_of(open_site, items, fence=False), open_site)
+    path = fly(flight, make_profile("arducopter", open_site), dt_s=0.01)
+    kinds = [leg.kind for leg in flight.legs]
+    assert kinds == ["takeoff", "land"]
+    assert path.start_s[0] == pytest.approx(LIFTOFF_DELAY_S)
+    assert path.reached_s[0] - path.start_s[0] == pytest.approx(15.1, abs=1e-6)
+    descent = 2.1 + 16.825 / 1.5 + 1.6 + 20.0
+    assert path.reached_s[1] - path.start_s[1] == pytest.approx(descent, abs=1e-6)
+    assert path.done_s[1] - path.reached_s[1] == pytest.approx(LAND_DETECT_S)
+    below = (path.t_s > path.start_s[1] + 14.95) & (path.t_s < path.reached_s[1] - 0.05)
+    assert np.abs(path.vel_mps[below, 2]).max() == pytest.approx(0.5, abs=1e-3)
+    assert path.xyz_m[below, 2].max() == pytest.approx(10.0, abs=0.03)
+
+
+def test_a_zero_length_leg_takes_no_time(open_site):
+    # a hold on the point just reached: ArduCopter reaches it at once (no jerk ramps to run)
+    items = [nav(open_site, Cmd.NAV_TAKEOFF, (0, 0)), nav(open_site, Cmd.NAV_WAYPOINT, (0, 0)),
+             nav(open_site, Cmd.NAV_WAYPOINT, (50, 0), p1=1.0),
+             nav(open_site, Cmd.NAV_WAYPOINT, (50, 0), p1=3.0)]
+    flight = resolve_flight(plan_of(open_site, items, fence=False), open_site)
+    path = fly(flight, make_profile("arducopter", open_site))
+    assert path.reached_s[3] == pytest.approx(path.start_s[3], abs=1e-9)
+
+
+def test_the_waypoint_before_a_land_is_a_stop(open_site):
+    # ArduCopter queues only waypoints as the next destination: no blend into NAV_LAND's approach
+    items = [nav(open_site, Cmd.NAV_TAKEOFF, (0, 0)), nav(open_site, Cmd.NAV_WAYPOINT, (0, 0)),
+             nav(open_site, Cmd.NAV_WAYPOINT, (60, 0)), nav(open_site, Cmd.NAV_WAYPOINT, (60, 60)),
+             nav(open_site, Cmd.NAV_LAND, (0, 0), alt=0)]
+    flight = resolve_flight(plan_of(open_site, items, fence=False), open_site)
+    assert [leg.pass_through for leg in flight.legs] == [False, True, True, False, False, False]

@@ -64,9 +64,9 @@ IDS = [f["track"] for f in flights()]
 def test_cycle_time_matches_sitl(track):
     rec, model, tel = scored(track)
     assert model.cycle is not None and tel.cycle is not None
-    # the recorded track measures what flights.json says (it starts at item 1's activation,
-    # a fraction of a second before the vehicle is there)
-    assert tel.cycle.flown_cycle_s == pytest.approx(rec["cycle_s"], abs=1.0)
+    # (flights.json times the cycle from item 1's activation; the scorer from the arrival the
+    # autopilot timed its hold from, so the two differ by up to a few seconds here)
+    assert tel.cycle.flown_cycle_s == pytest.approx(rec["cycle_s"], abs=3.0)
     error = model.cycle.flown_cycle_s / rec["cycle_s"] - 1.0
     # measured: within 2.3 % at WPNAV_JERK 1, 7.1 % at WPNAV_JERK 20 (vehicle lag at its top
     # speed is not modelled)
