@@ -33,7 +33,8 @@ if TYPE_CHECKING:
 DEFAULT_SITL_SPEEDUP = 20.0
 DEFAULT_BINARY_SPEEDUP = 10.0  # ArduCopter SITL in lockstep; the shared real flights used 10
 # Profile parameters that are the model's, not an autopilot's: never sent with PARAM_SET.
-MODEL_ONLY_PARAMS = frozenset({"VEHICLE_SPEED_MAX", "SPEED", "SPEED_UP", "SPEED_DN"})
+MODEL_ONLY_PARAMS = frozenset({"VEHICLE_SPEED_MAX", "SPEED", "SPEED_UP", "SPEED_DN",
+                               "VEHICLE_DRAG", "ALT_AMSL"})
 
 
 def _fail(prog: str, err: Exception) -> int:
