@@ -25,7 +25,7 @@ from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from validator.errors import InputError
-from validator.mavlink.sitl_process import BINARY_ENV, DEFAULTS_ENV
+from validator.mavlink.sitl_process import BINARY_ENV, DEFAULTS_ENV, PX4_BINARY_ENV
 
 if TYPE_CHECKING:
     from validator.cli import Validation
@@ -301,11 +301,12 @@ def add_sitl_arguments(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("flight on a MAVLink vehicle")
     g.add_argument("--sitl", action="store_true",
                    help="upload, fly and score the mission on a vehicle: the autopilot SITL "
-                        f"binary of --sitl-binary (default ${BINARY_ENV}), else the built-in "
-                        "model vehicle")
+                        f"binary of --sitl-binary (default ${BINARY_ENV}, ${PX4_BINARY_ENV} "
+                        "for PX4 plans), else the built-in model vehicle")
     g.add_argument("--sitl-binary", metavar="PATH",
-                   help="start this ArduCopter SITL binary at the plan's home for the flight "
-                        f"and stop it afterwards (default ${BINARY_ENV}); implies --sitl")
+                   help="start this SITL binary (ArduCopter's arducopter, or PX4's "
+                        "build/px4_sitl_default/bin/px4 with its SIH quadrotor) at the plan's "
+                        "home for the flight and stop it afterwards; implies --sitl")
     g.add_argument("--sitl-defaults", metavar="FILE",
                    help="the SITL's default parameter file (default $" + DEFAULTS_ENV +
                         ", else Tools/autotest/default_params/copter.parm of the binary's "
@@ -336,12 +337,8 @@ def run_sitl(v: Validation, args: argparse.Namespace,
     from validator.cli import default_profile_name
     from validator.dynamics import make_profile, parse_param_overrides
     from validator.mavlink.driver import builtin_vehicle, default_time_limit_s, fly_and_score
-    from validator.mavlink.sitl_process import (
-        ardupilot_sitl,
-        find_binary,
-        find_defaults,
-        terminate_on_sigterm,
-    )
+    from validator.mavlink.sitl_process import autopilot_sitl, find_binary, terminate_on_sigterm
+    from validator.plan_format import Autopilot
 
     overrides = parse_param_overrides(getattr(args, "param", None))
     profile = v.profile or make_profile(getattr(args, "profile", None)
@@ -351,7 +348,8 @@ def run_sitl(v: Validation, args: argparse.Namespace,
         raise InputError(f"{v.plan_path}: nothing to fly (no navigation items)")
     sent = {**(vehicle_params or {}),
             **{k: x for k, x in overrides.items() if k not in MODEL_ONLY_PARAMS}}
-    binary = None if args.sitl_url else find_binary(args.sitl_binary)
+    binary = None if args.sitl_url else find_binary(
+        args.sitl_binary, px4=v.plan.firmware_type == Autopilot.PX4)
     home = (v.plan.home_lat_deg, v.plan.home_lon_deg, v.plan.home_alt_m)
     if args.sitl_url:
         kind = "external"
@@ -360,10 +358,9 @@ def run_sitl(v: Validation, args: argparse.Namespace,
                                params=sent or None)
     elif binary is not None:
         kind = "sitl-binary"
-        defaults = find_defaults(binary, args.sitl_defaults)
         speedup = args.sitl_speedup or DEFAULT_BINARY_SPEEDUP
         terminate_on_sigterm()
-        with ardupilot_sitl(binary, home, speedup=speedup, defaults=defaults) as url:
+        with autopilot_sitl(binary, home, speedup=speedup, defaults=args.sitl_defaults) as url:
             result = fly_and_score(v.plan, v.site, v.flight, url, time_limit_s=limit,
                                    timeout_s=args.sitl_timeout, params=sent or None,
                                    wait_ready=True)

@@ -1,8 +1,10 @@
 """Start a real autopilot's SITL binary for one flight, and always stop it again.
 
-``validate-mission --sitl-binary PATH`` (or ``$ARDUPILOT_SITL``) flies a plan on the autopilot
-firmware itself, built for this host, instead of our model vehicle. :func:`ardupilot_sitl`
-starts ArduCopter SITL the way its own tools do::
+``validate-mission --sitl-binary PATH`` (or ``$ARDUPILOT_SITL``, ``$PX4_SITL`` for PX4 plans)
+flies a plan on the autopilot firmware itself, built for this host, instead of our model
+vehicle. :func:`autopilot_sitl` picks the launcher by the binary's name (``px4`` is PX4,
+anything else ArduCopter). :func:`ardupilot_sitl` starts ArduCopter SITL the way its own tools
+do::
 
     arducopter --model + --speedup S --defaults copter.parm -w --home LAT,LON,ALT,0 -I N
 
@@ -17,10 +19,18 @@ terminated when the ``with`` block ends, however it ends (an error, Ctrl-C, SIGT
 The default parameter file is the one ArduPilot's autotest uses
 (``Tools/autotest/default_params/copter.parm`` in its source): found beside the binary's
 source tree, or given with ``--sitl-defaults`` / ``$ARDUPILOT_SITL_DEFAULTS``.
+
+:func:`px4_sih` starts PX4's ``px4_sitl_default`` build with its built-in SIH quadrotor
+(``PX4_SIMULATOR=sihsim PX4_SIM_MODEL=sihsim_quadx px4 -d -i N ETC``, ``ETC`` the build's
+``etc`` beside ``bin/``) in a fresh temporary directory, so parameters and the stored mission
+start clean; home is SIH_LOC_LAT0/LON0 (``PX4_HOME_LAT``/``PX4_HOME_LON`` in degrees x 1e7)
+and SIH_LOC_H0 (set by a ``px4-rc.params`` the start-up script sources), the speed-up
+``PX4_SIM_SPEED_FACTOR``. Instance ``N`` sends MAVLink to UDP ``14540 + N``.
 """
 
 from __future__ import annotations
 
+import fcntl
 import os
 import shutil
 import signal
@@ -36,7 +46,11 @@ from types import FrameType
 from validator.errors import InputError
 
 BINARY_ENV = "ARDUPILOT_SITL"
+PX4_BINARY_ENV = "PX4_SITL"
 DEFAULTS_ENV = "ARDUPILOT_SITL_DEFAULTS"
+PX4_ONBOARD_BASE_PORT = 14540  # PX4 instance N's onboard link sends to UDP 14540 + N
+PX4_ONBOARD_LISTEN_PORT = 14580  # ... and listens on 14580 + N
+PX4_LOCK_PATH = "/tmp/px4_lock"  # PX4's per-instance server lock
 SERIAL0_BASE_PORT = 5760  # instance N listens on 5760 + 10 N (SERIAL0), +2 and +3 (SERIAL1/2)
 INSTANCE_PORT_STEP = 10
 MAX_INSTANCE = 50
@@ -44,15 +58,16 @@ STOP_GRACE_S = 5.0
 DEFAULTS_RELATIVE = ("Tools", "autotest", "default_params", "copter.parm")
 
 
-def find_binary(path: str | None) -> Path | None:
-    """The SITL binary to run: ``path``, else ``$ARDUPILOT_SITL``, else None (no autopilot
-    available: the caller flies the built-in model)."""
-    chosen = path or os.environ.get(BINARY_ENV) or None
+def find_binary(path: str | None, px4: bool = False) -> Path | None:
+    """The SITL binary to run: ``path``, else ``$ARDUPILOT_SITL`` (``$PX4_SITL`` for a PX4
+    plan), else None (no autopilot available: the caller flies the built-in model)."""
+    env = PX4_BINARY_ENV if px4 else BINARY_ENV
+    chosen = path or os.environ.get(env) or None
     if chosen is None:
         return None
     p = Path(chosen).expanduser()
     if not p.is_file() or not os.access(p, os.X_OK):
-        source = "--sitl-binary" if path else f"${BINARY_ENV}"
+        source = "--sitl-binary" if path else f"${env}"
         raise InputError(f"{source} {chosen}: not an executable file")
     return p
 
@@ -167,6 +182,93 @@ def ardupilot_sitl(
     finally:
         _stop(proc)
         shutil.rmtree(workdir, ignore_errors=True)
+
+
+def is_px4(binary: Path) -> bool:
+    """Whether ``binary`` is PX4's SITL (its executable is called ``px4``)."""
+    return binary.name == "px4" or binary.resolve().name == "px4"
+
+
+def _udp_free(port: int) -> bool:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        try:
+            s.bind(("127.0.0.1", port))
+        except OSError:
+            return False
+    return True
+
+
+def _px4_instance_free(n: int) -> bool:
+    """Whether PX4 instance ``n`` is free: nobody holds its server lock (``/tmp/px4_lock-N``,
+    an fcntl lock) and its MAVLink receive port (14580 + N) is free."""
+    try:
+        fd = os.open(f"{PX4_LOCK_PATH}-{n}", os.O_RDWR | os.O_CREAT, 0o666)
+    except OSError:
+        return False
+    try:
+        fcntl.lockf(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        return False
+    finally:
+        os.close(fd)  # closing drops our lock too
+    return _udp_free(PX4_ONBOARD_LISTEN_PORT + n)
+
+
+@contextmanager
+def px4_sih(binary: Path, home: tuple[float, float, float], *, speedup: float) -> Iterator[str]:
+    """Run PX4 SITL with its SIH quadrotor at ``home`` (lat deg, lon deg, alt m AMSL) for a
+    ``with`` block; yields the pymavlink connection string of its onboard link
+    (``udpin:127.0.0.1:PORT``)."""
+    etc = binary.resolve().parent.parent / "etc"
+    if not (etc / "init.d-posix").is_dir():
+        raise InputError(f"--sitl-binary {binary}: no PX4 start-up files at {etc} (expected a "
+                         "px4_sitl_default build: bin/px4 beside etc/)")
+    instance = next((n for n in range(MAX_INSTANCE) if _px4_instance_free(n)), None)
+    if instance is None:
+        raise InputError("no free PX4 instance: UDP ports 14540.. are all taken")
+    port = PX4_ONBOARD_BASE_PORT + instance
+    workdir = Path(tempfile.mkdtemp(prefix="nfz-px4-"))
+    rc = workdir / "rc"
+    rc.mkdir()
+    # SIH takes its home altitude from SIH_LOC_H0; the start-up script sources px4-rc.params
+    # from the PATH after the airframe, before it starts the simulator.
+    (rc / "px4-rc.params").write_text(f"#!/bin/sh\nparam set SIH_LOC_H0 {home[2]:.3f}\n")
+    (rc / "px4-rc.params").chmod(0o755)
+    env = {**os.environ, "PX4_SIMULATOR": "sihsim", "PX4_SIM_MODEL": "sihsim_quadx",
+           "PX4_HOME_LAT": str(round(home[0] * 1e7)), "PX4_HOME_LON": str(round(home[1] * 1e7)),
+           "PX4_SIM_SPEED_FACTOR": f"{speedup:g}",
+           "PATH": f"{rc}{os.pathsep}{os.environ.get('PATH', '')}"}
+    log = workdir / "px4.log"
+    try:
+        with open(log, "wb") as out:
+            proc = subprocess.Popen([str(binary), "-d", "-i", str(instance), str(etc)],
+                                    cwd=workdir, env=env, stdout=out, stderr=subprocess.STDOUT,
+                                    stdin=subprocess.DEVNULL, start_new_session=True)
+    except OSError as err:
+        shutil.rmtree(workdir, ignore_errors=True)
+        raise InputError(f"--sitl-binary {binary}: cannot start ({err.strerror})") from None
+    try:
+        time.sleep(0.5)
+        if proc.poll() is not None:
+            raise InputError(f"PX4 exited with status {proc.returncode} at start ({_tail(log)})")
+        yield f"udpin:127.0.0.1:{port}"
+    finally:
+        _stop(proc)
+        shutil.rmtree(workdir, ignore_errors=True)
+
+
+@contextmanager
+def autopilot_sitl(binary: Path, home: tuple[float, float, float], *, speedup: float,
+                   defaults: str | None = None) -> Iterator[str]:
+    """:func:`px4_sih` for PX4's binary, else :func:`ardupilot_sitl` (with its default
+    parameter file, :func:`find_defaults`)."""
+    if is_px4(binary):
+        with px4_sih(binary, home, speedup=speedup) as url:
+            yield url
+    else:
+        with ardupilot_sitl(binary, home, speedup=speedup,
+                            defaults=find_defaults(binary, defaults)) as url:
+            yield url
 
 
 def terminate_on_sigterm() -> None:

@@ -33,7 +33,9 @@ PX4 v1.15 (``MavlinkMissionManager::parse_mavlink_mission_item`` and
   home, from 3 or 6), coordinates and altitude as sent, autocontinue as sent; each command keeps
   its own params (NAV_WAYPOINT: hold, acceptance radius and yaw; NAV_TAKEOFF and NAV_LAND:
   yaw; fence circles: radius; polygon vertices: count; rally and return points: none), the rest
-  0; yaw is kept in radians in [0, 2pi), so it reads back wrapped to [0, 360) degrees.
+  0; yaw is kept in radians in [0, 2pi), so it reads back wrapped to [0, 360) degrees; fence
+  items read back in frame 5 (PX4 keeps the frame sent but does not report it) with
+  autocontinue 0.
 - items in MAV_FRAME_MISSION (DO commands) keep params and x, y, z as sent, DO_JUMP's target
   and repeat count as uint16.
 
@@ -189,8 +191,13 @@ def _px4(item: WireItem) -> WireItem:
     else:
         return item
     p = tuple(k(v) for k, v in zip(keep, raw, strict=True))
+    autocontinue = item.autocontinue
+    if item.mission_type == int(MissionType.FENCE):
+        # A fence point is stored with its frame but without an autocontinue flag, and read
+        # back without its altitude reference: frame 5 whatever was sent, autocontinue 0.
+        frame, autocontinue = 5, 0
     return dataclasses.replace(item, frame=frame, param1=p[0], param2=p[1], param3=p[2],
-                               param4=p[3])
+                               param4=p[3], autocontinue=autocontinue)
 
 
 def _yaw_close(expected: WireItem, held: WireItem) -> WireItem:
