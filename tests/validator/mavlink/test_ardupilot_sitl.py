@@ -155,3 +155,27 @@ def test_with_the_plans_parameters_a_breach_retraces_the_flown_path(crossing, tm
     assert report["sitl_flight"]["fence_breach_samples"] > 0
     assert [c["mode"] for c in report["sitl_flight"]["mode_changes"]][:1] == ["SMART_RTL"]
     assert report["sitl_flight"]["end"] == "landed"
+
+
+@pytest.fixture(scope="module")
+def realistic(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, Path, Path]:
+    tmp = tmp_path_factory.mktemp("realistic")
+    site = REPO / "samples" / "realistic.yaml"
+    report = tmp / "realistic.report.json"
+    plan, params = _plan(tmp, site, "--report", str(report))
+    return site, plan, params, report
+
+
+def test_a_realistic_plan_keeps_its_period_on_the_real_autopilot(realistic, tmp_path):
+    site, plan, params, planned = realistic
+    out = tmp_path / "realistic.json"
+    status = validate_mission_main([str(plan), "--site", str(site), "--params", str(params),
+                                    "--sitl-binary", str(BINARY), "--json", str(out)])
+    report = json.loads(out.read_text())
+    assert status == 0
+    cycle = report["sitl"]["cycle"]
+    period = yaml.safe_load(site.read_text())["uav"]["period"]
+    predicted = json.loads(planned.read_text())["flight"]["replayed_cycle_s"]
+    assert cycle["flown_cycle_s"] == pytest.approx(period, rel=0.05)
+    assert cycle["flown_cycle_s"] == pytest.approx(predicted, rel=0.03)
+    assert all(z["clearance_m"] > 0 for z in report["sitl"]["nfz"])
