@@ -169,9 +169,8 @@ class _Recorder:
                 self.mode_changes.append((self.t_s, mode_name(self.link, mode)))
             self.custom_mode = mode
         elif kind == "SYS_STATUS":
-            bit = mavlink.MAV_SYS_STATUS_PREARM_CHECK
-            self.prearm_ok = bool(m.onboard_control_sensors_present & bit
-                                  and m.onboard_control_sensors_health & bit)
+            self.prearm_ok = bool(m.onboard_control_sensors_health
+                                  & mavlink.MAV_SYS_STATUS_PREARM_CHECK)
         elif kind == "MISSION_CURRENT":
             self.seq = int(m.seq)
             self.mission_state = int(getattr(m, "mission_state", 0))
@@ -375,29 +374,27 @@ def default_time_limit_s(flight: Flight, profile: Profile) -> float:
 
 
 def wait_until_ready(link: Link, patience_s: float = READY_PATIENCE_S) -> None:
-    """Wait until the vehicle says its pre-arm checks pass (SYS_STATUS's PREARM_CHECK bit,
-    which ArduPilot and PX4 both report): a freshly started SITL answers heartbeats long
-    before its estimator has a position, and refuses missions, modes and arming until then.
-    A vehicle that does not report the bit is taken as ready."""
+    """Wait until the vehicle says its pre-arm checks pass (the PREARM_CHECK bit of
+    SYS_STATUS's sensor health, which ArduPilot and PX4 both set; PX4 never sets it in the
+    "present" field): a freshly started SITL answers heartbeats long before its estimator has
+    a position, and refuses missions, modes and arming until then. A vehicle that sends no
+    SYS_STATUS at all is taken as ready."""
     link.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL,
                  float(mavlink.MAVLINK_MSG_ID_SYS_STATUS), 5e5)
     rec = _Recorder(link)
-    reported = {"any": False}
-
-    def ready() -> bool:
-        return rec.prearm_ok
+    seen = {"sys_status": False}
 
     def watch(m: Any) -> None:
         if m.get_type() == "SYS_STATUS":
-            reported["any"] = bool(
-                m.onboard_control_sensors_present & mavlink.MAV_SYS_STATUS_PREARM_CHECK)
+            seen["sys_status"] = True
 
     link.listeners.append(watch)
     try:
-        if not rec.pump(time.monotonic() + 5.0, lambda: ready() or reported["any"]):
-            return  # no SYS_STATUS with the pre-arm bit: nothing to wait for
-        if not rec.pump(time.monotonic() + patience_s, ready):
-            why = [t for t in link.statustexts if "PreArm" in t]
+        if not rec.pump(time.monotonic() + link.timeout_s,
+                        lambda: rec.prearm_ok or seen["sys_status"]):
+            return  # no SYS_STATUS: nothing to wait for
+        if not rec.pump(time.monotonic() + patience_s, lambda: rec.prearm_ok):
+            why = [t for t in link.statustexts if "PreArm" in t or "Preflight" in t]
             raise LinkError(f"the vehicle did not pass its pre-arm checks within "
                             f"{patience_s:g} s" + (f" (last: {why[-1]})" if why else ""))
     finally:
