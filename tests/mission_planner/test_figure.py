@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import io
+
+import matplotlib.image as mpimg
 import numpy as np
+import pytest
 from matplotlib.collections import LineCollection
 from matplotlib.patches import Circle
 
@@ -30,7 +34,13 @@ def test_map_colours_each_leg_by_its_gn_and_draws_three_circles_per_nfz():
     assert len(bx.get_lines()) == 1 and len(fig.axes) == 3  # δ and its twin axis with p
 
 
-def test_png_bytes():
+def test_png_is_the_drawn_figure_at_its_size():
     site = make_site()
-    png = figure_png(solution_figure(circle_tour(site)))
-    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    fig = solution_figure(circle_tour(site))
+    width_in, height_in = fig.get_size_inches()
+    image = mpimg.imread(io.BytesIO(figure_png(fig)), format="png")
+    assert image.shape[0] / image.shape[1] == pytest.approx(height_in / width_in, rel=0.01)
+    # something was drawn: not a blank canvas, and the legs' colours are in it
+    assert image[..., :3].std() > 0.05
+    leg_colour = fig.axes[0].collections[0].get_colors()[0][:3]
+    assert np.any(np.all(np.abs(image[..., :3] - leg_colour) < 0.02, axis=-1))
