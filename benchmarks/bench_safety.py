@@ -211,7 +211,7 @@ def main(argv: list[str] | None = None) -> None:
                 if o.verdict in ("unsafe", "crash"):
                     print(f"  {o.verdict.upper()} {o.site} ({o.dynamics}): {o.refusal} "
                           f"{'; '.join(o.detail[-3:])}", flush=True)
-            if (i + 1) % 10 == 0:
+            if (i + 1) % 5 == 0:
                 print(f"  {i + 1}/{len(tasks)} sites, {time.perf_counter() - started:.0f} s",
                       flush=True)
     elapsed = time.perf_counter() - started
