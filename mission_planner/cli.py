@@ -45,7 +45,7 @@ from mission_planner.mission import (
     mission_summary,
 )
 from validator.errors import InputError
-from validator.fileio import write_atomic
+from validator.fileio import write_all_atomic
 from validator.geojson_format import dumps_geojson, plan_geojson
 from validator.plan_format import dumps_plan
 from validator.site import Site, load_site
@@ -134,9 +134,8 @@ def check_output_paths(paths: Sequence[Path]) -> None:
 
 
 def write_outputs(files: dict[Path, str | bytes]) -> None:
-    """Write each file atomically."""
-    for path, content in files.items():
-        write_atomic(path, content)
+    """Write the files atomically, all or none (:func:`validator.fileio.write_all_atomic`)."""
+    write_all_atomic(files)
 
 
 def plan_and_build(
@@ -280,6 +279,9 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
     except InputError as err:
         print(f"plan-mission: error: {err}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print("plan-mission: interrupted; nothing written", file=sys.stderr)
+        return 130
     for note in autopilot_params.notes:
         print(f"plan-mission: note: {note}", file=sys.stderr)
     warning = flight.warning()

@@ -267,7 +267,7 @@ def parse_service(extra: Any, site: Site, source: str = "plan") -> ServicePlan |
     for i, name in enumerate(sched_raw):
         if name is None:
             continue
-        if name not in index:
+        if not isinstance(name, str) or name not in index:
             raise InputError(f"{where}.schedule[{i}]: ground node {name!r} is not in the site")
         schedule[i] = index[name]
     ci = extra["cycle_items"]

@@ -19,6 +19,7 @@ from typing import Any
 
 from validator.errors import InputError
 from validator.fileio import write_atomic
+from validator.input_files import parse_json, read_text
 
 EXTRA_KEY = "nfzMission"  # our metadata inside a .plan; QGroundControl ignores unknown keys
 
@@ -117,8 +118,22 @@ class Plan:
 
 
 def _num(v: Any) -> float:
-    """A JSON number, or NaN for null (as QGroundControl reads it)."""
-    return math.nan if v is None else float(v)
+    """A JSON number, or NaN for null (as QGroundControl reads it); nothing else."""
+    if v is None:
+        return math.nan
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise TypeError("not a number")
+    out = float(v)
+    if not math.isfinite(out):  # a huge integer
+        raise ValueError("not finite")
+    return out
+
+
+def _finite(v: Any) -> float:
+    """A finite JSON number (no null)."""
+    if v is None:
+        raise TypeError("null")
+    return _num(v)
 
 
 def _json_num(v: float) -> float | None:
@@ -196,6 +211,21 @@ def write_plan(plan: Plan, path: str | Path) -> None:
     write_atomic(path, dumps_plan(plan))
 
 
+# Versions of each part of a .plan this reader knows (QGroundControl's current ones). Any
+# other value is refused rather than warned about: QGroundControl itself refuses a plan of a
+# newer version, and the older mission (1) and geoFence (1) layouts hold their items in other
+# places, so reading them as the current layout would silently lose items. A missing version
+# is read as the current one (hand-written plans often omit it).
+PLAN_VERSION = 1
+MISSION_VERSION = 2
+GEOFENCE_VERSION = 2
+RALLY_VERSION = 2
+FENCE_SHAPE_VERSION = 1  # each geoFence circle and polygon
+MAX_ITEMS = 65535  # per list: MAVLink's MISSION_COUNT is a uint16
+# Commands whose params 5-7 are a position the vehicle flies to: null (NaN) there is no place.
+_POSITION_COMMANDS = frozenset({16, 17, 18, 19, 21, 22, 31, 82, 84, 85})
+
+
 def _need(d: Any, key: str, where: str) -> Any:
     if not isinstance(d, dict):
         raise InputError(f"{where}: expected a JSON object")
@@ -204,108 +234,169 @@ def _need(d: Any, key: str, where: str) -> Any:
     return d[key]
 
 
+def _object(v: Any, where: str) -> dict[str, Any]:
+    if not isinstance(v, dict):
+        raise InputError(f"{where}: expected a JSON object")
+    return v
+
+
+def _list(v: Any, where: str, max_len: int = MAX_ITEMS) -> list[Any]:
+    if not isinstance(v, list):
+        raise InputError(f"{where}: expected a list")
+    if len(v) > max_len:
+        raise InputError(f"{where}: {len(v)} entries, at most {max_len} allowed")
+    return v
+
+
+def _int(v: Any, where: str, lo: int, hi: int) -> int:
+    if isinstance(v, float) and v.is_integer():
+        v = int(v)
+    if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
+        raise InputError(f"{where}: expected an integer in {lo}..{hi}, got {v!r}")
+    return v
+
+
+def _number(v: Any, where: str) -> float:
+    try:
+        return _finite(v)
+    except (TypeError, ValueError):
+        raise InputError(f"{where}: expected a finite number, got {_short(v)}") from None
+
+
+def _bool(v: Any, where: str) -> bool:
+    if not isinstance(v, bool):
+        raise InputError(f"{where}: expected true or false, got {_short(v)}")
+    return v
+
+
+def _short(v: Any) -> str:
+    text = json.dumps(v) if isinstance(v, (int, float, str, bool, type(None))) else type(v).__name__
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _latlon(v: Any, where: str, size: int = 2) -> list[float]:
+    """[lat, lon] (``size`` 2) or [lat, lon, alt] (3), finite, degrees in range."""
+    if not isinstance(v, list) or len(v) != size:
+        raise InputError(f"{where}: expected [lat, lon{', alt' if size == 3 else ''}]")
+    out = [_number(x, f"{where}[{i}]") for i, x in enumerate(v)]
+    _check_latlon(out[0], out[1], where)
+    return out
+
+
+def _check_latlon(lat: float, lon: float, where: str) -> None:
+    if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
+        raise InputError(f"{where}: latitude/longitude ({lat}, {lon}) out of range")
+
+
+def _version(part: dict[str, Any], expected: int, where: str) -> None:
+    if "version" in part and part["version"] != expected:
+        raise InputError(f"{where}.version: expected {expected}, got {_short(part['version'])} "
+                         "(not a QGroundControl plan layout this tool reads; re-save it with "
+                         "a current QGroundControl)")
+
+
+def _item(entry: Any, where: str) -> MissionItem:
+    kind = _need(entry, "type", where)
+    if kind == "ComplexItem":
+        raise InputError(
+            f"{where}: ComplexItem ({_short(entry.get('complexItemType', '?'))}) is not "
+            "supported; convert the survey or structure scan to waypoints in QGroundControl first"
+        )
+    if kind != "SimpleItem":
+        raise InputError(f"{where}.type: unknown item type {_short(kind)}")
+    raw = _need(entry, "params", where)
+    if not isinstance(raw, list) or len(raw) != 7:
+        raise InputError(f"{where}.params: expected 7 numbers or nulls")
+    try:
+        params = [_num(p) for p in raw]
+    except (TypeError, ValueError):
+        raise InputError(f"{where}.params: expected 7 finite numbers or nulls") from None
+    command = _int(_need(entry, "command", where), f"{where}.command", 0, 65535)
+    frame = _int(entry.get("frame", int(Frame.GLOBAL_RELATIVE_ALT)), f"{where}.frame", 0, 255)
+    if command in _POSITION_COMMANDS and frame != Frame.MISSION:
+        for i, name in ((4, "latitude"), (5, "longitude"), (6, "altitude")):
+            if math.isnan(params[i]):
+                raise InputError(f"{where}.params[{i}]: the {name} must be a number, not null")
+        _check_latlon(params[4], params[5], f"{where}.params")
+    auto = _bool(entry.get("autoContinue", True), f"{where}.autoContinue")
+    return MissionItem(command, params, frame, auto)
+
+
 def plan_from_dict(data: Any, source: str = "plan") -> Plan:
-    """Parse a QGroundControl plan structure, raising :class:`InputError` naming the field."""
+    """Parse a QGroundControl plan structure, raising :class:`InputError` naming the field.
+
+    Versions other than the current ones are refused (see ``PLAN_VERSION``); every number
+    must be finite, except the params QGroundControl writes as null (NaN: "unchanged").
+    """
     if _need(data, "fileType", source) != "Plan":
         raise InputError(f"{source}.fileType: expected 'Plan'")
-    mission = _need(data, "mission", source)
-    try:
-        home = [float(v) for v in _need(mission, "plannedHomePosition", f"{source}.mission")]
-        if len(home) != 3:
-            raise ValueError
-    except (TypeError, ValueError):
-        raise InputError(
-            f"{source}.mission.plannedHomePosition: expected [lat, lon, alt]"
-        ) from None
-    items: list[MissionItem] = []
-    raw_items = _need(mission, "items", f"{source}.mission")
-    if not isinstance(raw_items, list):
-        raise InputError(f"{source}.mission.items: expected a list")
-    for i, entry in enumerate(raw_items):
-        where = f"{source}.mission.items[{i}]"
-        kind = _need(entry, "type", where)
-        if kind == "ComplexItem":
-            raise InputError(
-                f"{where}: ComplexItem ({entry.get('complexItemType', '?')}) is not supported; "
-                "convert the survey or structure scan to waypoints in QGroundControl first"
-            )
-        if kind != "SimpleItem":
-            raise InputError(f"{where}.type: unknown item type {kind!r}")
-        try:
-            params = [_num(p) for p in _need(entry, "params", where)]
-            if len(params) != 7:
-                raise ValueError
-        except (TypeError, ValueError):
-            raise InputError(f"{where}.params: expected 7 numbers or nulls") from None
-        try:
-            command = int(_need(entry, "command", where))
-            frame = int(entry.get("frame", Frame.GLOBAL_RELATIVE_ALT))
-        except (TypeError, ValueError):
-            raise InputError(f"{where}: command and frame must be integers") from None
-        items.append(MissionItem(command, params, frame, bool(entry.get("autoContinue", True))))
+    mission = _object(_need(data, "mission", source), f"{source}.mission")
+    _version(data, PLAN_VERSION, source)
+    _version(mission, MISSION_VERSION, f"{source}.mission")
+    home = _latlon(_need(mission, "plannedHomePosition", f"{source}.mission"),
+                   f"{source}.mission.plannedHomePosition", 3)
+    raw_items = _list(_need(mission, "items", f"{source}.mission"), f"{source}.mission.items")
+    items = [_item(e, f"{source}.mission.items[{i}]") for i, e in enumerate(raw_items)]
 
-    fence = data.get("geoFence") or {}
+    fence = _object(data.get("geoFence") or {}, f"{source}.geoFence")
+    if fence:
+        _version(fence, GEOFENCE_VERSION, f"{source}.geoFence")
     circles: list[FenceCircle] = []
+    for i, c in enumerate(_list(fence.get("circles", []), f"{source}.geoFence.circles")):
+        where = f"{source}.geoFence.circles[{i}]"
+        _version(_object(c, where), FENCE_SHAPE_VERSION, where)
+        circle = _need(c, "circle", where)
+        lat, lon = _latlon(_need(circle, "center", f"{where}.circle"), f"{where}.circle.center")
+        radius = _number(_need(circle, "radius", f"{where}.circle"), f"{where}.circle.radius")
+        if not radius > 0:
+            raise InputError(f"{where}.circle.radius: must be > 0")
+        inclusion = _bool(_need(c, "inclusion", where), f"{where}.inclusion")
+        circles.append(FenceCircle(lat, lon, radius, inclusion))
     polygons: list[FencePolygon] = []
+    for i, p in enumerate(_list(fence.get("polygons", []), f"{source}.geoFence.polygons")):
+        where = f"{source}.geoFence.polygons[{i}]"
+        _version(_object(p, where), FENCE_SHAPE_VERSION, where)
+        raw_verts = _list(_need(p, "polygon", where), f"{where}.polygon")
+        verts = [_latlon(v, f"{where}.polygon[{j}]") for j, v in enumerate(raw_verts)]
+        if len(verts) < 3:
+            raise InputError(f"{where}.polygon: needs at least 3 vertices")
+        inclusion = _bool(p.get("inclusion", True), f"{where}.inclusion")
+        polygons.append(FencePolygon([(a, b) for a, b in verts], inclusion))
     breach: tuple[float, float, float] | None = None
-    try:
-        for i, c in enumerate(fence.get("circles", [])):
-            where = f"{source}.geoFence.circles[{i}]"
-            circle = _need(c, "circle", where)
-            lat, lon = (float(v) for v in _need(circle, "center", f"{where}.circle"))
-            radius = float(_need(circle, "radius", f"{where}.circle"))
-            if not radius > 0:
-                raise InputError(f"{where}.circle.radius: must be > 0")
-            circles.append(FenceCircle(lat, lon, radius, bool(_need(c, "inclusion", where))))
-        for i, p in enumerate(fence.get("polygons", [])):
-            where = f"{source}.geoFence.polygons[{i}]"
-            verts = [(float(a), float(b)) for a, b in _need(p, "polygon", where)]
-            if len(verts) < 3:
-                raise InputError(f"{where}.polygon: needs at least 3 vertices")
-            polygons.append(FencePolygon(verts, bool(p.get("inclusion", True))))
-        if fence.get("breachReturn") is not None:
-            b = [float(v) for v in fence["breachReturn"]]
-            breach = (b[0], b[1], b[2])
-        rally_raw = (data.get("rallyPoints") or {}).get("points", [])
-        rally = [(float(a), float(b), float(c)) for a, b, c in rally_raw]
-        plan = Plan(
-            items=items,
-            home_lat_deg=home[0],
-            home_lon_deg=home[1],
-            home_alt_m=home[2],
-            firmware_type=int(mission.get("firmwareType", Autopilot.ARDUPILOTMEGA)),
-            vehicle_type=int(mission.get("vehicleType", 2)),
-            cruise_speed_mps=float(mission.get("cruiseSpeed", 15.0)),
-            hover_speed_mps=float(mission.get("hoverSpeed", 5.0)),
-            circles=circles,
-            polygons=polygons,
-            rally=rally,
-            breach_return=breach,
-            extra=data.get(EXTRA_KEY),
-        )
-    except InputError:
-        raise
-    except (TypeError, ValueError, AttributeError) as err:
-        raise InputError(f"{source}: malformed geoFence or rallyPoints ({err})") from None
-    fence_version = fence.get("version") if fence else 2
-    if fence and fence_version != 2:
-        raise InputError(f"{source}.geoFence.version: expected 2, got {fence_version!r}")
-    return plan
+    if fence.get("breachReturn") is not None:
+        b = _latlon(fence["breachReturn"], f"{source}.geoFence.breachReturn", 3)
+        breach = (b[0], b[1], b[2])
+    rally_part = _object(data.get("rallyPoints") or {}, f"{source}.rallyPoints")
+    if rally_part:
+        _version(rally_part, RALLY_VERSION, f"{source}.rallyPoints")
+    rally: list[tuple[float, float, float]] = []
+    for i, r in enumerate(_list(rally_part.get("points", []), f"{source}.rallyPoints.points")):
+        lat, lon, alt = _latlon(r, f"{source}.rallyPoints.points[{i}]", 3)
+        rally.append((lat, lon, alt))
+    where = f"{source}.mission"
+    return Plan(
+        items=items,
+        home_lat_deg=home[0],
+        home_lon_deg=home[1],
+        home_alt_m=home[2],
+        firmware_type=_int(mission.get("firmwareType", int(Autopilot.ARDUPILOTMEGA)),
+                           f"{where}.firmwareType", 0, 255),
+        vehicle_type=_int(mission.get("vehicleType", 2), f"{where}.vehicleType", 0, 255),
+        cruise_speed_mps=_number(mission.get("cruiseSpeed", 15.0), f"{where}.cruiseSpeed"),
+        hover_speed_mps=_number(mission.get("hoverSpeed", 5.0), f"{where}.hoverSpeed"),
+        circles=circles,
+        polygons=polygons,
+        rally=rally,
+        breach_return=breach,
+        extra=data.get(EXTRA_KEY),
+    )
 
 
 def loads_plan(text: str, source: str = "plan") -> Plan:
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as err:
-        raise InputError(f"{source}: not valid JSON (line {err.lineno}: {err.msg})") from None
-    return plan_from_dict(data, source)
+    """Parse ``.plan`` text (limits and finite numbers: :mod:`validator.input_files`)."""
+    return plan_from_dict(parse_json(text, source), source)
 
 
 def read_plan(path: str | Path) -> Plan:
     """Read a QGroundControl ``.plan`` file."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise InputError(f"{path}: cannot read plan file ({err})") from None
-    return loads_plan(text, str(path))
+    return loads_plan(read_text(path, "plan"), str(path))

@@ -15,7 +15,10 @@ A site file is YAML of this shape (see ``samples/paper-default.yaml``)::
     safety: {buffer_m: 2.0}
 
 :func:`load_site` validates it with pydantic and resolves it into a :class:`Site` in SI units
-and local metres. Every mistake raises :class:`~validator.errors.InputError` naming the field.
+and local metres. Every mistake raises :class:`~validator.errors.InputError` naming the field:
+numbers must be finite (no ``.nan`` / ``.inf``), the file at most 4 MiB, and a site at most
+``MAX_NODES`` ground nodes and zones and ``MAX_SLOTS`` slots (see
+:mod:`validator.input_files` for the limits every reader shares).
 """
 
 from __future__ import annotations
@@ -26,33 +29,45 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from validator.errors import InputError
 from validator.geodesy import LocalFrame
+from validator.input_files import MAX_SITE_BYTES, check_tree, parse_yaml, read_text
 
 DEFAULT_BUFFER_M = 2.0
 DEFAULT_MAX_ACCEL_MPS2 = 2.5  # ArduCopter WPNAV_ACCEL default
 DEFAULT_MAX_JERK_MPS3 = 1.0  # ArduCopter WPNAV_JERK default
+# Size limits, far above any site the planner can solve, so a typo cannot exhaust memory:
+MAX_SLOTS = 10_000  # a mission holds at most 65535 items (MAVLink's uint16 count)
+MAX_NODES = 1_000  # ground nodes, and no-fly zones
+# Bounds on every number, far beyond any UAV site, so that every derived value stays finite:
+MAX_DISTANCE_M = 1e6  # local x/y, radii and buffer: 1000 km
+MAX_ALT_M = 1e5
+MAX_SPEED_MPS = 1e3
+MAX_PERIOD_S = 1e7
+MAX_ACCEL_MPS2 = 1e3
+MAX_JERK_MPS3 = 1e4
+MAX_DB = 300.0  # |dBm| and |dB| of the radio figures
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    # NaN and infinities are refused everywhere (YAML's .nan / .inf parse as floats).
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class OriginModel(_Strict):
     lat: float = Field(ge=-90, le=90)
     lon: float = Field(ge=-180, le=180)
-    alt: float = 0.0
+    alt: float = Field(default=0.0, ge=-MAX_ALT_M, le=MAX_ALT_M)
 
 
 class PointModel(_Strict):
     """A point given either as local metres (x, y) or as WGS84 degrees (lat, lon)."""
 
-    x: float | None = None
-    y: float | None = None
+    x: float | None = Field(default=None, ge=-MAX_DISTANCE_M, le=MAX_DISTANCE_M)
+    y: float | None = Field(default=None, ge=-MAX_DISTANCE_M, le=MAX_DISTANCE_M)
     lat: float | None = Field(default=None, ge=-90, le=90)
     lon: float | None = Field(default=None, ge=-180, le=180)
 
@@ -77,23 +92,26 @@ class GroundNodeModel(PointModel):
 
 class NoFlyZoneModel(PointModel):
     name: str = Field(min_length=1)
-    radius: float = Field(gt=0, description="m")
+    radius: float = Field(gt=0, le=MAX_DISTANCE_M, description="m")
 
 
 class UavModel(_Strict):
-    altitude: float = Field(gt=0, description="flight altitude H above ground, m")
-    max_speed: float = Field(gt=0, description="the vehicle's real top speed V, m/s")
-    period: float = Field(gt=0, description="service period T, s")
-    slots: int = Field(gt=0, description="number of time slots N")
-    max_accel: float = Field(default=DEFAULT_MAX_ACCEL_MPS2, gt=0, description="m/s^2")
-    max_jerk: float = Field(default=DEFAULT_MAX_JERK_MPS3, gt=0, description="m/s^3")
+    altitude: float = Field(gt=0, le=MAX_ALT_M, description="flight altitude H above ground, m")
+    max_speed: float = Field(gt=0, le=MAX_SPEED_MPS,
+                             description="the vehicle's real top speed V, m/s")
+    period: float = Field(gt=0, le=MAX_PERIOD_S, description="service period T, s")
+    slots: int = Field(gt=0, le=MAX_SLOTS, description="number of time slots N")
+    max_accel: float = Field(default=DEFAULT_MAX_ACCEL_MPS2, gt=0, le=MAX_ACCEL_MPS2,
+                             description="m/s^2")
+    max_jerk: float = Field(default=DEFAULT_MAX_JERK_MPS3, gt=0, le=MAX_JERK_MPS3,
+                            description="m/s^3")
 
 
 class RadioModel(_Strict):
-    p_avg_dbm: float
-    p_peak_dbm: float
-    beta0_db: float
-    noise_dbm: float
+    p_avg_dbm: float = Field(ge=-MAX_DB, le=MAX_DB)
+    p_peak_dbm: float = Field(ge=-MAX_DB, le=MAX_DB)
+    beta0_db: float = Field(ge=-MAX_DB, le=MAX_DB)
+    noise_dbm: float = Field(ge=-MAX_DB, le=MAX_DB)
 
     @model_validator(mode="after")
     def _peak_above_avg(self) -> RadioModel:
@@ -103,7 +121,7 @@ class RadioModel(_Strict):
 
 
 class SafetyModel(_Strict):
-    buffer_m: float = Field(default=DEFAULT_BUFFER_M, ge=0)
+    buffer_m: float = Field(default=DEFAULT_BUFFER_M, ge=0, le=MAX_DISTANCE_M)
 
 
 class SiteModel(_Strict):
@@ -114,8 +132,8 @@ class SiteModel(_Strict):
     home: PointModel | None = None
     uav: UavModel
     radio: RadioModel
-    ground_nodes: list[GroundNodeModel] = Field(min_length=1)
-    no_fly_zones: list[NoFlyZoneModel] = Field(default_factory=list)
+    ground_nodes: list[GroundNodeModel] = Field(min_length=1, max_length=MAX_NODES)
+    no_fly_zones: list[NoFlyZoneModel] = Field(default_factory=list, max_length=MAX_NODES)
     safety: SafetyModel = Field(default_factory=SafetyModel)
 
 
@@ -233,6 +251,7 @@ def parse_site(data: Any, source: str = "site") -> Site:
     """Validate a site given as a parsed YAML mapping and resolve it into a :class:`Site`."""
     if not isinstance(data, dict):
         raise InputError(f"{source}: expected a mapping at the top level")
+    check_tree(data, source)
     try:
         model = SiteModel.model_validate(data)
     except ValidationError as err:
@@ -294,19 +313,14 @@ def site_from_model(model: SiteModel, source: str = "site") -> Site:
 
 
 def load_site(path: str | Path) -> Site:
-    """Read, validate and resolve a site YAML file."""
+    """Read, validate and resolve a site YAML file (limits: :mod:`validator.input_files`)."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as err:
-        raise InputError(f"{path}: cannot read site file ({err.strerror})") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        mark = getattr(err, "problem_mark", None)
-        line = f" at line {mark.line + 1}" if mark is not None else ""
-        raise InputError(f"{path}: unreadable YAML{line}") from None
-    return parse_site(data, str(path))
+    return loads_site(read_text(path, "site", MAX_SITE_BYTES), str(path))
+
+
+def loads_site(text: str, source: str = "site") -> Site:
+    """Parse, validate and resolve site YAML text."""
+    return parse_site(parse_yaml(text, source), source)
 
 
 def site_to_dict(site: Site) -> dict[str, Any]:

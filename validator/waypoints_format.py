@@ -19,10 +19,12 @@ import math
 from pathlib import Path
 
 from validator.errors import InputError
+from validator.input_files import read_text
 from validator.plan_format import Cmd, FenceCircle, FencePolygon, Frame, MissionItem, Plan
 
 HEADER = "QGC WPL 110"
 NAV_FENCE_RETURN_POINT = 5000
+MAX_ROWS = 65536  # MAVLink numbers items with a uint16
 
 
 def _num(v: float) -> str:
@@ -106,6 +108,7 @@ _Row = tuple[int, int, int, int, list[float], bool]  # seq, current, frame, comm
 
 
 def _rows(text: str, source: str) -> list[_Row]:
+    """The items of QGC WPL 110 text: finite numbers, at most ``MAX_ROWS``, numbered 0, 1, ..."""
     lines = text.splitlines()
     if not lines or lines[0].strip() != HEADER:
         raise InputError(f"{source}: line 1: expected the header {HEADER!r}")
@@ -114,6 +117,8 @@ def _rows(text: str, source: str) -> list[_Row]:
         line = raw.strip()
         if not line or line.startswith("#"):
             continue
+        if len(rows) == MAX_ROWS:
+            raise InputError(f"{source}: line {n}: more than {MAX_ROWS} items")
         parts = line.split()
         if len(parts) != 12:
             raise InputError(f"{source}: line {n}: expected 12 fields, got {len(parts)}")
@@ -123,6 +128,10 @@ def _rows(text: str, source: str) -> list[_Row]:
             autocontinue = int(parts[11]) != 0
         except ValueError:
             raise InputError(f"{source}: line {n}: malformed number") from None
+        if not all(math.isfinite(p) for p in params):
+            raise InputError(f"{source}: line {n}: every number must be finite (no nan or inf)")
+        if not (0 <= frame <= 255 and 0 <= command <= 65535):
+            raise InputError(f"{source}: line {n}: frame or command out of range")
         if seq != len(rows):
             raise InputError(f"{source}: line {n}: sequence number {seq}, expected {len(rows)}")
         rows.append((seq, current, frame, command, params, autocontinue))
@@ -188,10 +197,7 @@ def read_waypoints(path: str | Path) -> Plan:
     path = Path(path)
 
     def text_of(p: Path) -> str:
-        try:
-            return p.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError) as err:
-            raise InputError(f"{p}: cannot read waypoints file ({err})") from None
+        return read_text(p, "waypoints")
 
     plan = loads_waypoints(text_of(path), str(path))
     fence_path, rally_path = sidecar_paths(path)

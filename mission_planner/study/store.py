@@ -5,6 +5,11 @@ trial ends, so an interrupted study loses at most the trials that were running. 
 (the process was killed mid-write) is ignored. Re-running a study into the same directory skips
 every trial whose key is in the log. Delete the log to start over.
 
+One study at a time writes a directory: the log holds an exclusive lock (``fcntl.flock``) on
+``DIR/.nfz-study.lock``, which names the PID of the run holding it; a second run on the same
+directory is refused while the first one lives. The kernel drops the lock when its process
+dies, however it dies, so a killed study leaves nothing to clean up: run it again to resume.
+
 ``DIR/study.json`` records the planner options the logged trials were run with; resuming with
 other options is refused, so one table never mixes two planners.
 
@@ -15,6 +20,7 @@ written atomically when the study ends.
 from __future__ import annotations
 
 import csv
+import fcntl
 import io
 import json
 import os
@@ -28,6 +34,7 @@ from validator.errors import InputError
 from validator.fileio import write_atomic
 
 LOG_NAME = "trials.jsonl"
+LOCK_NAME = ".nfz-study.lock"
 MANIFEST_NAME = "study.json"
 TABLE_FORMATS = ("csv", "parquet")
 
@@ -54,8 +61,10 @@ def read_log(directory: str | Path) -> dict[str, dict[str, Any]]:
 class TrialLog:
     """Append-only log of finished trials; use as a context manager.
 
-    Nothing is written until the first row: a study that fails to start leaves no files. The
-    first row also records ``manifest`` (see :func:`check_manifest`) if the directory has none.
+    Entering takes the directory's lock (see the module doc; :class:`InputError` if another
+    study holds it). Nothing but the lock file is written until the first row, and a study
+    that ends without a row leaves no files. The first row also records ``manifest`` (see
+    :func:`check_manifest`) if the directory has none.
     """
 
     def __init__(self, directory: str | Path, manifest: dict[str, Any] | None = None) -> None:
@@ -63,8 +72,27 @@ class TrialLog:
         self.path = self.directory / LOG_NAME
         self.manifest = manifest
         self._file: io.TextIOWrapper | None = None
+        self._lock: int | None = None
+        self._made_directory = False
 
     def __enter__(self) -> TrialLog:
+        self._made_directory = not self.directory.exists()
+        try:
+            self.directory.mkdir(parents=True, exist_ok=True)
+            fd = os.open(self.directory / LOCK_NAME, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as err:
+            raise InputError(f"{self.directory}: cannot use as a study directory "
+                             f"({err.strerror})") from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 32, 0).decode("ascii", "replace").strip() or "?"
+            os.close(fd)
+            raise InputError(f"{self.directory}: another nfz-study (pid {holder}) is writing "
+                             "this directory; wait for it or use another one") from None
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+        self._lock = fd
         return self
 
     def _open(self) -> io.TextIOWrapper:
@@ -101,6 +129,12 @@ class TrialLog:
         if self._file is not None:
             self._file.close()
             self._file = None
+        if self._lock is not None:
+            if self._made_directory and os.listdir(self.directory) == [LOCK_NAME]:
+                (self.directory / LOCK_NAME).unlink()  # a study that never started: no files
+                self.directory.rmdir()
+            os.close(self._lock)  # releases the lock
+            self._lock = None
 
 
 def _normalised(manifest: dict[str, Any]) -> Any:
