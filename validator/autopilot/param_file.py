@@ -14,6 +14,7 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 
 from validator.errors import InputError
+from validator.input_files import read_text
 
 MAV_PARAM_TYPE_INT32 = 6
 MAV_PARAM_TYPE_REAL32 = 9
@@ -49,13 +50,9 @@ def parse_params(text: str, source: str = "params") -> dict[str, float]:
 
 
 def read_params(path: str | Path) -> dict[str, float]:
-    """Read a parameter file (see :func:`parse_params`)."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise InputError(f"{path}: cannot read parameter file ({err})") from None
-    return parse_params(text, str(path))
+    """Read a parameter file (see :func:`parse_params`); size and encoding are checked as for
+    every input file (:func:`validator.input_files.read_text`)."""
+    return parse_params(read_text(path, "parameter"), str(path))
 
 
 def format_params(values: Mapping[str, float], autopilot: str,
