@@ -25,8 +25,8 @@ from typing import Any
 import numpy as np
 
 from mission_planner.optimize import PlannerOptions
+from mission_planner.study.config import trial_seed
 from mission_planner.study.executors import default_workers, run_trials
-from mission_planner.study.fig4 import trial_seed
 from mission_planner.study.trials import TrialSpec, run_trial
 
 QUICK = {"N": (25, 50, 100), "K": (2, 4, 8), "M": (1, 3, 6)}

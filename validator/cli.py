@@ -12,7 +12,8 @@ the vehicle will fly with (``plan-mission`` writes one beside the plan): its mot
 feed the replay, it is set on the vehicle of a ``--sitl`` flight, and a file that leaves the
 geofence off or with a breach action that can cross another zone is flagged.
 
-Everything here is a thin wrapper over :func:`validate_mission`, which notebooks can call.
+Everything here parses and prints around :func:`validator.validation.validate_mission`, which
+notebooks can call.
 """
 
 from __future__ import annotations
@@ -22,147 +23,23 @@ import json
 import math
 import sys
 from collections.abc import Sequence
-from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Any
 
-from validator.audit import AuditReport, audit
-from validator.autopilot.fence import FENCE_RULES
 from validator.autopilot.param_file import read_params
-from validator.dynamics import PROFILES, Profile, make_profile, parse_param_overrides
+from validator.dynamics import PROFILES, parse_param_overrides
 from validator.errors import InputError
 from validator.fileio import write_atomic
-from validator.flight import Finding, Flight, resolve_flight
 from validator.mavlink.cli import add_sitl_arguments, run_sitl, split_sitl_url
-from validator.plan_format import Autopilot, Plan, read_plan
-from validator.replay import TrackReport, replay, score_track
-from validator.site import Site, load_site
+from validator.replay import TrackReport
+from validator.validation import Validation, default_profile_name, validate_mission
+
+__all__ = ["Validation", "build_parser", "default_profile_name", "format_report",
+           "validate_mission", "validate_mission_main"]
 
 KEY_PARAMS = {  # shown in the table; the JSON report lists every parameter
     "ideal": ("SPEED", "VEHICLE_SPEED_MAX"),
     "arducopter": ("WPNAV_SPEED", "WPNAV_ACCEL", "WPNAV_JERK", "WPNAV_RADIUS", "VEHICLE_SPEED_MAX"),
     "px4": ("MPC_XY_CRUISE", "MPC_ACC_HOR", "MPC_JERK_AUTO", "NAV_ACC_RAD", "VEHICLE_SPEED_MAX"),
 }
-
-
-@dataclass
-class Validation:
-    """Everything ``validate-mission`` found about one plan on one site.
-
-    ``replay`` is the modelled flight's report (None without ``--replay``); ``sitl`` is the
-    place for a report of a flight flown by a (SITL) vehicle, scored with
-    :func:`~validator.replay.score_track` exactly like the replay.
-    """
-
-    plan_path: str
-    site_path: str
-    plan: Plan
-    site: Site
-    flight: Flight
-    audit: AuditReport
-    profile: Profile | None = None
-    dt_s: float = 0.05
-    replay: TrackReport | None = None
-    sitl: TrackReport | None = None
-    vehicle_params: dict[str, float] = field(default_factory=dict)
-    param_findings: list[Finding] = field(default_factory=list)
-    extra: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def violations(self) -> list[Finding]:
-        out = list(self.audit.violations)
-        for rep in (self.replay, self.sitl):
-            if rep is not None:
-                out += rep.violations
-        return out
-
-    @property
-    def exit_status(self) -> int:
-        return 1 if self.violations else 0
-
-    def as_dict(self) -> dict[str, Any]:
-        def track(rep: TrackReport | None) -> dict[str, Any] | None:
-            if rep is None:
-                return None
-            d = rep.as_dict()
-            if rep is self.replay and self.profile is not None:
-                d = {"profile": self.profile.name, "params": dict(self.profile.params),
-                     "dt_s": self.dt_s, **d}
-            return d
-
-        return _json_safe({
-            "plan": self.plan_path,
-            "site": self.site_path,
-            "result": "violation" if self.violations else "clear",
-            "exit_status": self.exit_status,
-            "violations": [f.as_dict() for f in self.violations],
-            "audit": self.audit.as_dict(),
-            "vehicle_params": dict(self.vehicle_params),
-            "param_findings": [f.as_dict() for f in self.param_findings],
-            "replay": track(self.replay),
-            "sitl": track(self.sitl),
-            **self.extra,
-        })
-
-
-def _json_safe(obj: Any) -> Any:
-    """NaN and infinities become null (JSON has none)."""
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
-    if isinstance(obj, dict):
-        return {k: _json_safe(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_json_safe(v) for v in obj]
-    return obj
-
-
-def default_profile_name(plan: Plan) -> str:
-    """The replay profile matching the plan's firmware: ``px4`` for PX4, else ``arducopter``."""
-    return "px4" if plan.firmware_type == Autopilot.PX4 else "arducopter"
-
-
-def validate_mission(
-    plan_path: str | Path,
-    site_path: str | Path,
-    *,
-    replay_flight: bool = False,
-    profile: str | None = None,
-    params: dict[str, float] | None = None,
-    dt_s: float = 0.05,
-    vehicle_params: dict[str, float] | None = None,
-) -> Validation:
-    """Audit ``plan_path`` against ``site_path`` and, with ``replay_flight``, replay it.
-
-    ``profile`` (default: by the plan's firmware) and ``params`` (autopilot names and units)
-    choose the flight model; the track is sampled every ``dt_s`` seconds. ``vehicle_params``
-    are the parameters the vehicle will hold (a parameter file): those of the flight model
-    replay the flight under ``params``' overrides, and a geofence they leave off or unsafe is
-    flagged in ``param_findings`` (for a plan with a fence). Raises :class:`InputError` for bad
-    input.
-    """
-    if not (dt_s > 0 and dt_s <= 0.05):
-        raise InputError(f"--dt: must be > 0 and <= 0.05 s (at least 20 Hz), got {dt_s}")
-    site = load_site(site_path)
-    plan = read_plan(plan_path)
-    flight = resolve_flight(plan, site, str(plan_path))
-    report = audit(plan, site, flight, source=str(plan_path))
-    v = Validation(str(plan_path), str(site_path), plan, site, flight, report, dt_s=dt_s,
-                   vehicle_params=dict(vehicle_params or {}))
-    if vehicle_params is not None and (plan.circles or plan.polygons):
-        rules = FENCE_RULES["px4" if plan.firmware_type == Autopilot.PX4 else "ardupilot"]
-        v.param_findings = [Finding("warning", f"parameter file: {p}", None)
-                            for p in rules.problems(vehicle_params)]
-    if replay_flight or profile is not None or params or vehicle_params:
-        name = profile or default_profile_name(plan)
-        motion = make_profile(name, site).params
-        merged = {**{k: x for k, x in (vehicle_params or {}).items() if k in motion},
-                  **(params or {})}
-        prof = make_profile(name, site, merged)
-        v.profile = prof
-        if flight.legs:
-            track = replay(flight, prof, dt_s=dt_s)
-            v.replay = score_track(track, flight, site, plan)
-    return v
 
 
 # --------------------------------------------------------------------------------------------

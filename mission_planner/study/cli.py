@@ -112,7 +112,8 @@ def _fig3(args: argparse.Namespace) -> int:
 
 
 def _fig4(args: argparse.Namespace) -> int:
-    from mission_planner.study.fig4 import Fig4Config, run_fig4
+    from mission_planner.study.config import Fig4Config
+    from mission_planner.study.fig4 import run_fig4
 
     config = Fig4Config(
         trials=args.trials, radii_m=tuple(float(r) for r in args.radii),

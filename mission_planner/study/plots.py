@@ -26,7 +26,7 @@ from validator.geometry import segment_point_closest_fraction
 
 if TYPE_CHECKING:
     from mission_planner.optimize.solution import Solution
-    from mission_planner.study.fig4 import Fig4Config
+    from mission_planner.study.config import Fig4Config
 
 SCHEME_STYLE: dict[str, dict[str, Any]] = {
     "proposed": {"linestyle": "-", "marker": "o", "color": "tab:blue"},

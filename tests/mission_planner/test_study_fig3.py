@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from mission_planner.optimize import PlannerOptions, Solution
+from mission_planner.study.config import trial_seed
 from mission_planner.study.fig3 import run_fig3
-from mission_planner.study.fig4 import trial_seed
 from mission_planner.study.sites import random_site
 from validator.errors import InputError
 

@@ -6,7 +6,8 @@ import csv
 from pathlib import Path
 
 from mission_planner.optimize import PlannerOptions
-from mission_planner.study.fig4 import Fig4Config, run_fig4
+from mission_planner.study.config import Fig4Config
+from mission_planner.study.fig4 import run_fig4
 from mission_planner.study.trials import TrialSpec, run_trial
 
 FAST = PlannerOptions(max_iterations=15)

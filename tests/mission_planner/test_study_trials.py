@@ -7,7 +7,8 @@ from typing import Any
 
 import pytest
 
-from mission_planner.study.fig4 import Fig4Config, summarize, trial_seed
+from mission_planner.study.config import Fig4Config, trial_seed
+from mission_planner.study.fig4 import summarize
 from mission_planner.study.stats import mean_interval, proportion_interval
 from mission_planner.study.trials import TABLE_COLUMNS, TrialSpec, is_failed, run_trial
 from validator.errors import InputError

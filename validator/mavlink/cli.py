@@ -28,7 +28,7 @@ from validator.errors import InputError
 from validator.mavlink.sitl_process import BINARY_ENV, DEFAULTS_ENV, PX4_BINARY_ENV
 
 if TYPE_CHECKING:
-    from validator.cli import Validation
+    from validator.validation import Validation
 
 DEFAULT_SITL_SPEEDUP = 20.0
 DEFAULT_BINARY_SPEEDUP = 10.0  # ArduCopter SITL in lockstep; the shared real flights used 10
@@ -125,7 +125,7 @@ def upload_mission_main(argv: Sequence[str] | None = None) -> int:
 
 def _audit_refusal(plan_path: str, site_path: str) -> str | None:
     """Why the validator rejects the plan (one line), or None."""
-    from validator.cli import validate_mission
+    from validator.validation import validate_mission
 
     v = validate_mission(plan_path, site_path)
     if not v.violations:
@@ -334,11 +334,11 @@ def run_sitl(v: Validation, args: argparse.Namespace,
 
     ``vehicle_params`` (a parameter file's values and the autopilot's own ``--param``
     overrides) are set on the vehicle before the flight."""
-    from validator.cli import default_profile_name
     from validator.dynamics import make_profile, parse_param_overrides
     from validator.mavlink.driver import builtin_vehicle, default_time_limit_s, fly_and_score
     from validator.mavlink.sitl_process import autopilot_sitl, find_binary, terminate_on_sigterm
     from validator.plan_format import Autopilot
+    from validator.validation import default_profile_name
 
     overrides = parse_param_overrides(getattr(args, "param", None))
     profile = v.profile or make_profile(getattr(args, "profile", None)

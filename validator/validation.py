@@ -1,0 +1,144 @@
+"""One validation of a plan against a site: the audit, the replay, flown tracks, and the report.
+
+:func:`validate_mission` is what ``validate-mission`` does before any flight: it reads the site
+and the plan, resolves the flight, audits every leg and fence, checks a vehicle parameter file's
+geofence settings and, when asked, replays the flight with a multicopter model. A flight on a
+vehicle (:mod:`validator.mavlink`) adds its scored track to the same :class:`Validation`. The
+commands only parse arguments and print (:mod:`validator.cli`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from validator.audit import AuditReport, audit
+from validator.autopilot.fence import FENCE_RULES
+from validator.dynamics import Profile, make_profile
+from validator.errors import InputError
+from validator.flight import Finding, Flight, resolve_flight
+from validator.plan_format import Autopilot, Plan, read_plan
+from validator.replay import TrackReport, replay, score_track
+from validator.site import Site, load_site
+
+
+@dataclass
+class Validation:
+    """Everything ``validate-mission`` found about one plan on one site.
+
+    ``replay`` is the modelled flight's report (None without ``--replay``); ``sitl`` is the
+    place for a report of a flight flown by a (SITL) vehicle, scored with
+    :func:`~validator.replay.score_track` exactly like the replay.
+    """
+
+    plan_path: str
+    site_path: str
+    plan: Plan
+    site: Site
+    flight: Flight
+    audit: AuditReport
+    profile: Profile | None = None
+    dt_s: float = 0.05
+    replay: TrackReport | None = None
+    sitl: TrackReport | None = None
+    vehicle_params: dict[str, float] = field(default_factory=dict)
+    param_findings: list[Finding] = field(default_factory=list)
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def violations(self) -> list[Finding]:
+        out = list(self.audit.violations)
+        for rep in (self.replay, self.sitl):
+            if rep is not None:
+                out += rep.violations
+        return out
+
+    @property
+    def exit_status(self) -> int:
+        return 1 if self.violations else 0
+
+    def as_dict(self) -> dict[str, Any]:
+        def track(rep: TrackReport | None) -> dict[str, Any] | None:
+            if rep is None:
+                return None
+            d = rep.as_dict()
+            if rep is self.replay and self.profile is not None:
+                d = {"profile": self.profile.name, "params": dict(self.profile.params),
+                     "dt_s": self.dt_s, **d}
+            return d
+
+        return _json_safe({
+            "plan": self.plan_path,
+            "site": self.site_path,
+            "result": "violation" if self.violations else "clear",
+            "exit_status": self.exit_status,
+            "violations": [f.as_dict() for f in self.violations],
+            "audit": self.audit.as_dict(),
+            "vehicle_params": dict(self.vehicle_params),
+            "param_findings": [f.as_dict() for f in self.param_findings],
+            "replay": track(self.replay),
+            "sitl": track(self.sitl),
+            **self.extra,
+        })
+
+
+def _json_safe(obj: Any) -> Any:
+    """NaN and infinities become null (JSON has none)."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_json_safe(v) for v in obj]
+    return obj
+
+
+def default_profile_name(plan: Plan) -> str:
+    """The replay profile matching the plan's firmware: ``px4`` for PX4, else ``arducopter``."""
+    return "px4" if plan.firmware_type == Autopilot.PX4 else "arducopter"
+
+
+def validate_mission(
+    plan_path: str | Path,
+    site_path: str | Path,
+    *,
+    replay_flight: bool = False,
+    profile: str | None = None,
+    params: dict[str, float] | None = None,
+    dt_s: float = 0.05,
+    vehicle_params: dict[str, float] | None = None,
+) -> Validation:
+    """Audit ``plan_path`` against ``site_path`` and, with ``replay_flight``, replay it.
+
+    ``profile`` (default: by the plan's firmware) and ``params`` (autopilot names and units)
+    choose the flight model; the track is sampled every ``dt_s`` seconds. ``vehicle_params``
+    are the parameters the vehicle will hold (a parameter file): those of the flight model
+    replay the flight under ``params``' overrides, and a geofence they leave off or unsafe is
+    flagged in ``param_findings`` (for a plan with a fence). Raises :class:`InputError` for bad
+    input.
+    """
+    if not (dt_s > 0 and dt_s <= 0.05):
+        raise InputError(f"--dt: must be > 0 and <= 0.05 s (at least 20 Hz), got {dt_s}")
+    site = load_site(site_path)
+    plan = read_plan(plan_path)
+    flight = resolve_flight(plan, site, str(plan_path))
+    report = audit(plan, site, flight, source=str(plan_path))
+    v = Validation(str(plan_path), str(site_path), plan, site, flight, report, dt_s=dt_s,
+                   vehicle_params=dict(vehicle_params or {}))
+    if vehicle_params is not None and (plan.circles or plan.polygons):
+        rules = FENCE_RULES["px4" if plan.firmware_type == Autopilot.PX4 else "ardupilot"]
+        v.param_findings = [Finding("warning", f"parameter file: {p}", None)
+                            for p in rules.problems(vehicle_params)]
+    if replay_flight or profile is not None or params or vehicle_params:
+        name = profile or default_profile_name(plan)
+        motion = make_profile(name, site).params
+        merged = {**{k: x for k, x in (vehicle_params or {}).items() if k in motion},
+                  **(params or {})}
+        prof = make_profile(name, site, merged)
+        v.profile = prof
+        if flight.legs:
+            track = replay(flight, prof, dt_s=dt_s)
+            v.replay = score_track(track, flight, site, plan)
+    return v
