@@ -4,7 +4,7 @@
         [--dynamics vehicle|none] [--buffer-m B] [--autopilot ardupilot|px4] [--cycles C]
         [--fence-margin-m M] [--operating-area polygon|circle] [--operating-area-margin-m A]
         [--format plan|waypoints] [--params F.param] [--no-merge] [--geojson F.geojson]
-        [--plot F.png] [--force] [--seed S]
+        [--plot F.png] [--force] [--quiet]
 
 ``--dynamics vehicle`` (default) keeps speed changes within the site's ``uav.max_accel`` and
 ``uav.max_jerk``; ``--dynamics none`` is the paper's kinematic model (top speed only) and
@@ -26,9 +26,9 @@ replay_mission`, then :func:`output_files` and :func:`write_outputs`.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import sys
+import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
@@ -144,7 +144,6 @@ def plan_and_build(
     options: MissionOptions | None = None,
     *,
     dynamics: str = "vehicle",
-    seed: int | None = None,
     progress: Progress | None = None,
 ) -> Mission:
     """Optimise ``site`` with the paper's Algorithm 1 and lay out its mission.
@@ -160,8 +159,6 @@ def plan_and_build(
     from mission_planner.optimize import PlannerOptions, plan  # cvxpy is slow to import
 
     planner_options = PlannerOptions(dynamics=dynamics)
-    if seed is not None and "seed" in {f.name for f in dataclasses.fields(PlannerOptions)}:
-        planner_options = dataclasses.replace(planner_options, seed=seed)  # type: ignore[call-arg]
     solution = plan(site, scheme, options=planner_options, progress=progress)
     return build_mission(solution, opt)
 
@@ -217,23 +214,42 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", type=Path, help="also draw the paper's Fig. 3 (PNG)")
     p.add_argument("--force", action="store_true",
                    help="write the mission even if the safety gate refuses it")
-    p.add_argument("--seed", type=int,
-                   help="seed for any randomised step (the optimiser is deterministic)")
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress lines (warnings and the result still print)")
+    # Removed: the optimiser is deterministic, so a seed never did anything. Accepted with a
+    # deprecation line for one release.
+    p.add_argument("--seed", type=int, help=argparse.SUPPRESS)
     return p
 
 
-def _print_progress(iteration: int, objective: float) -> None:
-    # On a terminal one line is rewritten in place; in a log every iteration gets its own line.
-    text = f"plan-mission: iteration {iteration}: objective {objective:.6g}"
-    if sys.stderr.isatty():
-        print(f"\r{text}", end="", file=sys.stderr, flush=True)
-    else:
-        print(text, file=sys.stderr, flush=True)
+PIPE_PROGRESS_EVERY = 10  # iterations between progress lines when stderr is not a terminal
+
+
+class _ProgressLine:
+    """Progress of the optimiser on stderr: one line rewritten in place on a terminal, a line
+    every :data:`PIPE_PROGRESS_EVERY` iterations (and the first) in a pipe or log."""
+
+    def __init__(self) -> None:
+        self.started = time.monotonic()
+        self.tty = sys.stderr.isatty()
+        self.count = 0
+
+    def __call__(self, iteration: int, objective: float) -> None:
+        self.count += 1
+        text = (f"plan-mission: iteration {iteration}: objective {objective:.6g} "
+                f"({time.monotonic() - self.started:.1f} s)")
+        if self.tty:
+            print(f"\r{text}", end="", file=sys.stderr, flush=True)
+        elif self.count == 1 or self.count % PIPE_PROGRESS_EVERY == 0:
+            print(text, file=sys.stderr, flush=True)
 
 
 def plan_mission_main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``plan-mission`` (see the module doc); returns the exit status."""
     args = _parser().parse_args(argv)
+    if args.seed is not None:
+        print("plan-mission: --seed is deprecated and has no effect (the optimiser is "
+              "deterministic)", file=sys.stderr)
     try:
         fmt = args.format or ("waypoints" if args.output.suffix == ".waypoints" else "plan")
         param_file = args.params or params_path(args.output)
@@ -255,11 +271,12 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
             operating_area_margin_m=args.operating_area_margin_m,
             merge_legs=not args.no_merge,
         )
+        progress = None if args.quiet else _ProgressLine()
         try:
             mission = plan_and_build(site, args.scheme, options, dynamics=args.dynamics,
-                                     seed=args.seed, progress=_print_progress)
+                                     progress=progress)
         finally:
-            if sys.stderr.isatty():
+            if progress is not None and progress.tty:
                 print(file=sys.stderr)
         if mission.problems:
             for problem in mission.problems:

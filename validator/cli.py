@@ -1,11 +1,12 @@
 """``validate-mission``: audit a ``.plan`` against a site, optionally replay it in time.
 
-    validate-mission PLAN --site SITE [--json OUT] [--replay] [--profile ideal|arducopter|px4]
+    validate-mission PLAN --site SITE [--report OUT] [--replay] [--profile ideal|arducopter|px4]
                      [--params FILE] [--param NAME=VALUE ...] [--dt SECONDS]
                      [--sitl [--sitl-binary PATH | --sitl-url URL] ...]
 
-Prints a table; ``--json OUT`` also writes the full report atomically. Exit status: 0 clear,
-1 a violation (audit or replay), 2 bad input (one line on stderr, no output file).
+Prints a table; ``--report OUT`` (formerly ``--json``) also writes the full report
+atomically. Exit status: 0 clear, 1 a violation (audit or replay), 2 bad input (one line on
+stderr, no output file).
 ``--profile`` or ``--param`` imply ``--replay``; the default profile follows the plan's
 firmware (PX4 -> ``px4``, otherwise ``arducopter``). ``--params FILE`` is the parameter file
 the vehicle will fly with (``plan-mission`` writes one beside the plan): its motion parameters
@@ -153,7 +154,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("plan", help="QGroundControl .plan file")
     p.add_argument("--site", required=True, help="site YAML file")
-    p.add_argument("--json", metavar="OUT", help="also write the full report as JSON")
+    p.add_argument("--report", metavar="OUT",
+                   help="also write the full report as JSON (as plan-mission --report)")
+    p.add_argument("--json", metavar="OUT", help=argparse.SUPPRESS)  # the old --report
     p.add_argument("--replay", action="store_true", help="fly the mission in time")
     p.add_argument("--profile", choices=PROFILES,
                    help="flight model (default: by the plan's firmware); implies --replay")
@@ -173,6 +176,9 @@ def build_parser() -> argparse.ArgumentParser:
 def validate_mission_main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``validate-mission``; returns the exit status."""
     args = build_parser().parse_args(split_sitl_url(sys.argv[1:] if argv is None else argv))
+    report_path = args.report or args.json
+    if args.json:
+        print("validate-mission: --json is deprecated: use --report", file=sys.stderr)
     try:
         params = parse_param_overrides(args.param)
         vehicle_params = read_params(args.params) if args.params else None
@@ -181,9 +187,8 @@ def validate_mission_main(argv: Sequence[str] | None = None) -> int:
                              vehicle_params=vehicle_params)
         if args.sitl or args.sitl_binary or args.sitl_url:
             run_sitl(v, args, vehicle_params)
-        text = json.dumps(v.as_dict(), indent=1, allow_nan=False) + "\n" if args.json else ""
-        if args.json:
-            write_atomic(args.json, text)
+        if report_path:
+            write_atomic(report_path, json.dumps(v.as_dict(), indent=1, allow_nan=False) + "\n")
     except InputError as err:
         print(f"validate-mission: {err}", file=sys.stderr)
         return 2

@@ -311,3 +311,35 @@ def test_no_merge_keeps_a_waypoint_per_slot(tmp_path, capsys, square_planner):
     assert code == code2 == 0
     merged, per_slot = (len(read_plan(tmp_path / n).items) for n in ("a.plan", "b.plan"))
     assert per_slot == merged + 8
+
+
+@pytest.fixture()
+def chatty_planner(monkeypatch):
+    """plan() replaced by a square tour that reports 25 iterations of progress."""
+
+    def fake_plan(site, scheme="proposed", *, options=None, progress=None):
+        for i in range(1, 26):
+            if progress is not None:
+                progress(i, 1.0 + i / 100)
+        return solution_for(site, subdivided(SQUARE, 3), scheme=scheme)
+
+    monkeypatch.setattr(mission_planner.optimize, "plan", fake_plan)
+
+
+def test_progress_in_a_pipe_is_a_few_plain_lines(tmp_path, capsys, chatty_planner):
+    code, err = _run([_write_site(tmp_path, SLOW), "-o", tmp_path / "m.plan"], capsys)
+    lines = [ln for ln in err.splitlines() if "iteration" in ln]
+    assert code == 0
+    assert [ln.split(":")[1].strip() for ln in lines] == ["iteration 1", "iteration 10",
+                                                          "iteration 20"]
+
+
+def test_quiet_prints_no_progress(tmp_path, capsys, chatty_planner):
+    code, err = _run([_write_site(tmp_path, SLOW), "-o", tmp_path / "m.plan", "--quiet"], capsys)
+    assert code == 0 and "iteration" not in err and "wrote" in err
+
+
+def test_seed_is_deprecated_and_changes_nothing(tmp_path, capsys, chatty_planner):
+    out = tmp_path / "m.plan"
+    code, err = _run([_write_site(tmp_path, SLOW), "-o", out, "--seed", "3", "--quiet"], capsys)
+    assert code == 0 and err.startswith("plan-mission: --seed is deprecated and has no effect")

@@ -41,7 +41,7 @@ def test_violating_plan_exits_1_naming_the_leg(files, capsys):
 def test_json_report_is_written(files):
     tmp, site, good, _ = files
     out = tmp / "report.json"
-    status = validate_mission_main([str(good), "--site", str(site), "--replay", "--json",
+    status = validate_mission_main([str(good), "--site", str(site), "--replay", "--report",
                                     str(out)])
     assert status == 0
     data = json.loads(out.read_text())
@@ -62,7 +62,7 @@ def test_bad_plan_exits_2_with_one_line_and_no_output(files, capsys, mutate, mes
     tmp, site, good, _ = files
     mutate(good)
     out = tmp / "report.json"
-    assert validate_mission_main([str(good), "--site", str(site), "--json", str(out)]) == 2
+    assert validate_mission_main([str(good), "--site", str(site), "--report", str(out)]) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1
     assert not out.exists()
@@ -109,3 +109,16 @@ def test_replay_violation_alone_makes_exit_1(tmp_path, capsys):
     capsys.readouterr()
     assert validate_mission_main([str(plan), "--site", str(site_path), "--replay"]) == 1
     assert "flown track enters NFZ1" in capsys.readouterr().out
+
+
+def test_the_old_json_option_still_writes_the_report_with_a_deprecation_line(tmp_path, capsys):
+    site = make_site(nfz=((100.0, 0.0, 20.0),))
+    site_path = tmp_path / "site.yaml"
+    site_path.write_text(yaml.safe_dump(site_to_dict(site)))
+    plan_path = tmp_path / "m.plan"
+    write_plan(waypoint_plan(site, [(40.0, 30.0), (160.0, 30.0)]), plan_path)
+    out = tmp_path / "r.json"
+    status = validate_mission_main([str(plan_path), "--site", str(site_path), "--json",
+                                    str(out)])
+    assert json.loads(out.read_text())["exit_status"] == status
+    assert capsys.readouterr().err == "validate-mission: --json is deprecated: use --report\n"

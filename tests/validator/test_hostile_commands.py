@@ -51,7 +51,7 @@ def test_hostile_file_exits_2_with_one_line(tmp_path: Path, case: str) -> None:
     plan.write_text(json.dumps(_plan_dict()))
     write(site if which == "site" else plan)
     proc = subprocess.run(
-        [sys.executable, "-m", "validator.cli", str(plan), "--site", str(site), "--json",
+        [sys.executable, "-m", "validator.cli", str(plan), "--site", str(site), "--report",
          str(report)],
         capture_output=True, text=True, timeout=120,
     )

@@ -98,7 +98,7 @@ def test_the_sample_plan_flies_to_the_end_clear_of_every_nfz(sample, tmp_path, c
     site, plan, params = sample
     out = tmp_path / "flown.json"
     status = validate_mission_main([str(plan), "--site", str(site), "--params", str(params),
-                                    "--sitl-binary", str(BINARY), "--json", str(out)])
+                                    "--sitl-binary", str(BINARY), "--report", str(out)])
     text = capsys.readouterr().out
     report = json.loads(out.read_text())
     assert status == 0, text
@@ -139,7 +139,7 @@ def test_a_leg_across_a_zone_is_caught_by_the_flown_track_and_the_fence(crossing
     out = tmp_path / "crossed.json"
     status = validate_mission_main([str(plan), "--site", str(site), "--params",
                                     str(report_only), "--sitl-binary", str(BINARY),
-                                    "--json", str(out)])
+                                    "--report", str(out)])
     report = json.loads(out.read_text())
     assert status == 1
     assert min(z["clearance_m"] for z in report["sitl"]["nfz"]) < 0  # flown into the zone
@@ -150,7 +150,7 @@ def test_with_the_plans_parameters_a_breach_retraces_the_flown_path(crossing, tm
     site, plan, params = crossing
     out = tmp_path / "smartrtl.json"
     validate_mission_main([str(plan), "--site", str(site), "--params", str(params),
-                           "--sitl-binary", str(BINARY), "--json", str(out)])
+                           "--sitl-binary", str(BINARY), "--report", str(out)])
     report = json.loads(out.read_text())
     assert report["sitl_flight"]["fence_breach_samples"] > 0
     assert [c["mode"] for c in report["sitl_flight"]["mode_changes"]][:1] == ["SMART_RTL"]
@@ -170,7 +170,7 @@ def test_a_realistic_plan_keeps_its_period_on_the_real_autopilot(realistic, tmp_
     site, plan, params, planned = realistic
     out = tmp_path / "realistic.json"
     status = validate_mission_main([str(plan), "--site", str(site), "--params", str(params),
-                                    "--sitl-binary", str(BINARY), "--json", str(out)])
+                                    "--sitl-binary", str(BINARY), "--report", str(out)])
     report = json.loads(out.read_text())
     assert status == 0
     cycle = report["sitl"]["cycle"]

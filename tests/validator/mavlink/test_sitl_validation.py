@@ -40,7 +40,7 @@ def test_builtin_vehicle_flies_the_plan_clear_of_the_nfz(files):
     tmp, site, plan, _ = files
     out = tmp / "report.json"
     status = validate_mission_main([str(plan), "--site", str(site), "--replay", "--sitl",
-                                    *FAST, "--json", str(out)])
+                                    *FAST, "--report", str(out)])
     report = json.loads(out.read_text())
     assert status == 0 and report["result"] == "clear"
     flown, modelled = report["sitl"]["nfz"][0], report["replay"]["nfz"][0]
@@ -57,7 +57,7 @@ def test_a_track_through_the_nfz_is_a_violation_and_the_fence_reports_it(files, 
     write_plan(waypoint_plan(site, [(40.0, 5.0), (160.0, 5.0)], v=8.0), bad)
     out = tmp / "bad.json"
     assert validate_mission_main([str(bad), "--site", str(site_path), "--sitl", *FAST,
-                                  "--json", str(out)]) == 1
+                                  "--report", str(out)]) == 1
     report = json.loads(out.read_text())
     assert report["sitl"]["nfz"][0]["clearance_m"] < -10
     assert report["sitl_flight"]["fence_breach_samples"] > 0
@@ -72,7 +72,7 @@ def test_external_vehicle_gets_the_explicit_parameters(files, start_vehicle):
     out = tmp / "ext.json"
     status = validate_mission_main([str(plan_path), "--site", str(site), "--sitl-url",
                                     url_of(vehicle), "--param", "WPNAV_ACCEL=400",
-                                    "--json", str(out)])
+                                    "--report", str(out)])
     report = json.loads(out.read_text())
     assert status == 0 and report["sitl_flight"]["builtin"] is False
     assert vehicle.params["WPNAV_ACCEL"][0] == 400.0
@@ -83,7 +83,7 @@ def test_time_limit_cuts_the_flight_with_a_warning(files):
     tmp, site, plan, _ = files
     out = tmp / "cut.json"
     validate_mission_main([str(plan), "--site", str(site), "--sitl", *FAST,
-                           "--sitl-time-limit", "5", "--json", str(out)])
+                           "--sitl-time-limit", "5", "--report", str(out)])
     report = json.loads(out.read_text())
     assert report["sitl_flight"]["end"] == "time limit (5 s)"
     assert any("cut at the time limit" in f["message"] for f in report["sitl"]["findings"])
@@ -112,7 +112,7 @@ def test_sitl_before_the_plan_path_does_not_swallow_it(files):
     tmp, site, plan, _ = files
     out = tmp / "flag.json"
     assert validate_mission_main(["--sitl", str(plan), "--site", str(site), *FAST,
-                                  "--json", str(out)]) == 0
+                                  "--report", str(out)]) == 0
     assert json.loads(out.read_text())["sitl_flight"]["kind"] == "builtin"
 
 
@@ -125,7 +125,7 @@ def test_sample_plan_flown_on_the_builtin_vehicle_is_clear(tmp_path):
                     str(plan)], check=True, capture_output=True, timeout=600)
     out = tmp_path / "report.json"
     status = validate_mission_main([str(plan), "--site", str(site), "--sitl", *FAST,
-                                    "--json", str(out)])
+                                    "--report", str(out)])
     report = json.loads(out.read_text())
     assert status == 0, report["violations"]
     assert all(z["clearance_m"] > 0 for z in report["sitl"]["nfz"])
@@ -138,7 +138,7 @@ def test_the_parameter_file_is_set_on_the_vehicle_and_a_fence_left_off_is_flagge
     params.write_text("WPNAV_ACCEL 400\nFENCE_ACTION 1\n")
     out = tmp / "p.json"
     status = validate_mission_main([str(plan), "--site", str(site), "--params", str(params),
-                                    "--sitl", *FAST, "--json", str(out)])
+                                    "--sitl", *FAST, "--report", str(out)])
     report = json.loads(out.read_text())
     assert status == 0  # a flag, not a violation: the flight itself was clear
     assert report["sitl_flight"]["params_set"] == {"WPNAV_ACCEL": 400.0, "FENCE_ACTION": 1.0}
