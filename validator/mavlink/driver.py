@@ -43,6 +43,7 @@ from validator.site import Site
 TAKEOFF_REACHED_FRACTION = 0.95
 LANDING_COMMANDS = (Cmd.NAV_LAND, Cmd.NAV_RETURN_TO_LAUNCH)
 DISARM_WAIT_S = 15.0  # vehicle seconds from the last item's completion to the disarm
+PX4_MIN_DESCENT_MPS = 0.5  # PX4's landing descent is never slower (MPC_LAND_SPEED 0.7 m/s)
 ARM_PATIENCE_S = 60.0  # a fresh ArduPilot/PX4 SITL refuses GUIDED and arming until its EKF is up
 READY_PATIENCE_S = 120.0  # wall seconds for a freshly started SITL to pass its pre-arm checks
 # PX4 reports its pre-arm bit healthy before the estimator has a position (measured on SIH):
@@ -317,8 +318,12 @@ def fly_mission(
             raise LinkError("the vehicle disarmed without taking off"
                             + (f" (last: {'; '.join(said)})" if said else ""))
         if rec.armed and plan.items[nav[-1] if nav else -1].command in LANDING_COMMANDS:
-            # the last item lands: its completion comes just before the disarm
-            _pump_vehicle_time(rec, DISARM_WAIT_S, lambda: not rec.armed)
+            # the last item lands: ArduCopter reports its completion just before the disarm,
+            # PX4 when the descent starts (then MPC_LAND_SPEED, ~0.7 m/s, near the ground)
+            wait_s = DISARM_WAIT_S
+            if modes.px4 and rec.rows:
+                wait_s += max(float(rec.rows[-1][3]), 0.0) / PX4_MIN_DESCENT_MPS
+            _pump_vehicle_time(rec, wait_s, lambda: not rec.armed)
         reason = "landed" if not rec.armed else "mission complete"
     else:
         reason = f"time limit ({time_limit_s:g} s)"
