@@ -1,12 +1,15 @@
 """Fly a plan on any MAVLink vehicle and record what it reports.
 
 :func:`fly_mission` drives a vehicle whose mission is already uploaded (see
-:func:`validator.mavlink.link.upload_to`) the way a pilot would: GUIDED-like mode, arm,
-NAV_TAKEOFF, wait for the altitude, AUTO and MISSION_START; then it records
+:func:`validator.mavlink.link.upload_to`) the way a pilot would. ArduCopter: GUIDED, arm,
+NAV_TAKEOFF, wait for the altitude, AUTO and MISSION_START. PX4: Mission mode, arm, and the
+mission's own NAV_TAKEOFF climbs (PX4 starts a mission when armed in Mission mode; its
+NAV_TAKEOFF command would read params 5/6 as the takeoff position). Then it records
 GLOBAL_POSITION_INT with the current mission item (MISSION_CURRENT), mode, arming and fence
 breach status until the mission ends (last item reached, mission complete, or landed and
-disarmed) or ``time_limit_s`` of vehicle time has passed. Mode numbers are each autopilot's
-own: ArduCopter's custom modes, or PX4's main/sub modes.
+disarmed: PX4 disarms COM_DISARM_LAND seconds after its land detector fires) or
+``time_limit_s`` of vehicle time has passed. Mode numbers are each autopilot's own:
+ArduCopter's custom modes, or PX4's main/sub modes.
 
 :func:`fly_and_score` is ``validate-mission --sitl``: upload with read-back, fly, and score the
 recorded track against the site exactly as the replay is scored
@@ -40,8 +43,12 @@ from validator.site import Site
 TAKEOFF_REACHED_FRACTION = 0.95
 LANDING_COMMANDS = (Cmd.NAV_LAND, Cmd.NAV_RETURN_TO_LAUNCH)
 DISARM_WAIT_S = 15.0  # vehicle seconds from the last item's completion to the disarm
+PX4_MIN_DESCENT_MPS = 0.5  # PX4's landing descent is never slower (MPC_LAND_SPEED 0.7 m/s)
 ARM_PATIENCE_S = 60.0  # a fresh ArduPilot/PX4 SITL refuses GUIDED and arming until its EKF is up
 READY_PATIENCE_S = 120.0  # wall seconds for a freshly started SITL to pass its pre-arm checks
+# PX4 reports its pre-arm bit healthy before the estimator has a position (measured on SIH):
+# it sends no GLOBAL_POSITION_INT until then, ~30 vehicle seconds after start.
+POSITION_PATIENCE_S = ARM_PATIENCE_S
 TELEMETRY_HZ = 20.0
 MISSION_CURRENT_HZ = 10.0  # the item changes are the timing signal: MISSION_ITEM_REACHED is not
 
@@ -131,6 +138,8 @@ class _Recorder:
         self.mission_mode: int | None = None  # set once the mission runs: leaving it is news
         self.mode_changes: list[tuple[float, str]] = []
         self.prearm_ok = False
+        self.landed_state = mavlink.MAV_LANDED_STATE_UNDEFINED
+        self.airborne = False  # the vehicle said it was in the air (EXTENDED_SYS_STATE)
         self.t_s = math.nan
         self.home_amsl_m = math.nan
         self.last_heard = time.monotonic()
@@ -178,6 +187,11 @@ class _Recorder:
             self.reached.append((self.t_s, int(m.seq)))
         elif kind == "FENCE_STATUS":
             self.breach = bool(m.breach_status)
+        elif kind == "EXTENDED_SYS_STATE":
+            self.landed_state = int(m.landed_state)
+            if self.landed_state in (mavlink.MAV_LANDED_STATE_IN_AIR,
+                                     mavlink.MAV_LANDED_STATE_TAKEOFF):
+                self.airborne = True
 
     def telemetry(self, takeoff_start_s: float, mission_start_s: float,
                   end_reason: str) -> Telemetry:
@@ -221,12 +235,15 @@ def mode_name(link: Link, custom_mode: int) -> str:
 
 def _request_streams(link: Link) -> None:
     """Ask for position at 20 Hz, the current mission item at 10 Hz and fence status at
-    2 Hz; vehicles that stream these anyway may refuse, which is fine."""
+    2 Hz (PX4: the landed state too, at 2 Hz); vehicles that stream these anyway may refuse,
+    which is fine."""
     interval = {
         mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 1e6 / TELEMETRY_HZ,
         mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: 1e6 / MISSION_CURRENT_HZ,
         mavlink.MAVLINK_MSG_ID_FENCE_STATUS: 5e5,
     }
+    if link.vehicle.is_px4:
+        interval[mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE] = 5e5
     for msg_id, us in interval.items():
         link.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, float(msg_id), us)
 
@@ -272,29 +289,14 @@ def fly_mission(
     rec = _Recorder(link)
     alt = takeoff_alt_m if takeoff_alt_m is not None else takeoff_altitude(plan)
     _request_streams(link)
-    if not rec.pump(time.monotonic() + link.timeout_s, lambda: bool(rec.rows)):
-        raise LinkError(f"the vehicle sent no GLOBAL_POSITION_INT within {link.timeout_s:g} s")
-    say("mode hold / arm")
-    _set_mode(link, rec, modes, modes.hold, patience_s=ARM_PATIENCE_S)
-    _until_accepted(link, rec, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0,
-                    patience_s=ARM_PATIENCE_S)
-    say(f"takeoff to {alt:g} m")
-    # ArduPilot reads NAV_TAKEOFF's param7 above home, PX4 as AMSL.
-    param7 = rec.home_amsl_m + alt if modes.px4 else alt
-    takeoff_s = rec.t_s  # before asking: a lost ACK delays the answer, not the climb
-    _until_accepted(link, rec, mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, 0, 0, param7)
-
-    def at_altitude() -> bool:
-        return bool(rec.rows) and rec.rows[-1][3] >= TAKEOFF_REACHED_FRACTION * alt
-
-    if not _pump_vehicle_time(rec, 120.0 + alt / 0.5, at_altitude):
-        raise LinkError(f"takeoff: the vehicle did not reach {alt:g} m")
-    say("AUTO, MISSION_START")
-    start_s = rec.t_s  # AUTO alone starts ArduCopter's mission
-    rec.reached.clear()
-    _set_mode(link, rec, modes, modes.auto)
-    rec.mission_mode = modes.auto
-    _until_accepted(link, rec, mavlink.MAV_CMD_MISSION_START, 0, 0)
+    position_patience_s = POSITION_PATIENCE_S if modes.px4 else link.timeout_s
+    if not rec.pump(time.monotonic() + position_patience_s, lambda: bool(rec.rows)):
+        raise LinkError(f"the vehicle sent no GLOBAL_POSITION_INT within "
+                        f"{position_patience_s:g} s")
+    if modes.px4:
+        takeoff_s = start_s = _start_px4_mission(link, rec, modes, say)
+    else:
+        takeoff_s, start_s = _start_ardupilot_mission(link, rec, modes, alt, say)
     nav = [i for i, it in enumerate(plan.items) if 16 <= it.command < 100]
     last_seq = (nav[-1] if nav else len(plan.items) - 1) + (1 if link.vehicle.is_ardupilot else 0)
     flown = {"airborne": False}
@@ -309,14 +311,65 @@ def fly_mission(
         return any(seq == last_seq for _, seq in rec.reached)
 
     if _pump_vehicle_time(rec, time_limit_s, finished, since_s=start_s):
+        if modes.px4 and not rec.armed and not rec.airborne:
+            # PX4 disarms COM_DISARM_PRFLT seconds after arming when it never takes off
+            said = [t for t in link.statustexts][-3:]
+            raise LinkError("the vehicle disarmed without taking off"
+                            + (f" (last: {'; '.join(said)})" if said else ""))
         if rec.armed and plan.items[nav[-1] if nav else -1].command in LANDING_COMMANDS:
-            # the last item lands: its completion comes just before the disarm
-            _pump_vehicle_time(rec, DISARM_WAIT_S, lambda: not rec.armed)
+            # the last item lands: ArduCopter reports its completion just before the disarm,
+            # PX4 when the descent starts (then MPC_LAND_SPEED, ~0.7 m/s, near the ground)
+            wait_s = DISARM_WAIT_S
+            if modes.px4 and rec.rows:
+                wait_s += max(float(rec.rows[-1][3]), 0.0) / PX4_MIN_DESCENT_MPS
+            _pump_vehicle_time(rec, wait_s, lambda: not rec.armed)
         reason = "landed" if not rec.armed else "mission complete"
     else:
         reason = f"time limit ({time_limit_s:g} s)"
     say(f"recorded {len(rec.rows)} samples: {reason}")
     return rec.telemetry(takeoff_s, start_s, reason)
+
+
+def _start_ardupilot_mission(link: Link, rec: _Recorder, modes: ModeNumbers, alt: float,
+                             say: Callable[[str], None]) -> tuple[float, float]:
+    """GUIDED, arm, NAV_TAKEOFF to ``alt``, AUTO and MISSION_START; the vehicle times of the
+    takeoff and mission start."""
+    say("mode hold / arm")
+    _set_mode(link, rec, modes, modes.hold, patience_s=ARM_PATIENCE_S)
+    _until_accepted(link, rec, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0,
+                    patience_s=ARM_PATIENCE_S)
+    say(f"takeoff to {alt:g} m")
+    takeoff_s = rec.t_s  # before asking: a lost ACK delays the answer, not the climb
+    # ArduPilot reads NAV_TAKEOFF's param7 above home
+    _until_accepted(link, rec, mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, 0, 0, alt)
+
+    def at_altitude() -> bool:
+        return bool(rec.rows) and rec.rows[-1][3] >= TAKEOFF_REACHED_FRACTION * alt
+
+    if not _pump_vehicle_time(rec, 120.0 + alt / 0.5, at_altitude):
+        raise LinkError(f"takeoff: the vehicle did not reach {alt:g} m")
+    say("AUTO, MISSION_START")
+    start_s = rec.t_s  # AUTO alone starts ArduCopter's mission
+    rec.reached.clear()
+    _set_mode(link, rec, modes, modes.auto)
+    rec.mission_mode = modes.auto
+    _until_accepted(link, rec, mavlink.MAV_CMD_MISSION_START, 0, 0)
+    return takeoff_s, start_s
+
+
+def _start_px4_mission(link: Link, rec: _Recorder, modes: ModeNumbers,
+                       say: Callable[[str], None]) -> float:
+    """Mission mode, then arm: PX4 starts the mission on arming in Mission mode, its own
+    NAV_TAKEOFF climbing. Arming is refused (STATUSTEXT "Arming denied") until the estimator
+    is ready, so it is repeated. The vehicle time of the arming request."""
+    say("Mission mode / arm: the mission's NAV_TAKEOFF climbs")
+    _set_mode(link, rec, modes, modes.auto, patience_s=ARM_PATIENCE_S)
+    start_s = rec.t_s  # before asking: a lost ACK delays the answer, not the climb
+    _until_accepted(link, rec, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0,
+                    patience_s=ARM_PATIENCE_S)
+    rec.reached.clear()
+    rec.mission_mode = modes.auto
+    return start_s
 
 
 def _pump_vehicle_time(rec: _Recorder, limit_s: float, stop: Callable[[], bool],
