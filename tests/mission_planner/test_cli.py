@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 
@@ -13,6 +14,7 @@ import yaml
 import mission_planner.optimize
 from mission_planner.cli import plan_mission_main
 from mission_planner.mission import CLEARANCE_TOLERANCE_M, flown_legs, planned_cycle_s
+from mission_planner.optimize.retime import top_speed_mps
 from tests.mission_planner.mavsdk_peer import mavsdk_import
 from tests.mission_planner.solutions import circle_points, site_dict, solution_for, subdivided
 from validator.audit import audit
@@ -311,3 +313,21 @@ def test_no_merge_keeps_a_waypoint_per_slot(tmp_path, capsys, square_planner):
     assert code == code2 == 0
     merged, per_slot = (len(read_plan(tmp_path / n).items) for n in ("a.plan", "b.plan"))
     assert per_slot == merged + 8
+
+
+# ---------------------------------------------------------------------------- issue 11
+
+
+def test_a_site_faster_than_the_vehicle_is_one_warning_naming_both_speeds(tmp_path, capsys,
+                                                                          square_planner):
+    fast = {**SLOW, "uav": {**SLOW["uav"], "max_speed": 30.0}}
+    code, err = _run([_write_site(tmp_path, fast), "-o", tmp_path / "m.plan"], capsys)
+    assert code == 0, err
+    top = top_speed_mps(load_site(_write_site(tmp_path, fast)))
+    warnings = [ln for ln in err.splitlines() if "top speed" in ln]
+    assert len(warnings) == 1
+    assert "uav.max_speed 30 m/s" in warnings[0] and f"{top:.2f} m/s" in warnings[0]
+    assert f"planning at {top:.2f} m/s" in warnings[0]
+    params = parse_params((tmp_path / "m.param").read_text())
+    assert params["WPNAV_SPEED"] == math.ceil(top * 100.0 - 1e-9)  # what the vehicle reaches
+    assert "WPNAV_SPEED" not in err  # within the documented range: no note
