@@ -37,7 +37,6 @@ from typing import Any, NoReturn
 
 from mission_planner.autopilot_params import AutopilotParams, dumps_params, recommended_params
 from mission_planner.flight_report import FlightCheck, replay_mission
-from mission_planner.optimize.retime import top_speed_mps
 from mission_planner.mission import (
     AUTOPILOTS,
     OPERATING_AREAS,
@@ -47,6 +46,7 @@ from mission_planner.mission import (
     check_options,
     mission_summary,
 )
+from mission_planner.optimize.retime import top_speed_mps
 from validator.errors import InputError
 from validator.fileio import write_atomic
 from validator.geojson_format import dumps_geojson, plan_geojson
