@@ -6,16 +6,18 @@ site into the parameters that make the vehicle fly the plan with the site's limi
 
 ArduCopter 4.x (``AC_WPNav``; names, units and documented ranges from its parameter table)
 
-- ``WPNAV_SPEED`` (cm/s, 10–2000): the fastest planned leg (the largest DO_CHANGE_SPEED in the
-  plan), rounded up to a whole cm/s, so a leg without a speed change is never flown slower;
+- ``WPNAV_SPEED`` (cm/s, 20–2000): the fastest planned leg (the largest DO_CHANGE_SPEED in the
+  plan) or the vehicle's real top speed (:func:`mission_planner.optimize.retime.top_speed_mps`,
+  lean-limited with drag), whichever is lower: the speed the vehicle will reach. Rounded up to
+  a whole cm/s, so a leg without a speed change is never flown slower;
 - ``WPNAV_ACCEL`` (cm/s/s, 50–500): the site's ``uav.max_accel``;
 - ``WPNAV_JERK`` (m/s/s/s, 1–20): the site's ``uav.max_jerk``;
 - ``WPNAV_RADIUS`` (cm, 5–1000): :func:`waypoint_radius_m`.
 
 PX4 (multicopter position control and navigator)
 
-- ``MPC_XY_CRUISE`` (m/s, 3–20) and ``MPC_XY_VEL_MAX`` (m/s, 0–20): the fastest planned leg
-  (PX4 caps every mission speed at MPC_XY_VEL_MAX);
+- ``MPC_XY_CRUISE`` (m/s, 3–20) and ``MPC_XY_VEL_MAX`` (m/s, 0–20): the fastest planned leg or
+  the vehicle's top speed, whichever is lower (PX4 caps every mission speed at MPC_XY_VEL_MAX);
 - ``MPC_ACC_HOR`` (m/s², 2–15): ``uav.max_accel``; ``MPC_JERK_AUTO`` (m/s³, 1–80): ``uav.max_jerk``;
 - ``NAV_ACC_RAD`` (m, 0.05–200): :func:`waypoint_radius_m`.
 
@@ -38,6 +40,7 @@ import math
 from dataclasses import dataclass, field
 
 from mission_planner.mission import Mission
+from mission_planner.optimize.retime import top_speed_mps
 from validator.autopilot.fence import FENCE_RULES
 from validator.autopilot.param_file import MAV_PARAM_TYPE_INT32, format_params
 from validator.plan_format import Cmd
@@ -48,7 +51,7 @@ ARDUPILOT_MIN_RADIUS_M = 0.05  # WPNAV_RADIUS minimum (5 cm), AC_WPNav enforces 
 
 # name -> (unit, documented minimum, documented maximum)
 ARDUPILOT_PARAMS: dict[str, tuple[str, float, float]] = {
-    "WPNAV_SPEED": ("cm/s", 10.0, 2000.0),
+    "WPNAV_SPEED": ("cm/s", 20.0, 2000.0),
     "WPNAV_ACCEL": ("cm/s/s", 50.0, 500.0),
     "WPNAV_JERK": ("m/s/s/s", 1.0, 20.0),
     "WPNAV_RADIUS": ("cm", 5.0, 1000.0),
@@ -120,7 +123,7 @@ def recommended_params(mission: Mission) -> AutopilotParams:
     """The parameters ``mission`` needs on its autopilot (``mission.options.autopilot``)."""
     site = mission.solution.site
     autopilot = mission.options.autopilot
-    speed = fastest_leg_mps(mission)
+    speed = min(fastest_leg_mps(mission), top_speed_mps(site))
     radius = waypoint_radius_m(site, mission.fence_margin_m)
     if autopilot == "px4":
         values = {

@@ -12,7 +12,9 @@ reproduces its results. Beside the mission goes the parameter file the autopilot
 (``OUT.param`` or ``--params``; :mod:`mission_planner.autopilot_params`). The mission is then
 replayed with the validator's model of the autopilot set to those parameters
 (:mod:`mission_planner.flight_report`): the report gets a ``"flight"`` section and stderr a
-one-line warning when the flown cycle is more than 10 % longer (or shorter) than T.
+one-line warning when the flown cycle is more than 10 % longer (or shorter) than T, and
+another when the site's ``uav.max_speed`` is above the vehicle's real top speed
+(:func:`speed_warning`).
 
 Exit status: 0 written; 1 refused by the safety gate (some leg inside an NFZ plus its buffer,
 or another problem of :func:`mission_planner.mission.plan_problems`), nothing written unless
@@ -44,6 +46,7 @@ from mission_planner.mission import (
     check_options,
     mission_summary,
 )
+from mission_planner.optimize.retime import top_speed_mps
 from validator.errors import InputError
 from validator.fileio import write_all_atomic
 from validator.geojson_format import dumps_geojson, plan_geojson
@@ -161,6 +164,20 @@ def plan_and_build(
     planner_options = PlannerOptions(dynamics=dynamics)
     solution = plan(site, scheme, options=planner_options, progress=progress)
     return build_mission(solution, opt)
+
+
+def speed_warning(site: Site, dynamics: str) -> str | None:
+    """One line when the site's V is above the vehicle's real top speed
+    (:func:`~mission_planner.optimize.retime.top_speed_mps`), else None."""
+    top = top_speed_mps(site)
+    if site.max_speed_mps <= top:
+        return None
+    then = (f"planning at {top:.2f} m/s" if dynamics == "vehicle" else
+            f"--dynamics none plans at {site.max_speed_mps:g} m/s as the paper does, so the "
+            f"vehicle flies slower than planned")
+    return (f"{site.name}: uav.max_speed {site.max_speed_mps:g} m/s is above the vehicle's "
+            f"real top speed {top:.2f} m/s (lean limit with drag, at {site.altitude_m:g} m "
+            f"above the ground); {then}")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -301,6 +318,9 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
         return 130
     for note in autopilot_params.notes:
         print(f"plan-mission: note: {note}", file=sys.stderr)
+    too_fast = speed_warning(site, args.dynamics)
+    if too_fast:
+        print(f"plan-mission: warning: {too_fast}", file=sys.stderr)
     warning = flight.warning()
     if warning:
         print(f"plan-mission: warning: {warning}", file=sys.stderr)

@@ -37,11 +37,18 @@ Decisions where autopilots and the plan disagree (all in :class:`MissionOptions`
   rounded running sum minus the previous rounded running sum), so no hold is off by a second
   or more and the cycle's total hold differs from the plan by less than half a second; the
   summary reports the difference. PX4 keeps fractional holds.
+- **Stop lag.** ArduCopter reaches a waypoint it stops at
+  :data:`validator.dynamics.STOP_LAG_S` after the S-curve ends. A dynamics-aware plan
+  (``solution.notes["dynamics"] == "vehicle"``) counts that lag as the start of the waypoint's
+  hover (:mod:`mission_planner.optimize.retime`), so on ArduPilot each stop's hold is written
+  net of it (``CycleStep.stop_lag_s``) and the cycle still lasts T.
 - **Slow legs.** ArduCopter ignores a DO_CHANGE_SPEED below 0.2 m/s (WPNAV_WP_SPEED_MIN), so
   a leg that would need less is flown at ``min_speed_mps`` and the waypoint holds for the
   rest of its slot: the slot keeps its length and the UAV ends it at the same place.
 - **Speed limit.** A leg speed never exceeds the site's V: float excess is clipped (the leg
-  then takes a hair longer than δ); an excess above 1 % is reported as a problem.
+  then takes a hair longer than δ); an excess above 1 % is reported as a problem. S-curve legs
+  and transits fly at V or the vehicle's real top speed, whichever is lower
+  (:func:`mission_planner.optimize.retime.cruise_speed_mps`).
 - **Long legs.** Slots merge into one leg only when flying the merged leg at its constant
   speed puts the vehicle within ``merge_offset_m`` (5 cm) of the planned position at every
   instant (checked at every slot boundary; in between both are linear in time, so the gap is
@@ -67,11 +74,11 @@ import numpy as np
 import shapely
 from numpy.typing import ArrayLike, NDArray
 
-from mission_planner.optimize.retime import leg_profiles
+from mission_planner.optimize.retime import cruise_speed_mps, leg_profiles
 from mission_planner.optimize.solution import Solution
 from mission_planner.transit import DEFAULT_ARC_STEP_DEG, path_length_m, shortest_safe_path
 from validator.audit import audit
-from validator.dynamics import Profiles1D
+from validator.dynamics import STOP_LAG_S, Profiles1D
 from validator.errors import InputError
 from validator.geodesy import LocalFrame, round_e7
 from validator.geometry import (
@@ -140,7 +147,8 @@ class CycleStep:
     The first ``moving_slots`` of ``slots`` are flown along the leg (more than one when
     straight slots were merged; 0 for a hold at q[0]); the rest are the hold. ``scurve``: the
     leg is timed as the autopilot's rest-to-rest S-curve at ``speed_mps`` (its top speed), not
-    flown at ``speed_mps`` throughout.
+    flown at ``speed_mps`` throughout. ``stop_lag_s``: the part of ``hold_s`` the autopilot
+    spends arriving (see the module doc), not written into the hold.
     """
 
     index: int
@@ -150,6 +158,7 @@ class CycleStep:
     speed_mps: float | None = None
     moving_slots: int = 1
     scurve: bool = False
+    stop_lag_s: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -519,6 +528,15 @@ def assign_speeds(steps: list[CycleStep], trajectory_m: NDArray[np.float64], max
     return out, problems
 
 
+def stop_lags(steps: list[CycleStep]) -> list[CycleStep]:
+    """The steps with ArduCopter's stop lag (:data:`validator.dynamics.STOP_LAG_S`) taken
+    out of the hold of every waypoint the vehicle stops at after a leg (one that holds longer
+    than the lag); hold-only steps and pass-through waypoints arrive without it."""
+    return [replace(s, stop_lag_s=STOP_LAG_S)
+            if s.speed_mps is not None and s.leg_s > 0 and s.hold_s > STOP_LAG_S else s
+            for s in steps]
+
+
 def whole_second_holds(holds_s: ArrayLike) -> NDArray[np.float64]:
     """Holds (s) rounded to whole seconds by error diffusion along the sequence.
 
@@ -580,7 +598,7 @@ def build_mission(solution: Solution, options: MissionOptions | None = None) -> 
     check_options(site, opt)
     frame = site.frame
     alt = site.altitude_m
-    transit_speed = opt.transit_speed_mps or site.max_speed_mps
+    transit_speed = opt.transit_speed_mps or cruise_speed_mps(site)
     problems: list[str] = []
 
     q = np.array(solution.trajectory_m, dtype=float)
@@ -599,8 +617,8 @@ def build_mission(solution: Solution, options: MissionOptions | None = None) -> 
             steps, q, angle_deg=opt.merge_angle_deg, speed_rel=opt.merge_speed_rel,
             offset_m=opt.merge_offset_m, min_speed_mps=opt.min_speed_mps,
             nfz_xy_m=site.nfz_xy_m, nfz_radius_m=radii, clearance_target_m=opt.export_margin_m,
-            scurve=lambda lengths: scurve_legs(site, lengths, site.max_speed_mps),
-            scurve_speed_mps=site.max_speed_mps)
+            scurve=lambda lengths: scurve_legs(site, lengths, cruise_speed_mps(site)),
+            scurve_speed_mps=cruise_speed_mps(site))
     cyc_idx = [0] + [s.index for s in steps if s.index not in (0, len(q) - 1)]
     pts, moved = nudge_clear(q[cyc_idx], site.nfz_xy_m, radii, target_margin_m=opt.export_margin_m,
                              max_nudge_m=opt.max_nudge_m, closed=True)
@@ -613,7 +631,9 @@ def build_mission(solution: Solution, options: MissionOptions | None = None) -> 
     steps, speed_problems = assign_speeds(steps, q, site.max_speed_mps, opt.min_speed_mps)
     problems += speed_problems
     if opt.autopilot == "ardupilot":
-        holds = whole_second_holds([s.hold_s for s in steps])
+        if solution.notes.get("dynamics") == "vehicle":
+            steps = stop_lags(steps)
+        holds = whole_second_holds([s.hold_s - s.stop_lag_s for s in steps])
     else:
         holds = np.array([s.hold_s for s in steps])
 
@@ -855,7 +875,8 @@ def planned_cycle_s(plan: Plan, frame: LocalFrame, cycle_items: tuple[int, int])
 
 def cycle_duration_s(mission: Mission) -> float:
     """Duration (s) of one service cycle as laid out: each leg at its speed (an S-curve leg
-    for its S-curve time) plus the holds as written in the plan."""
+    for its S-curve time) plus the holds as written in the plan and the stop lags they were
+    written net of."""
     first, last = mission.cycle_items
     holds = [it.params[0] for it in mission.plan.items[first:last + 1]
              if it.command == Cmd.NAV_WAYPOINT]
@@ -866,7 +887,7 @@ def cycle_duration_s(mission: Mission) -> float:
         here = q[s.index]
         if s.speed_mps is not None:
             total += s.leg_s if s.scurve else float(np.hypot(*(here - prev))) / s.speed_mps
-        total += hold
+        total += hold + s.stop_lag_s
         prev = here
     return total
 
@@ -906,6 +927,7 @@ def mission_summary(mission: Mission) -> dict[str, Any]:
         "cycle_duration_s": cycle_s,
         "hold_planned_s": planned_hold,
         "hold_written_s": written_hold,
+        "stop_lag_s": float(sum(s.stop_lag_s for s in mission.steps)),
         "max_service_speed_mps": max(service_speeds) if service_speeds else 0.0,
         "transit_speed_mps": plan.cruise_speed_mps,
         "transit_out_m": out_len,
@@ -946,5 +968,6 @@ __all__ = [
     "planned_cycle_s",
     "scurve_legs",
     "service_steps",
+    "stop_lags",
     "whole_second_holds",
 ]

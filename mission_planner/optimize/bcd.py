@@ -284,10 +284,11 @@ def _plan_flyable(
     """Algorithm 1 at the highest top speed whose path the vehicle flies within T.
 
     The vehicle's moves take longer than the paper's; planning for a lower top speed gives a
-    shorter path. The speed falls until the re-timed moves fit, then a bisection between the
-    last speed that overran and the first that fit keeps the candidate with the best min rate.
+    shorter path. The search starts at the site's V or the vehicle's real top speed, whichever
+    is lower; the speed falls until the re-timed moves fit, then a bisection between the last
+    speed that overran and the first that fit keeps the candidate with the best min rate.
     """
-    speed, too_fast = site.max_speed_mps, None
+    speed, too_fast = retime.cruise_speed_mps(site), None
     best: _Flyable | None = None
     iterations = 0
     for _ in range(opt.retime_attempts):

@@ -9,8 +9,12 @@ overrun several times. This module keeps the optimised path but flies it honestl
    between them (Douglas-Peucker within ``tolerance_m``, never closer to an NFZ than before)
    become single legs;
 2. :func:`leg_profiles`: each leg is timed with the validator's own ArduCopter S-curve model
-   (WPNAV_ACCEL capped by the lean angle, WPNAV_JERK with ArduCopter's jerk ramp);
-3. the time left in T goes to the hover points in proportion to the optimiser's holds;
+   (WPNAV_ACCEL capped by the lean angle, WPNAV_JERK with ArduCopter's jerk ramp) at
+   :func:`cruise_speed_mps`, never above the vehicle's real (lean-limited) top speed;
+3. every stop costs the autopilot's stop lag (:data:`validator.dynamics.STOP_LAG_S`: it
+   reaches the waypoint that long after the S-curve ends), counted as hover at the waypoint
+   just reached (the exporter programs holds net of it); the time left in T goes to the hover
+   points in proportion to the optimiser's holds;
 4. :func:`resample`: N slots are laid on that timeline: boundaries at every arrival and
    departure, the rest spread over the moves, positions taken from the S-curves.
 
@@ -29,7 +33,10 @@ from shapely.geometry import LineString
 
 from validator.dynamics import (
     GRAVITY_MPS2,
+    STOP_LAG_S,
     Profiles1D,
+    arducopter_lean_max_deg,
+    arducopter_top_speed_mps,
     jerk_ramp_s,
     make_profile,
     scurve_rest_to_rest,
@@ -149,20 +156,31 @@ def _indices_of(line: LineString, pts: NDArray[np.float64]) -> list[int]:
     return out
 
 
+def top_speed_mps(site: Site) -> float:
+    """The fastest the site's vehicle really flies (m/s): the lean-limited top speed with drag
+    of the validator's ``arducopter`` profile at the site's defaults (the replay's own cap;
+    PX4 plans use the same model)."""
+    return arducopter_top_speed_mps(make_profile("arducopter", site))
+
+
+def cruise_speed_mps(site: Site) -> float:
+    """The top speed (m/s) flyable plans are made and timed at: the site's V, or the vehicle's
+    real top speed (:func:`top_speed_mps`) when that is lower."""
+    return min(site.max_speed_mps, top_speed_mps(site))
+
+
 def leg_profiles(site: Site, lengths_m: ArrayLike, speed_mps: float | None = None) -> Profiles1D:
     """Rest-to-rest S-curves of straight legs as ArduCopter flies them (the validator's
-    ``arducopter`` model) at ``speed_mps`` (default: the site's V): acceleration
-    ``uav.max_accel`` capped by the default lean angle, jerk ``uav.max_jerk`` with
-    ArduCopter's jerk ramp."""
+    ``arducopter`` model) at ``speed_mps`` (default: :func:`cruise_speed_mps`), never above
+    the vehicle's top speed: acceleration ``uav.max_accel`` capped by the default lean angle,
+    jerk ``uav.max_jerk`` with ArduCopter's jerk ramp."""
     profile = make_profile("arducopter", site)
     lengths = np.atleast_1d(np.asarray(lengths_m, dtype=float))
-    accel = min(profile.si("WPNAV_ACCEL"), GRAVITY_MPS2 * math.tan(profile.si("ANGLE_MAX")))
+    lean_rad = math.radians(arducopter_lean_max_deg(profile))
+    accel = min(profile.si("WPNAV_ACCEL"), GRAVITY_MPS2 * math.tan(lean_rad))
     jerk = np.full(lengths.shape, profile.si("WPNAV_JERK"))
-    speed = (
-        speed_mps
-        if speed_mps is not None
-        else min(profile.si("WPNAV_SPEED"), profile.si("VEHICLE_SPEED_MAX"))
-    )
+    top = min(profile.si("WPNAV_SPEED"), arducopter_top_speed_mps(profile))
+    speed = top if speed_mps is None else min(speed_mps, top)
     return scurve_rest_to_rest(
         lengths,
         np.full(lengths.shape, float(speed)),
@@ -172,15 +190,28 @@ def leg_profiles(site: Site, lengths_m: ArrayLike, speed_mps: float | None = Non
     )
 
 
+def arrival_lag_s(profiles: Profiles1D) -> NDArray[np.float64]:
+    """(W,) time (s) the vehicle reaches each waypoint after the S-curve into it ends: the
+    autopilot's stop lag when a leg leads there (waypoint w is reached by leg w − 1)."""
+    lag = np.where(profiles.length_m > 0, STOP_LAG_S, 0.0)
+    return np.asarray(np.roll(lag, 1), dtype=float)
+
+
 def time_cycle(
     site: Site, sk: Skeleton, period_s: float, slots: int
 ) -> tuple[float, tuple[NDArray[np.float64], NDArray[np.float64]] | None]:
     """The vehicle's total move time (s) round ``sk``, and its timeline of ``slots`` slots
-    filling ``period_s`` (trajectory (N+1, 2), slot lengths (N,)); None when it cannot."""
+    filling ``period_s`` (trajectory (N+1, 2), slot lengths (N,)); None when it cannot.
+
+    On the timeline each waypoint's hover begins with the stop lag (:func:`arrival_lag_s`)
+    and then holds as :func:`fit_holds` says (whole seconds but one, at least a second)."""
     profiles = leg_profiles(site, sk.leg_lengths_m)
     move_s = float(np.sum(move_times(profiles)))
-    holds = fit_holds(sk.hold_s, move_s, period_s)
-    return move_s, None if holds is None else resample(sk, holds, profiles, slots)
+    lag = arrival_lag_s(profiles)
+    holds = fit_holds(sk.hold_s, move_s + float(np.sum(lag)), period_s)
+    if holds is None:
+        return move_s, None
+    return move_s, resample(sk, holds + lag, profiles, slots, lag)
 
 
 def move_times(profiles: Profiles1D) -> NDArray[np.float64]:
@@ -219,11 +250,17 @@ def fit_holds(
 
 
 def resample(
-    sk: Skeleton, hold_s: NDArray[np.float64], profiles: Profiles1D, slots: int
+    sk: Skeleton,
+    hold_s: NDArray[np.float64],
+    profiles: Profiles1D,
+    slots: int,
+    arrival_lag_s: NDArray[np.float64] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
     """N slots over the re-timed cycle: (trajectory (N+1, 2), slot lengths (N,)); None when
-    the waypoints need more slots than there are."""
+    the waypoints need more slots than there are. ``hold_s`` is each waypoint's time there,
+    ``arrival_lag_s`` (default none) the part of it spent arriving (see :func:`time_cycle`)."""
     w = len(sk.points_m)
+    lag0 = 0.0 if arrival_lag_s is None else float(arrival_lag_s[0])
     move = move_times(profiles)
     # Intervals in time order: hold at waypoint k (if any), then the move of leg k.
     kinds: list[tuple[str, int, float]] = []
@@ -232,13 +269,14 @@ def resample(
             kinds.append(("hold", k, float(hold_s[k])))
         if move[k] > 1e-9:
             kinds.append(("move", k, float(move[k])))
-    # The cycle also ends with a stop at its first waypoint: a whole second of that hold moves
-    # to the end, so that the last leg is flown rest-to-rest even when the mission goes on to
-    # its return transit instead of repeating the cycle.
-    if len(kinds) > 1 and kinds[0][0] == "hold" and kinds[0][2] >= 2 * MIN_HOLD_S:
+    # The cycle also ends with a stop at its first waypoint: a whole second of that hold (and
+    # the lag of arriving there) moves to the end, so that the last leg is flown rest-to-rest
+    # even when the mission goes on to its return transit instead of repeating the cycle.
+    end_hold = MIN_HOLD_S + lag0
+    if len(kinds) > 1 and kinds[0][0] == "hold" and kinds[0][2] >= MIN_HOLD_S + end_hold:
         kind, k, d = kinds[0]
-        kinds[0] = (kind, k, d - MIN_HOLD_S)
-        kinds.append((kind, k, MIN_HOLD_S))
+        kinds[0] = (kind, k, d - end_hold)
+        kinds.append((kind, k, end_hold))
     if not kinds or len(kinds) > slots:
         return None
     dur = np.array([d for _, _, d in kinds])

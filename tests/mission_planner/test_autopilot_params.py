@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import pytest
 
@@ -13,6 +14,7 @@ from mission_planner.autopilot_params import (
     waypoint_radius_m,
 )
 from mission_planner.mission import MissionOptions, build_mission
+from mission_planner.optimize.retime import top_speed_mps
 from tests.mission_planner.solutions import make_site, solution_for, subdivided
 from validator.autopilot.fence import FENCE_RULES
 from validator.autopilot.param_file import parse_params
@@ -53,8 +55,22 @@ def test_px4_params_use_px4_names_and_si_units():
 
 def test_transit_speed_counts_as_a_planned_leg():
     m = _mission()
-    fast = build_mission(m.solution, MissionOptions(transit_speed_mps=11.0))
-    assert recommended_params(fast).values["WPNAV_SPEED"] == 1100.0
+    fast = build_mission(m.solution, MissionOptions(transit_speed_mps=9.5))
+    assert recommended_params(fast).values["WPNAV_SPEED"] == 950.0
+
+
+def test_wpnav_speed_is_what_the_vehicle_reaches_within_the_documented_range():
+    # A paper-model plan on a 30 m/s site: legs and transits commanded at 30 m/s, but the
+    # vehicle tops out at its lean-limited speed, and that is what WPNAV_SPEED says.
+    fast = build_mission(_mission(max_speed=30.0).solution, MissionOptions(transit_speed_mps=30.0))
+    top = top_speed_mps(fast.solution.site)
+    assert 9.0 < top < 11.0  # ArduPilot's SITL quad at its 30 deg lean limit
+    for autopilot in ("ardupilot", "px4"):
+        p = recommended_params(replace(fast, options=replace(fast.options, autopilot=autopilot)))
+        speeds = [v for k, v in p.values.items() if k in ("WPNAV_SPEED", "MPC_XY_VEL_MAX")]
+        scale = 100.0 if autopilot == "ardupilot" else 1.0
+        assert speeds == [pytest.approx(top * scale, abs=0.01 * scale)]
+        assert p.notes == ()
 
 
 @pytest.mark.parametrize("buffer_m, margin_m, radius_m", [
@@ -74,10 +90,9 @@ def test_values_outside_the_documented_range_are_written_and_noted():
     fast = build_mission(_mission(max_speed=30.0, max_accel=6.0).solution,
                          MissionOptions(transit_speed_mps=30.0))
     p = recommended_params(fast)
-    assert p.values["WPNAV_SPEED"] == 3000.0 and p.values["WPNAV_ACCEL"] == 600.0
-    assert [n.split(" is ")[0] for n in p.notes] == ["WPNAV_SPEED 3000 cm/s",
-                                                     "WPNAV_ACCEL 600 cm/s/s"]
-    assert "# note: WPNAV_SPEED 3000 cm/s" in dumps_params(p)
+    assert p.values["WPNAV_ACCEL"] == 600.0
+    assert [n.split(" is ")[0] for n in p.notes] == ["WPNAV_ACCEL 600 cm/s/s"]
+    assert "# note: WPNAV_ACCEL 600 cm/s/s" in dumps_params(p)
 
 
 @pytest.mark.parametrize("autopilot", ["ardupilot", "px4"])

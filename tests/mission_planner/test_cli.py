@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 
@@ -13,6 +14,7 @@ import yaml
 import mission_planner.optimize
 from mission_planner.cli import plan_mission_main
 from mission_planner.mission import CLEARANCE_TOLERANCE_M, flown_legs, planned_cycle_s
+from mission_planner.optimize.retime import top_speed_mps
 from tests.mission_planner.mavsdk_peer import mavsdk_import
 from tests.mission_planner.solutions import circle_points, site_dict, solution_for, subdivided
 from validator.audit import audit
@@ -343,3 +345,21 @@ def test_seed_is_deprecated_and_changes_nothing(tmp_path, capsys, chatty_planner
     out = tmp_path / "m.plan"
     code, err = _run([_write_site(tmp_path, SLOW), "-o", out, "--seed", "3", "--quiet"], capsys)
     assert code == 0 and err.startswith("plan-mission: --seed is deprecated and has no effect")
+
+
+# ---------------------------------------------------------------------------- issue 11
+
+
+def test_a_site_faster_than_the_vehicle_is_one_warning_naming_both_speeds(tmp_path, capsys,
+                                                                          square_planner):
+    fast = {**SLOW, "uav": {**SLOW["uav"], "max_speed": 30.0}}
+    code, err = _run([_write_site(tmp_path, fast), "-o", tmp_path / "m.plan"], capsys)
+    assert code == 0, err
+    top = top_speed_mps(load_site(_write_site(tmp_path, fast)))
+    warnings = [ln for ln in err.splitlines() if "top speed" in ln]
+    assert len(warnings) == 1
+    assert "uav.max_speed 30 m/s" in warnings[0] and f"{top:.2f} m/s" in warnings[0]
+    assert f"planning at {top:.2f} m/s" in warnings[0]
+    params = parse_params((tmp_path / "m.param").read_text())
+    assert params["WPNAV_SPEED"] == math.ceil(top * 100.0 - 1e-9)  # what the vehicle reaches
+    assert "WPNAV_SPEED" not in err  # within the documented range: no note

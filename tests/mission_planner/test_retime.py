@@ -6,8 +6,18 @@ import numpy as np
 import pytest
 
 from mission_planner.optimize import PlannerOptions, Solution, plan
-from mission_planner.optimize.retime import fit_holds, leg_profiles, skeleton, time_cycle
+from mission_planner.optimize.retime import (
+    MIN_HOLD_S,
+    cruise_speed_mps,
+    fit_holds,
+    leg_profiles,
+    move_times,
+    skeleton,
+    time_cycle,
+    top_speed_mps,
+)
 from mission_planner.study.sites import random_site
+from validator.dynamics import STOP_LAG_S
 from validator.site import Site
 
 
@@ -69,6 +79,49 @@ def test_resample_lays_slots_on_the_s_curves(site: Site) -> None:
     assert np.allclose(q[:, 1], 0.0)
 
 
+def test_legs_are_timed_no_faster_than_the_vehicle_flies(site: Site) -> None:
+    top = top_speed_mps(site)
+    assert top < site.max_speed_mps  # a 30 m/s site; the quad tops out near 10 m/s
+    assert cruise_speed_mps(site) == top
+    capped = float(leg_profiles(site, [2000.0]).total_s[0])
+    at_top = float(leg_profiles(site.with_limits(max_speed_mps=top), [2000.0]).total_s[0])
+    assert capped == pytest.approx(at_top)
+    assert capped > 2000.0 / top  # it cruises at the top speed, plus its ramps
+    assert float(leg_profiles(site, [2000.0], 30.0).total_s[0]) == pytest.approx(capped)
+
+
+def _hovers(q: np.ndarray, d: np.ndarray) -> list[tuple[tuple[float, ...], float]]:
+    """(position, duration) of each run of slots spent in place, in flying order."""
+    out: list[tuple[tuple[float, ...], float]] = []
+    prev_still = False
+    for i in range(len(d)):
+        still = bool(np.hypot(*(q[i + 1] - q[i])) < 1e-9)
+        if still and prev_still:
+            out[-1] = (out[-1][0], out[-1][1] + float(d[i]))
+        elif still:
+            out.append((tuple(q[i].tolist()), float(d[i])))
+        prev_still = still
+    return out
+
+
+def test_every_stop_hovers_the_autopilots_stop_lag_before_its_whole_second_hold(
+    site: Site,
+) -> None:
+    sk = skeleton(*_hover_dash(), np.zeros((0, 2)), np.zeros(0))
+    move = float(np.sum(move_times(leg_profiles(site, sk.leg_lengths_m))))
+    _, out = time_cycle(site, sk, move + 20.0, 40)
+    assert out is not None
+    q, d = out
+    assert d.sum() == pytest.approx(move + 20.0)
+    hovers = _hovers(q, d)
+    assert [p for p, _ in hovers] == [(0.0, 0.0), (100.0, 0.0), (0.0, 0.0)]
+    at_b, back_at_a = hovers[1][1], hovers[2][1]
+    # B's hover is the lag, then a whole-second hold; the cycle ends with A's lag and a second
+    assert at_b - STOP_LAG_S == pytest.approx(round(at_b - STOP_LAG_S))
+    assert at_b - STOP_LAG_S >= MIN_HOLD_S
+    assert back_at_a == pytest.approx(MIN_HOLD_S + STOP_LAG_S)
+
+
 @pytest.fixture(scope="module")
 def site() -> Site:
     return random_site(2, slots=12)
@@ -83,8 +136,12 @@ def test_flyable_plan_fills_the_period_and_respects_the_top_speed(
     site: Site, flyable: Solution
 ) -> None:
     assert flyable.delta_s.sum() == pytest.approx(site.period_s)
-    assert np.all(flyable.leg_length_m <= site.max_speed_mps * flyable.delta_s * (1 + 1e-9))
+    # never faster than the vehicle really flies (a 30 m/s site, a quad topping out near 10)
+    top = top_speed_mps(site)
+    assert np.all(flyable.leg_length_m <= top * flyable.delta_s * (1 + 1e-9))
     assert flyable.notes["dynamics"] == "vehicle"
+    assert isinstance(flyable.notes["planning_speed_mps"], float)
+    assert flyable.notes["planning_speed_mps"] <= top
 
 
 def test_flyable_moves_take_as_long_as_the_s_curves(site: Site, flyable: Solution) -> None:
@@ -120,6 +177,29 @@ def test_flyable_plan_is_flown_on_time_by_the_arducopter_replay(flyable: Solutio
     assert max(abs(x) for x in in_cycle) < 1.5
     assert report.throughput is not None
     assert report.throughput.flown_min == pytest.approx(report.throughput.planned_min, rel=0.05)
+
+
+def test_arducopter_holds_are_written_net_of_the_stop_lag(flyable: Solution) -> None:
+    """The plan's hover at a stop begins with the autopilot's lag; the written holds leave it
+    out, and the cycle as laid out (legs, holds, lags) still lasts T."""
+    from mission_planner.mission import (
+        MissionOptions,
+        build_mission,
+        cycle_duration_s,
+        mission_summary,
+    )
+
+    mission = build_mission(flyable)
+    stops = [s for s in mission.steps if s.stop_lag_s > 0]
+    assert len(stops) >= 2 and all(s.stop_lag_s == STOP_LAG_S for s in stops)
+    summary = mission_summary(mission)
+    assert summary["stop_lag_s"] == pytest.approx(STOP_LAG_S * len(stops))
+    assert summary["hold_written_s"] + summary["stop_lag_s"] == pytest.approx(
+        summary["hold_planned_s"], abs=0.5)
+    assert cycle_duration_s(mission) == pytest.approx(flyable.site.period_s, abs=0.5)
+    # PX4 is not modelled with the lag: its holds are the plan's
+    px4 = build_mission(flyable, MissionOptions(autopilot="px4"))
+    assert all(s.stop_lag_s == 0.0 for s in px4.steps)
 
 
 def test_every_moving_slot_moves_visibly(site: Site) -> None:
