@@ -31,7 +31,7 @@ from mission_planner.optimize.scaled import (
 )
 from mission_planner.optimize.scheduling import scheduling_problem
 from mission_planner.optimize.solution import SCHEMES, Solution
-from mission_planner.optimize.trajectory import MIN_SLOT, RELAXED_TERMS, trajectory_problem
+from mission_planner.optimize.trajectory import RELAXED_TERMS, trajectory_problem
 from validator.errors import InputError
 from validator.site import Site
 
@@ -125,22 +125,13 @@ def plan(
     return _plan_flyable(site, scheme, opt, progress, started)
 
 
-def _algorithm1(
-    sc: Scaled,
-    scheme: str,
-    opt: PlannerOptions,
-    progress: Progress | None,
-    start: _State | None = None,
-) -> _State:
-    """The BCD loop of Algorithm 1 from ``start`` (default: the initial tour); returns the
-    relaxed final state."""
+def _algorithm1(sc: Scaled, scheme: str, opt: PlannerOptions, progress: Progress | None) -> _State:
+    """The BCD loop of Algorithm 1 from the initial tour; returns the relaxed final state."""
     n = sc.num_slots
-    if start is None:
-        q, delta = initial_tour(sc)
-        start = _State(q, delta, _initial_schedule(sc, q), np.full(n, 0.0))
+    q, delta = initial_tour(sc)
     # Uniform power just inside the budget: (7) then leaves (P3-2) free to move δ at first, and
     # it does not coincide with Σδ = T (which would leave the solver no interior point).
-    state = _State(start.q, start.delta, start.s, np.full(n, 1.0 - 1e-3))
+    state = _State(q, delta, _initial_schedule(sc, q), np.full(n, 1.0 - 1e-3))
 
     def trajectory_step(st: _State) -> None:
         terms = 1 if _binary_gap(st.s) < 1e-6 else RELAXED_TERMS
@@ -248,42 +239,17 @@ class _Flyable:
     min_rate: float
 
 
-def _slowed(sc: Scaled, prev: _State) -> _State | None:
-    """``prev``'s path re-timed for the (lower) top speed of ``sc``, as a start for Algorithm 1.
-
-    Each leg gets at least the time it needs at the new speed, taken from the slots that had
-    more than they needed (the hovers), so (1)-(4) hold; (6-1) holds too, since Ṽδ̃ of no slot
-    grows beyond the leg it had to cover before. None when the hovers cannot pay for it.
-    """
-    prev_idx = np.r_[sc.num_slots - 1, np.arange(sc.num_slots - 1)]
-    need = np.maximum(np.linalg.norm(prev.q - prev.q[prev_idx], axis=1) / sc.speed, MIN_SLOT)
-    delta = np.maximum(prev.delta, need)
-    slack = delta - need
-    excess = float(np.sum(delta)) - sc.num_slots
-    if excess > 0.99 * float(np.sum(slack)):
-        return None
-    delta = _renormalise(delta - slack * (excess / float(np.sum(slack))), sc.num_slots)
-    return _State(prev.q.copy(), delta, prev.s.copy(), prev.power.copy())
-
-
 def _retimed(
-    site: Site,
-    scheme: str,
-    speed: float,
-    opt: PlannerOptions,
-    progress: Progress | None,
-    warm: _State | None = None,
-) -> tuple[_Flyable | None, float, _State]:
-    """Plan with top speed ``speed`` (paper model), from the initial tour or ``warm`` (the
-    last candidate's path), re-time it for the vehicle, and optimise schedule and power on the
-    new timing. Returns the candidate (None if its moves overrun T), the ratio of the
-    vehicle's move time to the paper's, and the paper-model state (a start for the next)."""
+    site: Site, scheme: str, speed: float, opt: PlannerOptions, progress: Progress | None
+) -> tuple[_Flyable | None, float]:
+    """Plan with top speed ``speed`` (paper model), re-time it for the vehicle, and optimise
+    schedule and power on the new timing. Returns the candidate (None if its moves overrun T)
+    and the ratio of the vehicle's move time to the paper's."""
     planning_site = site.with_limits(max_speed_mps=speed)
     psc = scale_site(planning_site, opt.nfz_margin_m, opt.gamma)
     # The re-timing, not Algorithm 1's slow tail, decides these candidates: fewer iterations.
     search = replace(opt, max_iterations=min(opt.max_iterations, SEARCH_ITERATIONS))
-    start = None if warm is None else _slowed(psc, warm)
-    state = _finish(psc, _algorithm1(psc, scheme, search, progress, start))
+    state = _finish(psc, _algorithm1(psc, scheme, search, progress))
     paper = _solution(planning_site, scheme, psc, state, 0.0, {})
     # Simplified legs keep the planner's margin too, so the exporter need not nudge them (a
     # nudged waypoint no longer lies on the S-curve it was timed with).
@@ -293,7 +259,7 @@ def _retimed(
     move_s, timed = retime.time_cycle(site, sk, site.period_s, site.slots)
     paper_move_s = max(site.period_s - float(np.sum(sk.hold_s)), 1e-9)
     if timed is None:
-        return None, move_s / paper_move_s, state
+        return None, move_s / paper_move_s
     sc = scale_site(site, opt.nfz_margin_m, opt.gamma)
     trajectory_m, delta_s = timed
     q = trajectory_m[1:] / LENGTH_UNIT_M
@@ -309,7 +275,7 @@ def _retimed(
     _finish(sc, timed_state)
     rate = min_rate(sc, timed_state.q, timed_state.delta, timed_state.power, timed_state.s)
     cand = _Flyable(speed, _waypoint_slots(trajectory_m, sk), move_s, timed_state, rate)
-    return cand, move_s / paper_move_s, state
+    return cand, move_s / paper_move_s
 
 
 def _plan_flyable(
@@ -324,11 +290,9 @@ def _plan_flyable(
     speed, too_fast = site.max_speed_mps, None
     best: _Flyable | None = None
     iterations = 0
-    warm: _State | None = None  # the last faster candidate's path
     for _ in range(opt.retime_attempts):
-        cand, overrun, paper_state = _retimed(site, scheme, speed, opt, progress, warm)
+        cand, overrun = _retimed(site, scheme, speed, opt, progress)
         if cand is None:
-            warm = paper_state
             too_fast = speed
         elif best is None or cand.min_rate > best.min_rate:
             best = cand
