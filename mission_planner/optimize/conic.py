@@ -1,4 +1,9 @@
-"""Solving a built cvxpy problem with Clarabel, robustly.
+"""Solving a conic program with Clarabel, robustly: assembled directly, or built by cvxpy.
+
+The planner's subproblems are assembled as :class:`ConicForm` (min cᵀx s.t. b − Ax ∈ K, rows
+written as affine expressions of the variables), so a plan pays no cvxpy compile and memory
+grows with the constraints' non-zeros. Their cvxpy statements are kept as the readable models
+and as test oracles (:func:`solve`).
 
 Clarabel occasionally stops with "InsufficientProgress" on these nearly degenerate SCA
 subproblems (e.g. when Σδ = T and an active power budget are almost parallel). The same problem
@@ -9,9 +14,16 @@ turn before a step is given up.
 from __future__ import annotations
 
 import warnings
-from typing import Any
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
-import cvxpy as cp
+import clarabel
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import ArrayLike, NDArray
+
+if TYPE_CHECKING:
+    import cvxpy as cp
 
 # An SCA step needs no more than 1e-7: the exact objective judges it afterwards, and NFZ
 # constraints carry a 2 cm margin. (Clarabel's default 1e-8 costs ~10 % more iterations.)
@@ -22,11 +34,109 @@ _ATTEMPTS: tuple[dict[str, Any], ...] = (
     {"equilibrate_enable": False},
     {"max_step_fraction": 0.8, "equilibrate_enable": False},
 )
-_ACCEPTED = (cp.OPTIMAL, cp.OPTIMAL_INACCURATE)
+_SOLVED = (clarabel.SolverStatus.Solved, clarabel.SolverStatus.AlmostSolved)
+
+
+@dataclass
+class ConicForm:
+    """min cᵀx s.t. s = b − A x in a product of cones, built one block of rows at a time.
+
+    A block of R rows is ``const`` (R,) plus Σ coef · x[col] over its terms, where each term is
+    a (cols, coefs) pair of arrays broadcast to R: the row's slack s itself, which must lie in
+    the block's cone. Cones of dimension d take their rows in groups of d (C order of a
+    (count, d) array).
+    """
+
+    num_vars: int
+    c: NDArray[np.float64] = field(init=False)
+    _rows: list[NDArray[np.int64]] = field(default_factory=list)
+    _cols: list[NDArray[np.int64]] = field(default_factory=list)
+    _vals: list[NDArray[np.float64]] = field(default_factory=list)
+    _b: list[NDArray[np.float64]] = field(default_factory=list)
+    _cones: list[Any] = field(default_factory=list)
+    _height: int = 0
+
+    def __post_init__(self) -> None:
+        self.c = np.zeros(self.num_vars)
+
+    def _block(
+        self,
+        const: ArrayLike,
+        terms: list[tuple[ArrayLike, ArrayLike]],
+        entries: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
+    ) -> int:
+        b = np.asarray(const, dtype=float).ravel()
+        rows = self._height + np.arange(b.size)
+        if entries is not None:  # any number of (row in block, col, coef) entries per row
+            self._rows.append(self._height + np.asarray(entries[0], dtype=np.int64))
+            self._cols.append(np.asarray(entries[1], dtype=np.int64))
+            self._vals.append(-np.asarray(entries[2], dtype=float))
+        for cols, coefs in terms:
+            col = np.broadcast_to(np.asarray(cols, dtype=np.int64), np.shape(const)).ravel()
+            val = np.broadcast_to(np.asarray(coefs, dtype=float), np.shape(const)).ravel()
+            keep = val != 0.0
+            self._rows.append(rows[keep])
+            self._cols.append(col[keep])
+            self._vals.append(-val[keep])  # s = b − A x
+        self._b.append(b)
+        self._height += b.size
+        return b.size
+
+    def zero(
+        self,
+        const: ArrayLike,
+        *terms: tuple[ArrayLike, ArrayLike],
+        entries: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
+    ) -> None:
+        """Rows that must equal 0; ``entries`` (row, col, coef) add terms row by row."""
+        self._cones.append(clarabel.ZeroConeT(self._block(const, list(terms), entries)))
+
+    def nonneg(
+        self,
+        const: ArrayLike,
+        *terms: tuple[ArrayLike, ArrayLike],
+        entries: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
+    ) -> None:
+        """Rows that must be ≥ 0; ``entries`` (row, col, coef) add terms row by row."""
+        self._cones.append(clarabel.NonnegativeConeT(self._block(const, list(terms), entries)))
+
+    def soc(self, const: ArrayLike, *terms: tuple[ArrayLike, ArrayLike]) -> None:
+        """(count, d) rows: each row group (t, x) with ‖x‖ ≤ t."""
+        count, dim = np.shape(const)
+        self._block(const, list(terms))
+        self._cones += [clarabel.SecondOrderConeT(dim)] * count
+
+    def exp(self, const: ArrayLike, *terms: tuple[ArrayLike, ArrayLike]) -> None:
+        """(count, 3) rows: each row group (x, y, z) with y·exp(x/y) ≤ z, y > 0."""
+        count, _ = np.shape(const)
+        self._block(const, list(terms))
+        self._cones += [clarabel.ExponentialConeT()] * count
+
+    def solve(self) -> NDArray[np.float64] | None:
+        """The optimal x, or None when every attempt fails."""
+        a = sp.csc_matrix(
+            (np.concatenate(self._vals), (np.concatenate(self._rows), np.concatenate(self._cols))),
+            shape=(self._height, self.num_vars),
+        )
+        b = np.concatenate(self._b)
+        p = sp.csc_matrix((self.num_vars, self.num_vars))
+        for attempt in _ATTEMPTS:
+            settings = clarabel.DefaultSettings()
+            settings.verbose = False
+            for name, value in {**_TOLERANCE, **attempt}.items():
+                setattr(settings, name, value)
+            result = clarabel.DefaultSolver(p, self.c, a, b, self._cones, settings).solve()
+            if result.status in _SOLVED:
+                return np.asarray(result.x, dtype=float)
+        return None
 
 
 def solve(problem: cp.Problem) -> bool:
-    """Solve ``problem`` with Clarabel; True when a (possibly inaccurate) optimum was found."""
+    """Solve a cvxpy ``problem`` with Clarabel; True when a (possibly inaccurate) optimum was
+    found."""
+    import cvxpy as cp
+
+    accepted = (cp.OPTIMAL, cp.OPTIMAL_INACCURATE)
     for settings in _ATTEMPTS:
         try:
             with warnings.catch_warnings():
@@ -37,6 +147,6 @@ def solve(problem: cp.Problem) -> bool:
                 problem.solve(solver=cp.CLARABEL, warm_start=False, **_TOLERANCE, **settings)
         except cp.SolverError:
             continue
-        if problem.status in _ACCEPTED:
+        if problem.status in accepted:
             return True
     return False

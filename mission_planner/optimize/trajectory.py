@@ -21,22 +21,32 @@ Size: only the ``terms`` GNs with the largest s_k[n] get a rate term in slot n. 
 schedule one term is exact and 20-40 % faster; while the schedule is relaxed, two terms (see
 :data:`RELAXED_TERMS`) keep the surrogate tight at the current point, as SCA needs (with one,
 a quarter of the steps on the benchmark sites lowered the objective and were thrown away);
-the terms dropped are non-negative rates, so it stays a lower bound. Everything that
-depends on the site enters through parameters, so one compiled problem serves every site of
-the same shape (N, K, M, scheme) — see :func:`trajectory_problem`.
+the terms dropped are non-negative rates, so it stays a lower bound.
+
+:class:`TrajectoryProblem` assembles the conic form for Clarabel directly (no cvxpy compile; its
+size grows with the non-zeros: J·N rate terms, M·N zone rows); :class:`TrajectoryModel` states
+the same problem in cvxpy, from the same :func:`sca_point`, as the readable model and test oracle.
+Conic form, per slot n and term i = (j, n) serving GN k(i):
+
+    v1_i ≤ ln Ã_i, v2_i ≤ ln B̃_i          (x, 1, z) ∈ K_exp
+    t1_i² ≤ v1_i / ln 2 + γ1,  t2_i² ≤ v2_i / ln 2 + γ2 − 2 log2 D_i    rotated SOC
+    ι_n δ̃_n ≥ 1 (ι = 1/δ̃),  σ_n ≥ ‖q[n]‖² (in B̃),  e_n ≥ δ̃_n² (in (6-1))   rotated SOC
 """
 
 from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import cvxpy as cp
 import numpy as np
 from numpy.typing import NDArray
 
 from mission_planner.optimize import conic
 from mission_planner.optimize.scaled import Scaled
+
+if TYPE_CHECKING:
+    import cvxpy as cp
 
 LN2 = float(np.log(2.0))
 TRUST_REGION = 1.0  # largest move of a waypoint per SCA step, per axis, in 100 m
@@ -48,19 +58,227 @@ RELAXED_TERMS = 2  # rate terms per slot while the schedule is fractional (1 onc
 class TrajectoryStep:
     q: NDArray[np.float64]  # (N, 2) positions of slots 1..N
     delta: NDArray[np.float64]  # (N,)
+    r_min: float  # the surrogate's optimum
 
 
-def _rows(x: cp.Expression, rows: int, n: int) -> cp.Expression:
-    """Broadcast an (N,) expression into (rows, N)."""
-    return np.ones((rows, 1)) @ cp.reshape(x, (1, n), order="C")
+@dataclass(frozen=True)
+class ScaPoint:
+    """The surrogate's coefficients at (q^r, δ^r) for J rate terms per slot, each (J, N)."""
+
+    top: NDArray[np.int64]  # GN k(j, n) of each term
+    ax: NDArray[np.float64]  # 2 (q^r − w)_x
+    ay: NDArray[np.float64]
+    a0: NDArray[np.float64]  # constant part of Ã + ρ p̃
+    bx: NDArray[np.float64]  # 2 w_x
+    by: NDArray[np.float64]
+    b0: NDArray[np.float64]  # 2D − H̃² − ‖w‖²
+    bshift: NDArray[np.float64]  # γ2 − 2 log2 D
+    w_lambda: NDArray[np.float64]  # 2 s λ / N
+    w_mu: NDArray[np.float64]  # 2 s μ / N
+    w_inv: NDArray[np.float64]  # s (λ² + μ²) / N
+    w_lin: NDArray[np.float64]  # s (γ1 + γ2) / N
+    gx: NDArray[np.float64]  # (M, N) 2 (q^r − c)_x
+    gy: NDArray[np.float64]
+    g0: NDArray[np.float64]  # ‖c‖² − ‖q^r‖² − R̃²
+
+
+def sca_point(
+    sc: Scaled,
+    q: NDArray[np.float64],
+    delta: NDArray[np.float64],
+    power: NDArray[np.float64],
+    s: NDArray[np.float64],
+    terms: int,
+) -> ScaPoint:
+    """(22), (23), (21) linearised at q^r = ``q``; λ, μ by (28), (29) at (q, δ)."""
+    n = sc.num_slots
+    cols = np.arange(n)
+    top = np.argsort(-s, axis=0, kind="stable")[: min(sc.num_gns, terms)]  # (J, N)
+    w = sc.gn[top]  # (J, N, 2)
+    s_top = s[top, cols] / n
+    diff = q[None, :, :] - w  # q^r − w
+    d2 = np.sum(diff * diff, axis=-1) + sc.height**2  # D
+    # (28), (29): λ = δ √(log2(Ã + ρp̃) + γ1), μ = δ √(log2 B̃ + γ2) at q = q^r.
+    lam = delta[None, :] * np.sqrt(np.log2(d2 + sc.rho * power[None, :]) + sc.gamma1)
+    mu = delta[None, :] * np.sqrt(np.log2(1.0 / d2) + sc.gamma2)
+    cdiff = q[None, :, :] - sc.nfz[:, None, :]  # (M, N, 2)
+    return ScaPoint(
+        top=top,
+        ax=2 * diff[..., 0],
+        ay=2 * diff[..., 1],
+        a0=d2 - 2 * np.sum(diff * q[None], axis=-1) + sc.rho * power[None, :],
+        bx=2 * w[..., 0],
+        by=2 * w[..., 1],
+        b0=2 * d2 - sc.height**2 - np.sum(w * w, axis=-1),
+        bshift=sc.gamma2 - 2 * np.log2(d2),
+        w_lambda=2 * s_top * lam,
+        w_mu=2 * s_top * mu,
+        w_inv=s_top * (lam**2 + mu**2),
+        w_lin=s_top * (sc.gamma1 + sc.gamma2),
+        gx=2 * cdiff[..., 0],
+        gy=2 * cdiff[..., 1],
+        g0=np.sum(sc.nfz**2, axis=1)[:, None] - np.sum(q**2, axis=1)[None, :]
+        - (sc.radius**2)[:, None],
+    )
+
+
+TERM_VARS = ("t1", "t2", "v1", "v2")  # one per rate term (J, N); the others per slot
 
 
 class TrajectoryProblem:
-    """(P3-2) built once for a shape; :meth:`solve` re-solves around a new point of any site."""
+    """(P3-2) for a shape, assembled for Clarabel; :meth:`solve` re-solves around a new point.
+
+    The variable layout and row structure depend on the shape only; each solve fills in the
+    values of the current point (see the module docstring for the conic form).
+    """
 
     def __init__(
         self, num_slots: int, num_gns: int, num_nfzs: int, scheme: str, terms: int = 1
     ) -> None:
+        n, k, m = num_slots, num_gns, num_nfzs
+        j = min(k, terms)
+        self.shape = (n, k, m, j)
+        self.scheme = scheme
+        self.prev = np.r_[n - 1, np.arange(n - 1)]
+        sizes = {"qx": n, "qy": n, "delta": n, "inv": n, "r": 1, "t1": j * n, "t2": j * n,
+                 "v1": j * n, "v2": j * n, "sigma": n, "e": n if m and scheme == "proposed" else 0}
+        ends = np.cumsum(list(sizes.values()))
+        self.num_vars = int(ends[-1])
+        # Column indices of each variable, terms as (J, N) arrays.
+        self.col = {
+            name: np.arange(end - size, end).reshape((j, n) if name in TERM_VARS else (-1,))
+            for (name, size), end in zip(sizes.items(), ends, strict=True)
+        }
+
+    def solve(
+        self,
+        sc: Scaled,
+        q: NDArray[np.float64],
+        delta: NDArray[np.float64],
+        power: NDArray[np.float64],
+        s: NDArray[np.float64],
+    ) -> TrajectoryStep | None:
+        """One SCA step from (q, δ) for schedule s (K, N) and power p̃ (N,); None on failure."""
+        n, k, m, j = self.shape
+        pt = sca_point(sc, q, delta, power, s, j)
+        c, prev = self.col, self.prev
+        form = conic.ConicForm(self.num_vars)
+        form.c[c["r"]] = -1.0  # max r_min
+        slot = np.broadcast_to(np.arange(n), (j, n))  # slot of each term
+        ones, zeros = np.ones(j * n), np.zeros(j * n)
+
+        one_row = np.zeros(n, dtype=np.int64)
+        form.zero([-float(n)], entries=(one_row, c["delta"], ones[:n]))  # Σ δ̃ = N
+        # (30): Σ_n s f / N − r_min ≥ 0, one row per GN; a term enters its GN's row only.
+        form.nonneg(
+            np.zeros(k),
+            (c["r"], -1.0),
+            entries=(
+                np.tile(pt.top.ravel(), 4),
+                np.concatenate([c["t1"].ravel(), c["t2"].ravel(), c["inv"][slot].ravel(),
+                                c["delta"][slot].ravel()]),
+                np.concatenate([pt.w_lambda.ravel(), pt.w_mu.ravel(), -pt.w_inv.ravel(),
+                                -pt.w_lin.ravel()]),
+            ),
+        )
+        form.nonneg(np.full(n, -MIN_SLOT), (c["delta"], 1.0))  # δ̃ ≥ MIN_SLOT
+        form.nonneg([1.0], entries=(one_row, c["delta"], -power / n))  # (7)
+        # Trust region |q − q^r| ≤ TRUST_REGION per axis.
+        for axis, name in enumerate(("qx", "qy")):
+            form.nonneg(TRUST_REGION + q[:, axis], (c[name], -1.0))
+            form.nonneg(TRUST_REGION - q[:, axis], (c[name], 1.0))
+        form.nonneg(np.zeros((j, n)), (c["t1"], 1.0))
+        form.nonneg(np.zeros((j, n)), (c["t2"], 1.0))
+        if m:
+            at_n = ((c["qx"][None], pt.gx), (c["qy"][None], pt.gy))
+            if self.scheme == "proposed":
+                # (6-1) at both ends of leg n: G_m(q[n]) − (Ṽ/2)² e_n ≥ 0, G_m(q[n−1]) likewise.
+                e_term = (c["e"][None], np.full((m, n), -((sc.speed / 2) ** 2)))
+                form.nonneg(pt.g0, *at_n, e_term)
+                form.nonneg(
+                    pt.g0[:, prev],
+                    (c["qx"][prev][None], pt.gx[:, prev]),
+                    (c["qy"][prev][None], pt.gy[:, prev]),
+                    e_term,
+                )
+            else:
+                form.nonneg(pt.g0, *at_n)  # (5)
+        # (1): ‖q[n] − q[n−1]‖ ≤ Ṽ δ̃[n].
+        form.soc(
+            np.zeros((n, 3)),
+            (c["delta"][:, None], [sc.speed, 0.0, 0.0]),
+            (c["qx"][:, None], [0.0, 1.0, 0.0]),
+            (c["qx"][prev][:, None], [0.0, -1.0, 0.0]),
+            (c["qy"][:, None], [0.0, 0.0, 1.0]),
+            (c["qy"][prev][:, None], [0.0, 0.0, -1.0]),
+        )
+        # ι δ̃ ≥ 1: ‖(ι − δ̃, 2)‖ ≤ ι + δ̃.
+        form.soc(
+            np.tile([0.0, 0.0, 2.0], (n, 1)),
+            (c["inv"][:, None], [1.0, 1.0, 0.0]),
+            (c["delta"][:, None], [1.0, -1.0, 0.0]),
+        )
+        # t² ≤ z with z = v / ln 2 + shift: ‖(z − 1, 2t)‖ ≤ z + 1.
+        shifts = (("t1", "v1", np.full(j * n, sc.gamma1)), ("t2", "v2", pt.bshift.ravel()))
+        for t, v, shift in shifts:
+            form.soc(
+                shift[:, None] * np.array([1.0, 1.0, 0.0]) + np.array([1.0, -1.0, 0.0]),
+                (c[v].reshape(-1, 1), np.array([1.0, 1.0, 0.0]) / LN2),
+                (c[t].reshape(-1, 1), [0.0, 0.0, 2.0]),
+            )
+        # σ ≥ ‖q‖²: ‖(σ − 1, 2qx, 2qy)‖ ≤ σ + 1.
+        form.soc(
+            np.tile([1.0, -1.0, 0.0, 0.0], (n, 1)),
+            (c["sigma"][:, None], [1.0, 1.0, 0.0, 0.0]),
+            (c["qx"][:, None], [0.0, 0.0, 2.0, 0.0]),
+            (c["qy"][:, None], [0.0, 0.0, 0.0, 2.0]),
+        )
+        if m and self.scheme == "proposed":
+            # e ≥ δ̃²: ‖(e − 1, 2δ̃)‖ ≤ e + 1.
+            form.soc(
+                np.tile([1.0, -1.0, 0.0], (n, 1)),
+                (c["e"][:, None], [1.0, 1.0, 0.0]),
+                (c["delta"][:, None], [0.0, 0.0, 2.0]),
+            )
+        # v1 ≤ ln Ã (22), v2 ≤ ln B̃ (23, times D²): (v, 1, ·) ∈ K_exp.
+        qx_t, qy_t = c["qx"][slot].reshape(-1, 1), c["qy"][slot].reshape(-1, 1)
+        pick = np.array([0.0, 0.0, 1.0])
+        form.exp(
+            np.stack([zeros, ones, pt.a0.ravel()], axis=1),
+            (c["v1"].reshape(-1, 1), [1.0, 0.0, 0.0]),
+            (qx_t, pt.ax.reshape(-1, 1) * pick),
+            (qy_t, pt.ay.reshape(-1, 1) * pick),
+        )
+        form.exp(
+            np.stack([zeros, ones, pt.b0.ravel()], axis=1),
+            (c["v2"].reshape(-1, 1), [1.0, 0.0, 0.0]),
+            (qx_t, pt.bx.reshape(-1, 1) * pick),
+            (qy_t, pt.by.reshape(-1, 1) * pick),
+            (c["sigma"][slot].reshape(-1, 1), [0.0, 0.0, -1.0]),
+        )
+        x = form.solve()
+        if x is None:
+            return None
+        return TrajectoryStep(
+            np.stack([x[c["qx"]], x[c["qy"]]], axis=1), x[c["delta"]], float(x[c["r"]][0])
+        )
+
+
+class TrajectoryModel:
+    """(P3-2) in cvxpy (DPP, built once for a shape): the readable model and the test oracle of
+    :class:`TrajectoryProblem`. Dense parameter blocks make its compiled form grow with
+    products of N, K and M (6.6 GB at N = 200, K = 10, M = 10), so the planner does not use it.
+    """
+
+    def __init__(
+        self, num_slots: int, num_gns: int, num_nfzs: int, scheme: str, terms: int = 1
+    ) -> None:
+        import cvxpy as cp
+
+        def rows(x: cp.Expression, count: int) -> cp.Expression:
+            """Broadcast an (N,) expression into (count, N)."""
+            return np.ones((count, 1)) @ cp.reshape(x, (1, n), order="C")
+
         n, k, m = num_slots, num_gns, num_nfzs
         j = min(k, terms)
         self.shape = (n, k, m, j)
@@ -91,10 +309,10 @@ class TrajectoryProblem:
         self.power = cp.Parameter(n, nonneg=True)  # p̃ / N
         self.q_ref = cp.Parameter((n, 2))  # q^r
 
-        qx = _rows(self.q[:, 0], j, n)
-        qy = _rows(self.q[:, 1], j, n)
+        qx = rows(self.q[:, 0], j)
+        qy = rows(self.q[:, 1], j)
         a_lb = cp.multiply(self.ax, qx) + cp.multiply(self.ay, qy) + self.a0
-        q_sq = _rows(cp.sum(cp.square(self.q), axis=1), j, n)
+        q_sq = rows(cp.sum(cp.square(self.q), axis=1), j)
         b_arg = cp.multiply(self.bx, qx) + cp.multiply(self.by, qy) + self.b0 - q_sq
         f_sum = (
             self.w_lambda @ cp.reshape(t1, (j * n,), order="C")
@@ -119,12 +337,12 @@ class TrajectoryProblem:
             self.gx = cp.Parameter((m, n))  # 2 (q^r − c)_x
             self.gy = cp.Parameter((m, n))
             self.g0 = cp.Parameter((m, n))  # ‖c‖² − ‖q^r‖² − R̃²
-            mx = _rows(self.q[:, 0], m, n)
-            my = _rows(self.q[:, 1], m, n)
+            mx = rows(self.q[:, 0], m)
+            my = rows(self.q[:, 1], m)
             g_lb = cp.multiply(self.gx, mx) + cp.multiply(self.gy, my) + self.g0
             if scheme == "proposed":
                 self.half_speed_sq = cp.Parameter(nonneg=True)  # (Ṽ/2)²
-                half_leg2 = self.half_speed_sq * _rows(cp.square(self.delta), m, n)
+                half_leg2 = self.half_speed_sq * rows(cp.square(self.delta), m)
                 constraints += [g_lb >= half_leg2, g_lb[:, prev] >= half_leg2]
             else:
                 constraints += [g_lb >= 0]
@@ -142,47 +360,30 @@ class TrajectoryProblem:
     ) -> TrajectoryStep | None:
         """One SCA step from (q, δ) for schedule s (K, N) and power p̃ (N,); None on failure."""
         n, k, m, j = self.shape
+        pt = sca_point(sc, q, delta, power, s, j)
         cols = np.arange(n)
-        top = np.argsort(-s, axis=0, kind="stable")[:j]  # (J, N) GN of each term
-        w = sc.gn[top]  # (J, N, 2)
-        s_top = s[top, cols]  # (J, N)
-        diff = q[None, :, :] - w  # q^r − w
-        d2 = np.sum(diff * diff, axis=-1) + sc.height**2  # D
+        route = np.zeros((k, j, n))  # term (j, n) to its GN's row
+        route[pt.top, np.arange(j)[:, None], cols[None, :]] = 1.0
         self.speed.value = sc.speed
         self.gamma1.value = sc.gamma1
-        self.ax.value = 2 * diff[..., 0]
-        self.ay.value = 2 * diff[..., 1]
-        self.a0.value = d2 - 2 * np.sum(diff * q[None], axis=-1) + sc.rho * power[None, :]
-        self.bx.value = 2 * w[..., 0]
-        self.by.value = 2 * w[..., 1]
-        self.b0.value = 2 * d2 - sc.height**2 - np.sum(w * w, axis=-1)
-        self.bshift.value = sc.gamma2 - 2 * np.log2(d2)
-        # (28), (29): λ = δ √(log2(Ã + ρp̃) + γ1), μ = δ √(log2 B̃ + γ2) at q = q^r.
-        lam = delta[None, :] * np.sqrt(np.log2(d2 + sc.rho * power[None, :]) + sc.gamma1)
-        mu = delta[None, :] * np.sqrt(np.log2(1.0 / d2) + sc.gamma2)
-        route = np.zeros((k, j, n))
-        route[top, np.arange(j)[:, None], cols[None, :]] = s_top / n
-        self.w_lambda.value = (2 * route * lam[None]).reshape(k, j * n)
-        self.w_mu.value = (2 * route * mu[None]).reshape(k, j * n)
-        self.w_inv.value = np.sum(route * (lam**2 + mu**2)[None], axis=1)
-        self.w_lin.value = np.sum(route, axis=1) * (sc.gamma1 + sc.gamma2)
+        for name in ("ax", "ay", "a0", "bx", "by", "b0", "bshift"):
+            getattr(self, name).value = getattr(pt, name)
+        self.w_lambda.value = (route * pt.w_lambda[None]).reshape(k, j * n)
+        self.w_mu.value = (route * pt.w_mu[None]).reshape(k, j * n)
+        self.w_inv.value = np.sum(route * pt.w_inv[None], axis=1)
+        self.w_lin.value = np.sum(route * pt.w_lin[None], axis=1)
         self.power.value = power / n
         self.q_ref.value = q
         if m:
-            cdiff = q[None, :, :] - sc.nfz[:, None, :]  # (M, N, 2)
-            self.gx.value = 2 * cdiff[..., 0]
-            self.gy.value = 2 * cdiff[..., 1]
-            self.g0.value = (
-                np.sum(sc.nfz**2, axis=1)[:, None]
-                - np.sum(q**2, axis=1)[None, :]
-                - (sc.radius**2)[:, None]
-            )
+            self.gx.value, self.gy.value, self.g0.value = pt.gx, pt.gy, pt.g0
             if self.scheme == "proposed":
                 self.half_speed_sq.value = (sc.speed / 2) ** 2
         if not conic.solve(self.problem) or self.q.value is None:
             return None
         return TrajectoryStep(
-            np.asarray(self.q.value, dtype=float), np.asarray(self.delta.value, dtype=float)
+            np.asarray(self.q.value, dtype=float),
+            np.asarray(self.delta.value, dtype=float),
+            float(self.r_min.value or 0.0),
         )
 
 
@@ -190,8 +391,5 @@ class TrajectoryProblem:
 def trajectory_problem(
     num_slots: int, num_gns: int, num_nfzs: int, scheme: str, terms: int = 1
 ) -> TrajectoryProblem:
-    """The compiled (P3-2) for this shape, shared by every site of that shape in the process.
-
-    cvxpy compiles a DPP problem once (about a second here); later solves only refill parameters.
-    """
+    """(P3-2) for this shape, shared by every site of that shape in the process."""
     return TrajectoryProblem(num_slots, num_gns, num_nfzs, scheme, terms)

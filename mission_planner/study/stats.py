@@ -5,9 +5,12 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+import numpy as np
 from scipy import stats
 
 CONFIDENCE = 0.95
+BOOTSTRAP_RESAMPLES = 9999
+BOOTSTRAP_SEED = 0
 
 
 def proportion_interval(successes: int, trials: int, confidence: float = CONFIDENCE
@@ -24,11 +27,22 @@ def proportion_interval(successes: int, trials: int, confidence: float = CONFIDE
 
 
 def mean_interval(values: Sequence[float], confidence: float = CONFIDENCE) -> tuple[float, float]:
-    """Student-t interval of a mean; (nan, nan) for fewer than two values."""
-    n = len(values)
-    if n < 2:
+    """Bootstrap percentile interval of a mean; (nan, nan) for fewer than two values.
+
+    Percentile rather than Student t because spectral efficiency is zero on every outage: a
+    sample of zeros and a few positive rates is far from normal, and the t interval then reaches
+    below zero, which no mean of non-negative rates can. A percentile interval lies within the
+    data's range. The resampling seed is fixed, so a study's summary is reproducible.
+    """
+    if len(values) < 2:
         return (math.nan, math.nan)
-    mean = math.fsum(values) / n
-    sd = math.sqrt(math.fsum((v - mean) ** 2 for v in values) / (n - 1))
-    half = float(stats.t.ppf(0.5 + confidence / 2.0, n - 1)) * sd / math.sqrt(n)
-    return (mean - half, mean + half)
+    sample = np.asarray(values, dtype=float)
+    ci = stats.bootstrap(
+        (sample,),
+        np.mean,
+        confidence_level=confidence,
+        n_resamples=BOOTSTRAP_RESAMPLES,
+        method="percentile",
+        random_state=np.random.default_rng(BOOTSTRAP_SEED),
+    ).confidence_interval
+    return (float(ci.low), float(ci.high))

@@ -1,0 +1,115 @@
+"""The hand-assembled conic forms agree with their cvxpy models on random instances.
+
+The cvxpy statements (``*Model``) are the readable models; the planner solves the directly
+assembled forms (``*Problem``). Both are solved by Clarabel to 1e-7, so their optima agree to
+about that; optimal points need not be unique (a max-min leaves slack GNs free), so the
+objective is compared, and each direct solution is checked against the model's constraints.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mission_planner.optimize.initial import initial_tour
+from mission_planner.optimize.power import PowerModel, PowerProblem
+from mission_planner.optimize.scaled import min_rate, scale_site
+from mission_planner.optimize.scheduling import SchedulingModel, SchedulingProblem
+from mission_planner.optimize.trajectory import (
+    MIN_SLOT,
+    TRUST_REGION,
+    TrajectoryModel,
+    TrajectoryProblem,
+)
+from mission_planner.study.sites import random_site
+
+TOL = 2e-6  # both optima to Clarabel's 1e-7 gap, on objectives of order 1
+
+
+def _random_point(seed: int, slots: int = 24):
+    site = random_site(seed, slots=slots)
+    sc = scale_site(site, 0.02)
+    q, delta = initial_tour(sc)
+    rng = np.random.default_rng(seed)
+    s = rng.dirichlet(np.ones(sc.num_gns), size=sc.num_slots).T
+    power = rng.uniform(0.5, 1.0, sc.num_slots)
+    return sc, q, delta, power, s
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("scheme", ["proposed", "conventional"])
+@pytest.mark.parametrize("terms", [1, 2])
+def test_trajectory_form_agrees_with_model(seed: int, scheme: str, terms: int) -> None:
+    sc, q, delta, power, s = _random_point(seed)
+    shape = (sc.num_slots, sc.num_gns, sc.num_nfzs, scheme, terms)
+    direct = TrajectoryProblem(*shape).solve(sc, q, delta, power, s)
+    oracle = TrajectoryModel(*shape).solve(sc, q, delta, power, s)
+    assert direct is not None and oracle is not None
+    assert direct.r_min == pytest.approx(oracle.r_min, abs=TOL)
+    # The direct step is feasible for (1)-(4), (7) and the trust region as the model states them.
+    prev = np.r_[sc.num_slots - 1, np.arange(sc.num_slots - 1)]
+    legs = np.linalg.norm(direct.q - direct.q[prev], axis=1)
+    assert np.all(legs <= sc.speed * direct.delta + 1e-6)
+    assert np.sum(direct.delta) == pytest.approx(sc.num_slots, abs=1e-6)
+    assert np.all(direct.delta >= MIN_SLOT - 1e-7)
+    assert power @ direct.delta / sc.num_slots <= 1 + 1e-6
+    assert np.all(np.abs(direct.q - q) <= TRUST_REGION + 1e-6)
+    # The surrogate is a lower bound of the exact rate: the step's exact min rate reaches it.
+    assert min_rate(sc, direct.q, direct.delta, power, s) >= direct.r_min - 1e-6
+
+
+def test_trajectory_form_keeps_every_leg_outside_the_zones() -> None:
+    sc, q, delta, power, s = _random_point(4)
+    step = TrajectoryProblem(sc.num_slots, sc.num_gns, sc.num_nfzs, "proposed", 2).solve(
+        sc, q, delta, power, s
+    )
+    assert step is not None
+    prev = np.r_[sc.num_slots - 1, np.arange(sc.num_slots - 1)]
+    # (6-1): ‖q − c‖² ≥ G_m(q) ≥ R̃² + (Ṽδ̃/2)² at both ends of every leg.
+    for c, r in zip(sc.nfz, sc.radius, strict=True):
+        need = r**2 + (sc.speed * step.delta / 2) ** 2 - 1e-6
+        assert np.all(np.sum((step.q - c) ** 2, axis=1) >= need)
+        assert np.all(np.sum((step.q[prev] - c) ** 2, axis=1) >= need)
+
+
+def _power_objective(p, gain, s, delta):
+    n = s.shape[1]
+    return float(np.min(np.sum(s * delta * np.log2(1 + gain * p), axis=1) / n))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+@pytest.mark.parametrize("terms", [1, 4])
+def test_power_form_agrees_with_model(seed: int, terms: int) -> None:
+    rng = np.random.default_rng(seed)
+    k, n = 4, 30
+    gain = rng.uniform(1.0, 100.0, (k, n))
+    s = rng.dirichlet(np.ones(k), size=n).T
+    if terms == 1:  # one term is exact for a binary schedule
+        s = (s == s.max(axis=0)).astype(float)
+    delta = rng.uniform(0.5, 1.5, n)
+    delta *= n / delta.sum()
+    direct = PowerProblem(k, n, terms).solve(gain, s, delta, 4.0)
+    oracle = PowerModel(k, n, terms).solve(gain, s, delta, 4.0)
+    assert direct is not None and oracle is not None
+    assert _power_objective(direct, gain, s, delta) == pytest.approx(
+        _power_objective(oracle, gain, s, delta), abs=TOL
+    )
+    assert np.all(direct <= 4.0 + 1e-7) and delta @ direct / n <= 1 + 1e-6
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_scheduling_form_agrees_with_model(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    k, n = 4, 30
+    rates = rng.uniform(0.0, 0.1, (k, n))
+    s_prev = rng.dirichlet(np.ones(k), size=n).T
+    direct = SchedulingProblem(k, n).solve(rates, s_prev, 0.02)
+    oracle = SchedulingModel(k, n).solve(rates, s_prev, 0.02)
+    assert direct is not None and oracle is not None
+
+    def objective(s):
+        penalty = np.sum(np.maximum(s * (1 - 2 * s_prev) + s_prev**2, 0.0))
+        return float(np.min(np.sum(rates * s, axis=1))) - 0.02 * penalty
+
+    assert objective(direct) == pytest.approx(objective(oracle), abs=TOL)
+    assert np.all(direct.sum(axis=0) <= 1 + 1e-7)
