@@ -8,15 +8,13 @@ saying how to enable them. Plans are made by ``plan-mission`` as a user makes th
 from __future__ import annotations
 
 import json
-import os
-import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 import yaml
 
+from tests.validator.mavlink.sitl_binaries import PLAN_MISSION, REPO, sitl_binary
 from validator.autopilot.param_file import read_params
 from validator.cli import validate_mission_main
 from validator.mavlink.cli import download_mission_main, upload_mission_main
@@ -24,23 +22,14 @@ from validator.mavlink.link import Link
 from validator.mavlink.sitl_process import ardupilot_sitl, find_defaults
 from validator.plan_format import read_plan
 
-REPO = Path(__file__).resolve().parents[3]
 DOCUMENTED_PATH = Path("/opt/sitl/arducopter")
 
-
-def _binary() -> Path | None:
-    given = os.environ.get("ARDUPILOT_SITL")
-    path = Path(given) if given else DOCUMENTED_PATH
-    return path if path.is_file() and os.access(path, os.X_OK) else None
-
-
-BINARY = _binary()
+BINARY = sitl_binary("ARDUPILOT_SITL", DOCUMENTED_PATH)
 pytestmark = pytest.mark.skipif(
     BINARY is None,
     reason="no ArduCopter SITL binary: build ArduCopter 4.5 SITL for this machine and set "
            "ARDUPILOT_SITL=/path/to/build/sitl/bin/arducopter (or link it at "
            "/opt/sitl/arducopter) to run the real-autopilot tests")
-PLAN_MISSION = shutil.which("plan-mission", path=str(Path(sys.executable).parent))
 
 
 def _plan(tmp: Path, site: Path, *extra: str) -> tuple[Path, Path]:

@@ -9,14 +9,12 @@ beside ``etc/``). Without one they are skipped, saying how to enable them. The p
 from __future__ import annotations
 
 import json
-import os
-import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
+from tests.validator.mavlink.sitl_binaries import PLAN_MISSION, REPO, sitl_binary
 from validator.autopilot.param_file import read_params
 from validator.cli import validate_mission_main
 from validator.mavlink.cli import download_mission_main, upload_mission_main
@@ -24,23 +22,15 @@ from validator.mavlink.link import Link
 from validator.mavlink.sitl_process import px4_sih
 from validator.plan_format import Cmd, read_plan
 
-REPO = Path(__file__).resolve().parents[3]
 DOCUMENTED_PATH = Path("/opt/sitl/px4/build/px4_sitl_default/bin/px4")
 
 
-def _binary() -> Path | None:
-    given = os.environ.get("PX4_SITL")
-    path = Path(given) if given else DOCUMENTED_PATH
-    return path if path.is_file() and os.access(path, os.X_OK) else None
-
-
-BINARY = _binary()
+BINARY = sitl_binary("PX4_SITL", DOCUMENTED_PATH)
 pytestmark = pytest.mark.skipif(
     BINARY is None,
     reason="no PX4 SITL binary: build PX4 v1.15 px4_sitl_default (SIH) for this machine and "
            "set PX4_SITL=/path/to/build/px4_sitl_default/bin/px4 (or build it at "
            f"{DOCUMENTED_PATH.parents[3]}) to run the real-PX4 tests")
-PLAN_MISSION = shutil.which("plan-mission", path=str(Path(sys.executable).parent))
 
 
 @pytest.fixture(scope="module")
