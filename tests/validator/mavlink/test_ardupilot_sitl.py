@@ -25,11 +25,11 @@ from validator.plan_format import read_plan
 DOCUMENTED_PATH = Path("/opt/sitl/arducopter")
 
 BINARY = sitl_binary("ARDUPILOT_SITL", DOCUMENTED_PATH)
-pytestmark = pytest.mark.skipif(
+pytestmark = [pytest.mark.xdist_group("real-sitl"), pytest.mark.skipif(
     BINARY is None,
     reason="no ArduCopter SITL binary: build ArduCopter 4.5 SITL for this machine and set "
            "ARDUPILOT_SITL=/path/to/build/sitl/bin/arducopter (or link it at "
-           "/opt/sitl/arducopter) to run the real-autopilot tests")
+           "/opt/sitl/arducopter) to run the real-autopilot tests")]
 
 
 def _plan(tmp: Path, site: Path, *extra: str) -> tuple[Path, Path]:

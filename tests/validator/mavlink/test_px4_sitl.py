@@ -26,11 +26,11 @@ DOCUMENTED_PATH = Path("/opt/sitl/px4/build/px4_sitl_default/bin/px4")
 
 
 BINARY = sitl_binary("PX4_SITL", DOCUMENTED_PATH)
-pytestmark = pytest.mark.skipif(
+pytestmark = [pytest.mark.xdist_group("real-sitl"), pytest.mark.skipif(
     BINARY is None,
     reason="no PX4 SITL binary: build PX4 v1.15 px4_sitl_default (SIH) for this machine and "
            "set PX4_SITL=/path/to/build/px4_sitl_default/bin/px4 (or build it at "
-           f"{DOCUMENTED_PATH.parents[3]}) to run the real-PX4 tests")
+           f"{DOCUMENTED_PATH.parents[3]}) to run the real-PX4 tests")]
 
 
 @pytest.fixture(scope="module")

@@ -96,7 +96,9 @@ def test_the_vehicle_flies_the_validators_replay(start_vehicle):
     t0_flown, t0_model = reached[2], done[2]
     for item in done:
         if item >= 2:
-            assert reached[item] - t0_flown == pytest.approx(done[item] - t0_model, abs=0.11)
+            # a reached message is timed by the last position before it: a position lost on a
+            # busy machine's socket shifts it by a step or two of telemetry (0.05 s each)
+            assert reached[item] - t0_flown == pytest.approx(done[item] - t0_model, abs=0.16)
     flown = telemetry_track(tel, flight, site, ardupilot=True, source="sitl")
     sel = flown.t_s >= t0_flown
     t_model = flown.t_s[sel] - t0_flown + t0_model
