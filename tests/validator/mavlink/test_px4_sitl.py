@@ -77,9 +77,9 @@ def test_the_realistic_px4_plan_flies_to_the_end_clear_of_every_nfz(realistic, t
     out = tmp_path / "flown.json"
     status = validate_mission_main([str(plan), "--site", str(site), "--params", str(params),
                                     "--sitl-binary", str(BINARY), "--json", str(out)])
-    text = capsys.readouterr().out
+    captured = capsys.readouterr()
+    assert status == 0, captured.out + captured.err
     report = json.loads(out.read_text())
-    assert status == 0, text
     flight = report["sitl_flight"]
     assert flight["kind"] == "sitl-binary" and flight["vehicle"].startswith("PX4")
     assert flight["end"] == "landed"  # the mission's NAV_LAND, then PX4's own disarm
