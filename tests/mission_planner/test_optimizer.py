@@ -58,11 +58,6 @@ def test_every_leg_respects_the_top_speed(solution: Solution) -> None:
     assert np.all(speed <= solution.site.max_speed_mps * (1 + 1e-6))
 
 
-def test_the_cycle_is_closed(solution: Solution) -> None:
-    assert np.array_equal(solution.trajectory_m[0], solution.trajectory_m[-1])
-    assert solution.trajectory_m.shape == (solution.site.slots + 1, 2)
-
-
 def test_average_and_peak_power_hold(solution: Solution) -> None:
     site = solution.site
     assert np.all(solution.power_w >= 0)
