@@ -104,7 +104,8 @@ class FakeVehicle:
     carries this mission type instead. ``reboot_at``: when that item of a mission upload
     first arrives, fall silent for ``reboot_gap_s`` (no heartbeat, input discarded), then come
     back with the transfer forgotten and the mission list it held before (``lists`` at boot:
-    a stale mission, as a reboot reloads it from storage).
+    a stale mission, as a reboot reloads it from storage). ``reorder_seed``: request the
+    items of a mission upload in a shuffled order (seeded), each once.
     """
 
     def __init__(self, *, nack: int | None = None, silent_after: int | None = None,
@@ -113,10 +114,12 @@ class FakeVehicle:
                  room: int | None = None, nack_after: int | None = None,
                  wire: FaultyWire | None = None, impostors: tuple[int, ...] = (),
                  stray_acks: bool = False, ack_type: int | None = None,
-                 reboot_at: int | None = None, reboot_gap_s: float = 1.0) -> None:
+                 reboot_at: int | None = None, reboot_gap_s: float = 1.0,
+                 reorder_seed: int | None = None) -> None:
         self.conn = mavutil.mavlink_connection("udpin:127.0.0.1:0", source_system=sysid,
                                                source_component=1)
         self.wire = wire
+        self.reorder = None if reorder_seed is None else random.Random(reorder_seed)
         if wire is not None:
             wire.conn = self.conn
             self.conn.mav.file = wire
@@ -131,7 +134,8 @@ class FakeVehicle:
         self.serving: int | None = None  # next item a download may ask for; None: abandoned
         self.list_requests = 0
         self.lists: dict[int, list[WireItem]] = {0: [], 1: [], 2: []}
-        self.incoming: list[WireItem] = []
+        self.incoming: dict[int, WireItem] = {}  # by seq
+        self.order: list[int] = []  # the order this upload's items are requested in
         self.expect = 0
         self.stop = threading.Event()
         self.thread = threading.Thread(target=self.run, daemon=True)
@@ -168,7 +172,7 @@ class FakeVehicle:
                 if self.wire is not None and 0 < len(self.incoming) < count and (
                         time.monotonic() - last_item > 0.3):
                     # a real vehicle re-requests what it misses: needed once packets get lost
-                    mav.mission_request_int_send(*gcs, len(self.incoming), mtype)
+                    mav.mission_request_int_send(*gcs, self.next_seq(), mtype)
                     last_item = time.monotonic()
                 continue
             kind = msg.get_type()
@@ -183,14 +187,17 @@ class FakeVehicle:
                     mav.mission_ack_send(*src, mavlink.MAV_MISSION_ERROR, (mt + 1) % 3)
                     mav.mission_ack_send(*src, mavlink.MAV_MISSION_ACCEPTED, (mt + 2) % 3)
             if (kind == "MISSION_ITEM_INT" and msg.seq == self.reboot_at and msg.mission_type == 0
-                    and self.reboots == 0 and msg.seq == len(self.incoming)):
+                    and self.reboots == 0 and msg.seq == self.next_seq()):
                 self.reboots += 1
                 self._reboot(stored)
                 count = 0
                 continue
             if kind == "MISSION_COUNT":
                 count, mtype = msg.count, msg.mission_type
-                self.incoming = []
+                self.incoming = {}
+                self.order = list(range(count))
+                if self.reorder is not None and mtype == 0:
+                    self.reorder.shuffle(self.order)
                 if self.nack_after == 0 and self.nack is not None and mtype == 0:
                     mav.mission_ack_send(*src, self.nack, mtype)
                     continue
@@ -208,22 +215,22 @@ class FakeVehicle:
                     self.lists[mtype] = []
                     mav.mission_ack_send(*src, mavlink.MAV_MISSION_ACCEPTED, mtype)
                 else:
-                    mav.mission_request_int_send(*src, 0, mtype)
-            elif kind == "MISSION_ITEM_INT" and msg.seq == len(self.incoming):
-                self.incoming.append(WireItem.from_msg(msg))
+                    mav.mission_request_int_send(*src, self.next_seq(), mtype)
+            elif kind == "MISSION_ITEM_INT" and msg.seq == self.next_seq():
+                self.incoming[msg.seq] = WireItem.from_msg(msg)
                 if self.silent_after is not None and len(self.incoming) >= self.silent_after:
                     continue
                 if (self.nack is not None and self.nack_after == len(self.incoming)
                         and mtype == 0):
                     mav.mission_ack_send(*src, self.nack, mtype)
-                    self.incoming = []
+                    self.incoming = {}
                     count = 0
                 elif len(self.incoming) == count:
-                    self.lists[mtype] = self.incoming
+                    self.lists[mtype] = [self.incoming[i] for i in range(count)]
                     ack_type = self.ack_type if self.ack_type is not None and mtype == 0 else mtype
                     mav.mission_ack_send(*src, mavlink.MAV_MISSION_ACCEPTED, ack_type)
                 else:
-                    mav.mission_request_int_send(*src, len(self.incoming), mtype)
+                    mav.mission_request_int_send(*src, self.next_seq(), mtype)
             elif kind == "MISSION_REQUEST_LIST":
                 self.list_requests += 1
                 self.serving = 0
@@ -243,13 +250,18 @@ class FakeVehicle:
                                       it.param3, it.param4, it.x, it.y, it.z, it.mission_type)
                     it.send(mav, *src)
 
+    def next_seq(self) -> int | None:
+        """The item this upload asks for next (None when it has them all)."""
+        n = len(self.incoming)
+        return self.order[n] if n < len(self.order) else None
+
     def _reboot(self, stored: dict[int, list[WireItem]]) -> None:
         """Silence (no heartbeat, input lost) for ``reboot_gap_s``, then a fresh boot."""
         end = time.monotonic() + self.reboot_gap_s
         while time.monotonic() < end and not self.stop.is_set():
             self.conn.recv_match(blocking=True, timeout=0.02)
         self.lists = {t: list(items) for t, items in stored.items()}
-        self.incoming, self.serving = [], None
+        self.incoming, self.order, self.serving = {}, [], None
         self.conn.mav.seq = 0  # packet counters restart with the autopilot
 
 

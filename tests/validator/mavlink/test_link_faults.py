@@ -99,6 +99,16 @@ def test_every_packet_both_ways_twice_with_the_builtin_vehicle(plan, start_vehic
     assert held_as_sent(list(vehicle.lists().mission), plan_to_wire(plan, home_item=True).mission)
 
 
+# -- reordered requests ---------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_items_requested_out_of_order_are_sent_as_asked(plan, seed):
+    with FakeVehicle(reorder_seed=seed) as fake:
+        upload_plan(plan, fake.url, timeout_s=10, require_fence=False)
+        assert held_as_sent(fake.lists[0], plan_to_wire(plan, home_item=True).mission)
+
+
 # -- other system ids ----------------------------------------------------------------------
 
 
