@@ -22,7 +22,8 @@ import select
 import struct
 import time
 from collections import deque
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -198,6 +199,9 @@ class Link:
         # called with every message from the vehicle that recv() reads, wanted or not
         self.listeners: list[Callable[[Any], None]] = [self._keep_statustext]
         self.statustexts: deque[str] = deque(maxlen=50)  # the vehicle's latest STATUSTEXTs
+        # system ids of other autopilots heard on the link: a failure names them, since the
+        # vehicle chosen without --sysid may not be the one the user meant
+        self.other_autopilots: set[int] = set()
         try:
             self.vehicle = self._wait_vehicle(target_system)
         except BaseException:
@@ -262,6 +266,9 @@ class Link:
                     time.sleep(min(remaining, 0.01))
                 continue
             if hasattr(self, "vehicle") and msg.get_srcSystem() != self.vehicle.system_id:
+                if msg.get_type() == "HEARTBEAT" and (
+                        msg.autopilot != mavlink.MAV_AUTOPILOT_INVALID):
+                    self.other_autopilots.add(msg.get_srcSystem())
                 continue
             for listener in self.listeners:
                 listener(msg)
@@ -627,8 +634,28 @@ def upload_plan(
 ) -> UploadReport:
     """Upload ``plan`` to the vehicle at ``url`` and verify it (``upload-mission``; see
     :func:`upload_to`)."""
-    with Link(url, timeout_s=timeout_s, target_system=sysid) as link:
+    with Link(url, timeout_s=timeout_s, target_system=sysid) as link, _naming_others(link, sysid):
         return upload_to(link, plan, params, require_fence=require_fence)
+
+
+# How long a failed command without --sysid listens for other autopilots (heartbeats: 1 Hz).
+OTHERS_LISTEN_S = 1.5
+
+
+@contextmanager
+def _naming_others(link: Link, sysid: int | None) -> Iterator[None]:
+    """Add to a :class:`LinkError` the other autopilots heard: without ``--sysid`` the vehicle
+    is the first heard, perhaps not the one meant (then listen a moment to find out)."""
+    try:
+        yield
+    except LinkError as err:
+        if sysid is None and not link.other_autopilots:
+            link.recv((), time.monotonic() + min(OTHERS_LISTEN_S, link.timeout_s))
+        if not link.other_autopilots:
+            raise
+        others = ", ".join(str(s) for s in sorted(link.other_autopilots))
+        raise LinkError(f"{err} (talking to system id {link.vehicle.system_id}; also heard "
+                        f"system id {others}: choose one with --sysid)") from None
 
 
 def home_of(link: Link) -> tuple[float, float, float] | None:
@@ -658,6 +685,6 @@ def download_from(link: Link) -> Plan:
 def download_plan(url: str, *, timeout_s: float = DEFAULT_TIMEOUT_S,
                   sysid: int | None = None) -> Plan:
     """What the vehicle at ``url`` holds, as a plan (``download-mission``)."""
-    with Link(url, timeout_s=timeout_s, target_system=sysid) as link:
+    with Link(url, timeout_s=timeout_s, target_system=sysid) as link, _naming_others(link, sysid):
         return download_from(link)
 
