@@ -52,10 +52,10 @@ from collections.abc import Callable
 import numpy as np
 
 from validator.mavlink.wire import GLOBAL_FRAMES, MissionType, WireItem, f32, first_difference
-from validator.plan_format import Cmd
+from validator.plan_format import Autopilot, Cmd
 
-ARDUPILOT = 3  # MAV_AUTOPILOT_ARDUPILOTMEGA
-PX4 = 12  # MAV_AUTOPILOT_PX4
+ARDUPILOT = int(Autopilot.ARDUPILOTMEGA)
+PX4 = int(Autopilot.PX4)
 
 Store = Callable[[float], float]  # a param as the autopilot's C type keeps it
 
@@ -73,8 +73,10 @@ def _c_int(bits: int, signed: bool) -> Store:
     return store
 
 
-def _float(v: float) -> float:
-    return f32(v)
+
+def _flag(v: float) -> float:
+    """A param kept as a bit set when it is positive (loiter exit, forced heading)."""
+    return float(v > 0)
 
 
 def _sign(v: float) -> float:
@@ -91,9 +93,9 @@ _ARDUPILOT_MISSION: dict[int, tuple[tuple[Store | None, ...], frozenset[int]]] =
     int(Cmd.NAV_RETURN_TO_LAUNCH): ((None, None, None, None), frozenset()),
     int(Cmd.NAV_LAND): ((U16, None, None, _sign), frozenset()),  # plane-only abort alt, yaw dir
     int(Cmd.NAV_TAKEOFF): ((U16, None, None, None), frozenset()),  # plane-only minimum pitch
-    int(Cmd.NAV_LOITER_TIME): ((U16, None, _sign, lambda v: float(v > 0)), frozenset({0})),
+    int(Cmd.NAV_LOITER_TIME): ((U16, None, _sign, _flag), frozenset({0})),
     int(Cmd.DO_JUMP): ((U16, I16, None, None), frozenset({0, 1})),
-    int(Cmd.DO_CHANGE_SPEED): ((U8, _float, _float, None), frozenset({0, 1})),
+    int(Cmd.DO_CHANGE_SPEED): ((U8, f32, f32, None), frozenset({0, 1})),
 }
 # AP_Mission::stored_in_location: the commands whose x, y, z are a location.
 _ARDUPILOT_LOCATED = frozenset({16, 17, 18, 19, 21, 22, 30, 31, 82, 92, 179, 189, 191, 201,
@@ -154,25 +156,27 @@ def _yaw(v: float) -> float:
     return v if math.isnan(v) else f32(math.fmod(math.fmod(f32(v), 360.0) + 360.0, 360.0))
 
 
+def _vertex_count(v: float) -> float:
+    """PX4 rounds a polygon's vertex count to the nearest whole number."""
+    return U16(v + 0.5)
+
+
 def _zero(_v: float) -> float:
     return 0.0
 
 
-def _same(v: float) -> float:
-    return f32(v)
-
 
 YAW_TOLERANCE_DEG = 1e-3  # PX4's float32 degree-radian round trip moves a yaw by ~1e-5 deg
 _PX4_POSITIONED: dict[int, tuple[Store, Store, Store, Store]] = {
-    int(Cmd.NAV_WAYPOINT): (_same, _same, _zero, _yaw),
-    int(Cmd.NAV_LOITER_UNLIM): (_zero, _zero, _same, _yaw),
-    int(Cmd.NAV_LOITER_TIME): (_same, lambda v: float(v > 0), _same, lambda v: float(v > 0)),
+    int(Cmd.NAV_WAYPOINT): (f32, f32, _zero, _yaw),
+    int(Cmd.NAV_LOITER_UNLIM): (_zero, _zero, f32, _yaw),
+    int(Cmd.NAV_LOITER_TIME): (f32, _flag, f32, _flag),
     int(Cmd.NAV_LAND): (_zero, U8, _zero, _yaw),
     int(Cmd.NAV_TAKEOFF): (_zero, _zero, _zero, _yaw),
-    int(Cmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION): (lambda v: U16(v + 0.5), _zero, _zero, _zero),
-    int(Cmd.NAV_FENCE_POLYGON_VERTEX_EXCLUSION): (lambda v: U16(v + 0.5), _zero, _zero, _zero),
-    int(Cmd.NAV_FENCE_CIRCLE_INCLUSION): (_same, _zero, _zero, _zero),
-    int(Cmd.NAV_FENCE_CIRCLE_EXCLUSION): (_same, _zero, _zero, _zero),
+    int(Cmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION): (_vertex_count, _zero, _zero, _zero),
+    int(Cmd.NAV_FENCE_POLYGON_VERTEX_EXCLUSION): (_vertex_count, _zero, _zero, _zero),
+    int(Cmd.NAV_FENCE_CIRCLE_INCLUSION): (f32, _zero, _zero, _zero),
+    int(Cmd.NAV_FENCE_CIRCLE_EXCLUSION): (f32, _zero, _zero, _zero),
     5000: (_zero, _zero, _zero, _zero),  # NAV_FENCE_RETURN_POINT
     int(Cmd.NAV_RALLY_POINT): (_zero, _zero, _zero, _zero),
 }
@@ -182,11 +186,11 @@ _PX4_INT_FRAME = {0: 5, 5: 5, 3: 6, 6: 6}
 def _px4(item: WireItem) -> WireItem:
     raw = (item.param1, item.param2, item.param3, item.param4)
     if item.frame == 2:
-        keep: tuple[Store, ...] = ((U16, U16, _same, _same) if item.command == int(Cmd.DO_JUMP)
-                                   else (_same,) * 4)
+        keep: tuple[Store, ...] = ((U16, U16, f32, f32) if item.command == int(Cmd.DO_JUMP)
+                                   else (f32,) * 4)
         frame = 2
     elif item.frame in _PX4_INT_FRAME:
-        keep = _PX4_POSITIONED.get(item.command, (_same,) * 4)
+        keep = _PX4_POSITIONED.get(item.command, (f32,) * 4)
         frame = _PX4_INT_FRAME[item.frame]
     else:
         return item
