@@ -37,6 +37,11 @@ class FenceRules:
     safe_actions: frozenset[int]
     action_names: Mapping[int, str]
 
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        """The parameters :meth:`problems` reads."""
+        return tuple(n for n in (self.enable, self.type_param, self.action) if n is not None)
+
     def problems(self, params: Mapping[str, float]) -> list[str]:
         """Why ``params`` (the values a vehicle holds or a file sets; a missing name means
         the file leaves it at the vehicle's default) do not give an enabled fence with a safe

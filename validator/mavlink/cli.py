@@ -25,6 +25,7 @@ from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from validator.errors import InputError
+from validator.mavlink import NETWORK_URL
 from validator.mavlink.sitl_process import BINARY_ENV, DEFAULTS_ENV, PX4_BINARY_ENV
 
 if TYPE_CHECKING:
@@ -274,7 +275,9 @@ def sitl_vehicle_main(argv: Sequence[str] | None = None) -> int:
 # validate-mission --sitl
 
 
-_URL = re.compile(r"^(udp|udpin|udpout|udpbcast|tcp|tcpin|mcast|ws|wss|wsserver):|^/dev/|^COM\\d")
+def _is_connection(text: str) -> bool:
+    """Whether ``text`` reads as a connection string: a network link or a serial port."""
+    return bool(NETWORK_URL.match(text) or re.match(r"^/dev/|^COM\d", text))
 
 
 def split_sitl_url(argv: Sequence[str]) -> list[str]:
@@ -288,7 +291,7 @@ def split_sitl_url(argv: Sequence[str]) -> list[str]:
         a = items[i]
         if a.startswith("--sitl="):
             a, items[i + 1:i + 1] = "--sitl", [a.split("=", 1)[1]]
-        if a == "--sitl" and i + 1 < len(items) and _URL.match(items[i + 1]):
+        if a == "--sitl" and i + 1 < len(items) and _is_connection(items[i + 1]):
             print("validate-mission: --sitl URL is deprecated: use --sitl-url URL",
                   file=sys.stderr)
             out += ["--sitl", "--sitl-url", items[i + 1]]

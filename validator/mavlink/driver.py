@@ -138,6 +138,7 @@ class _Recorder:
         self.mission_mode: int | None = None  # set once the mission runs: leaving it is news
         self.mode_changes: list[tuple[float, str]] = []
         self.prearm_ok = False
+        self.sys_status_seen = False
         self.landed_state = mavlink.MAV_LANDED_STATE_UNDEFINED
         self.airborne = False  # the vehicle said it was in the air (EXTENDED_SYS_STATE)
         self.t_s = math.nan
@@ -178,6 +179,7 @@ class _Recorder:
                 self.mode_changes.append((self.t_s, mode_name(self.link, mode)))
             self.custom_mode = mode
         elif kind == "SYS_STATUS":
+            self.sys_status_seen = True
             self.prearm_ok = bool(m.onboard_control_sensors_health
                                   & mavlink.MAV_SYS_STATUS_PREARM_CHECK)
         elif kind == "MISSION_CURRENT":
@@ -435,23 +437,14 @@ def wait_until_ready(link: Link, patience_s: float = READY_PATIENCE_S) -> None:
     link.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL,
                  float(mavlink.MAVLINK_MSG_ID_SYS_STATUS), 5e5)
     rec = _Recorder(link)
-    seen = {"sys_status": False}
-
-    def watch(m: Any) -> None:
-        if m.get_type() == "SYS_STATUS":
-            seen["sys_status"] = True
-
-    link.listeners.append(watch)
     try:
-        if not rec.pump(time.monotonic() + link.timeout_s,
-                        lambda: rec.prearm_ok or seen["sys_status"]):
+        if not rec.pump(time.monotonic() + link.timeout_s, lambda: rec.sys_status_seen):
             return  # no SYS_STATUS: nothing to wait for
         if not rec.pump(time.monotonic() + patience_s, lambda: rec.prearm_ok):
             why = [t for t in link.statustexts if "PreArm" in t or "Preflight" in t]
             raise LinkError(f"the vehicle did not pass its pre-arm checks within "
                             f"{patience_s:g} s" + (f" (last: {why[-1]})" if why else ""))
     finally:
-        link.listeners.remove(watch)
         link.listeners.remove(rec.take)
 
 

@@ -30,6 +30,7 @@ from typing import Any
 
 from validator.autopilot.fence import FENCE_RULES
 from validator.errors import InputError
+from validator.mavlink import NETWORK_URL
 from validator.mavlink.storage import first_stored_difference, storage_losses
 from validator.mavlink.wire import (
     MissionType,
@@ -123,7 +124,7 @@ class UploadReport:
 
 def _check_url(url: str) -> None:
     """Refuse strings pymavlink would open as a log file to replay, a classic slip."""
-    if re.match(r"^(udp|udpin|udpout|udpbcast|tcp|tcpin|mcast|ws|wss|wsserver):", url):
+    if NETWORK_URL.match(url):
         return
     path = Path(url.split(",")[0])
     if path.is_file():
@@ -316,8 +317,8 @@ class Link:
         label = mission_type.label
         count = len(items)
         ts, tc = self.target
-        last_progress = first_refusal = time.monotonic()
-        refused = False
+        last_progress = time.monotonic()
+        first_refusal: float | None = None  # of a NO_SPACE a booting vehicle may take back
         attempt = 0
         while attempt < TRANSFER_ATTEMPTS:
             attempt += 1
@@ -370,8 +371,8 @@ class Link:
                             raise LinkError(f"{label} upload: vehicle rejected it with {name}: "
                                             f"it has room for {room} items, the plan needs "
                                             f"{count}")
-                        if not refused:
-                            refused, first_refusal = True, time.monotonic()
+                        if first_refusal is None:
+                            first_refusal = time.monotonic()
                         patience = BOOT_PATIENCE_S if room == 0 else self.timeout_s
                         if time.monotonic() - first_refusal < patience:
                             last_progress = time.monotonic()  # booting: ask again
@@ -583,14 +584,12 @@ def fence_problems(link: Link, plan: Plan) -> list[str]:
     """Why the fence the vehicle holds for ``plan`` is off or has an unsafe breach action,
     read from the vehicle's own parameters (empty when fine, or when ``plan`` has no fence or
     the autopilot is neither ArduPilot nor PX4)."""
-    if not (plan.circles or plan.polygons):
+    autopilot = ("ardupilot" if link.vehicle.is_ardupilot
+                 else "px4" if link.vehicle.is_px4 else None)
+    if autopilot is None or not (plan.circles or plan.polygons):
         return []
-    rules = FENCE_RULES["ardupilot" if link.vehicle.is_ardupilot else "px4"] if (
-        link.vehicle.is_ardupilot or link.vehicle.is_px4) else None
-    if rules is None:
-        return []
-    names = [n for n in (rules.enable, rules.type_param, rules.action) if n is not None]
-    return rules.problems({n: link.read_param(n).value for n in names})
+    rules = FENCE_RULES[autopilot]
+    return rules.problems({n: link.read_param(n).value for n in rules.param_names})
 
 
 def upload_to(link: Link, plan: Plan, params: Mapping[str, float] | None = None, *,
