@@ -151,6 +151,35 @@ def _stop(proc: subprocess.Popen[bytes]) -> None:
 
 
 @contextmanager
+def _workdir(prefix: str) -> Iterator[Path]:
+    """A fresh temporary directory for one run (the simulator's state and log), removed after."""
+    workdir = Path(tempfile.mkdtemp(prefix=prefix))
+    try:
+        yield workdir
+    finally:
+        shutil.rmtree(workdir, ignore_errors=True)
+
+
+@contextmanager
+def _started(binary: Path, argv: list[str], workdir: Path,
+             env: dict[str, str] | None = None) -> Iterator[tuple[subprocess.Popen[bytes], Path]]:
+    """``argv`` running in ``workdir`` in its own process group, output to ``sitl.log`` there;
+    yields the process and the log, and stops the whole group when the block ends."""
+    log = workdir / "sitl.log"
+    try:
+        with open(log, "wb") as out:
+            proc = subprocess.Popen(argv, cwd=workdir, env=env, stdout=out,
+                                    stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                    start_new_session=True)
+    except OSError as err:
+        raise InputError(f"--sitl-binary {binary}: cannot start ({err.strerror})") from None
+    try:
+        yield proc, log
+    finally:
+        _stop(proc)
+
+
+@contextmanager
 def ardupilot_sitl(
     binary: Path,
     home: tuple[float, float, float],
@@ -164,24 +193,12 @@ def ardupilot_sitl(
     lat, lon, alt = home
     instance = free_instance()
     port = SERIAL0_BASE_PORT + INSTANCE_PORT_STEP * instance
-    workdir = Path(tempfile.mkdtemp(prefix="nfz-sitl-"))
-    log = workdir / "sitl.log"
     argv = [str(binary), "--model", "+", "--speedup", f"{speedup:g}", "--defaults",
             str(defaults), "-w", "--home", f"{lat:.9f},{lon:.9f},{alt:.3f},0",
             "-I", str(instance)]
-    try:
-        with open(log, "wb") as out:
-            proc = subprocess.Popen(argv, cwd=workdir, stdout=out, stderr=subprocess.STDOUT,
-                                    stdin=subprocess.DEVNULL, start_new_session=True)
-    except OSError as err:
-        shutil.rmtree(workdir, ignore_errors=True)
-        raise InputError(f"--sitl-binary {binary}: cannot start ({err.strerror})") from None
-    try:
+    with _workdir("nfz-sitl-") as workdir, _started(binary, argv, workdir) as (proc, log):
         _wait_listening(port, proc, log, start_patience_s)
         yield f"tcp:127.0.0.1:{port}"
-    finally:
-        _stop(proc)
-        shutil.rmtree(workdir, ignore_errors=True)
 
 
 def is_px4(binary: Path) -> bool:
@@ -227,34 +244,25 @@ def px4_sih(binary: Path, home: tuple[float, float, float], *, speedup: float) -
     if instance is None:
         raise InputError("no free PX4 instance: UDP ports 14540.. are all taken")
     port = PX4_ONBOARD_BASE_PORT + instance
-    workdir = Path(tempfile.mkdtemp(prefix="nfz-px4-"))
-    rc = workdir / "rc"
-    rc.mkdir()
-    # SIH takes its home altitude from SIH_LOC_H0; the start-up script sources px4-rc.params
-    # from the PATH after the airframe, before it starts the simulator.
-    (rc / "px4-rc.params").write_text(f"#!/bin/sh\nparam set SIH_LOC_H0 {home[2]:.3f}\n")
-    (rc / "px4-rc.params").chmod(0o755)
-    env = {**os.environ, "PX4_SIMULATOR": "sihsim", "PX4_SIM_MODEL": "sihsim_quadx",
-           "PX4_HOME_LAT": str(round(home[0] * 1e7)), "PX4_HOME_LON": str(round(home[1] * 1e7)),
-           "PX4_SIM_SPEED_FACTOR": f"{speedup:g}",
-           "PATH": f"{rc}{os.pathsep}{os.environ.get('PATH', '')}"}
-    log = workdir / "px4.log"
-    try:
-        with open(log, "wb") as out:
-            proc = subprocess.Popen([str(binary), "-d", "-i", str(instance), str(etc)],
-                                    cwd=workdir, env=env, stdout=out, stderr=subprocess.STDOUT,
-                                    stdin=subprocess.DEVNULL, start_new_session=True)
-    except OSError as err:
-        shutil.rmtree(workdir, ignore_errors=True)
-        raise InputError(f"--sitl-binary {binary}: cannot start ({err.strerror})") from None
-    try:
-        time.sleep(0.5)
-        if proc.poll() is not None:
-            raise InputError(f"PX4 exited with status {proc.returncode} at start ({_tail(log)})")
-        yield f"udpin:127.0.0.1:{port}"
-    finally:
-        _stop(proc)
-        shutil.rmtree(workdir, ignore_errors=True)
+    with _workdir("nfz-px4-") as workdir:
+        rc = workdir / "rc"
+        rc.mkdir()
+        # SIH takes its home altitude from SIH_LOC_H0; the start-up script sources
+        # px4-rc.params from the PATH after the airframe, before it starts the simulator.
+        (rc / "px4-rc.params").write_text(f"#!/bin/sh\nparam set SIH_LOC_H0 {home[2]:.3f}\n")
+        (rc / "px4-rc.params").chmod(0o755)
+        env = {**os.environ, "PX4_SIMULATOR": "sihsim", "PX4_SIM_MODEL": "sihsim_quadx",
+               "PX4_HOME_LAT": str(round(home[0] * 1e7)),
+               "PX4_HOME_LON": str(round(home[1] * 1e7)),
+               "PX4_SIM_SPEED_FACTOR": f"{speedup:g}",
+               "PATH": f"{rc}{os.pathsep}{os.environ.get('PATH', '')}"}
+        argv = [str(binary), "-d", "-i", str(instance), str(etc)]
+        with _started(binary, argv, workdir, env) as (proc, log):
+            time.sleep(0.5)
+            if proc.poll() is not None:
+                raise InputError(f"PX4 exited with status {proc.returncode} at start "
+                                 f"({_tail(log)})")
+            yield f"udpin:127.0.0.1:{port}"
 
 
 @contextmanager
