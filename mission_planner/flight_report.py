@@ -23,7 +23,7 @@ from typing import Any
 
 from mission_planner.autopilot_params import AutopilotParams, recommended_params
 from mission_planner.mission import Mission
-from validator.dynamics import Profile, make_profile
+from validator.dynamics import Profile, flight_params, make_profile
 from validator.flight import resolve_flight
 from validator.replay import TrackReport, replay, score_track
 
@@ -130,8 +130,7 @@ def replay_mission(
         params = recommended_params(mission)
     values = dict(params.values if isinstance(params, AutopilotParams) else params)
     name = profile or PROFILE_FOR[mission.options.autopilot]
-    motion = make_profile(name, site).params  # the rest (the fence) does not move the vehicle
-    values = {k: v for k, v in values.items() if k in motion}
+    values = flight_params(name, site, values)
     prof = make_profile(name, site, values)
     flight = resolve_flight(mission.plan, site, "mission")
     track = replay(flight, prof, dt_s=dt_s)

@@ -227,6 +227,13 @@ def make_profile(
     return Profile(pname, params)
 
 
+def flight_params(name: str, site: Site, params: Mapping[str, float]) -> dict[str, float]:
+    """Those of ``params`` (a vehicle's parameter file) that profile ``name`` flies with; the
+    rest (the geofence, say) do not move the vehicle."""
+    known = make_profile(name, site).params
+    return {k: float(v) for k, v in params.items() if k in known}
+
+
 def parse_param_overrides(pairs: list[str] | None) -> dict[str, float]:
     """``["NAME=VALUE", ...]`` from the command line as a dict; InputError naming the bad one."""
     out: dict[str, float] = {}
@@ -283,6 +290,13 @@ def arducopter_lean_max_deg(profile: Profile) -> float:
     """The lean limit (degrees) of an ``arducopter`` profile."""
     return lean_angle_max_deg(float(profile.params["ANGLE_MAX"]),
                               float(profile.params["PSC_ANGLE_MAX"]))
+
+
+def arducopter_accel_mps2(profile: Profile) -> float:
+    """The horizontal acceleration (m/s²) an ``arducopter`` profile's legs use: WPNAV_ACCEL,
+    capped by what its lean limit allows (g·tan θ)."""
+    lean = math.radians(arducopter_lean_max_deg(profile))
+    return min(profile.si("WPNAV_ACCEL"), GRAVITY_MPS2 * math.tan(lean))
 
 
 def arducopter_top_speed_mps(profile: Profile) -> float:
@@ -653,8 +667,7 @@ def _ardu_limits(
     """Every leg's S-curve (rest to rest; a landing ends at LAND_SPEED below LAND_ALT_LOW), and
     each leg's speed limit along its track (m/s)."""
     legs = flight.legs
-    a_xy = min(profile.si("WPNAV_ACCEL"),
-               GRAVITY_MPS2 * math.tan(math.radians(arducopter_lean_max_deg(profile))))
+    a_xy = arducopter_accel_mps2(profile)
     v_cap = arducopter_top_speed_mps(profile)
     wpnav = profile.si("WPNAV_SPEED")
     cmd = np.array(

@@ -16,7 +16,7 @@ from typing import Any
 
 from validator.audit import AuditReport, audit
 from validator.autopilot.fence import FENCE_RULES
-from validator.dynamics import Profile, make_profile
+from validator.dynamics import Profile, flight_params, make_profile
 from validator.errors import InputError
 from validator.flight import Finding, Flight, resolve_flight
 from validator.plan_format import Autopilot, Plan, read_plan
@@ -133,9 +133,7 @@ def validate_mission(
                             for p in rules.problems(vehicle_params)]
     if replay_flight or profile is not None or params or vehicle_params:
         name = profile or default_profile_name(plan)
-        motion = make_profile(name, site).params
-        merged = {**{k: x for k, x in (vehicle_params or {}).items() if k in motion},
-                  **(params or {})}
+        merged = {**flight_params(name, site, vehicle_params or {}), **(params or {})}
         prof = make_profile(name, site, merged)
         v.profile = prof
         if flight.legs:

@@ -24,7 +24,6 @@ are metres east/north; times seconds.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,10 +31,9 @@ from numpy.typing import ArrayLike, NDArray
 from shapely.geometry import LineString
 
 from validator.dynamics import (
-    GRAVITY_MPS2,
     STOP_LAG_S,
     Profiles1D,
-    arducopter_lean_max_deg,
+    arducopter_accel_mps2,
     arducopter_top_speed_mps,
     jerk_ramp_s,
     make_profile,
@@ -176,8 +174,7 @@ def leg_profiles(site: Site, lengths_m: ArrayLike, speed_mps: float | None = Non
     jerk ``uav.max_jerk`` with ArduCopter's jerk ramp."""
     profile = make_profile("arducopter", site)
     lengths = np.atleast_1d(np.asarray(lengths_m, dtype=float))
-    lean_rad = math.radians(arducopter_lean_max_deg(profile))
-    accel = min(profile.si("WPNAV_ACCEL"), GRAVITY_MPS2 * math.tan(lean_rad))
+    accel = arducopter_accel_mps2(profile)
     jerk = np.full(lengths.shape, profile.si("WPNAV_JERK"))
     top = min(profile.si("WPNAV_SPEED"), arducopter_top_speed_mps(profile))
     speed = top if speed_mps is None else min(speed_mps, top)
