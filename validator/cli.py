@@ -31,6 +31,7 @@ from validator.errors import InputError
 from validator.fileio import write_atomic
 from validator.mavlink.cli import add_sitl_arguments, run_sitl, split_sitl_url
 from validator.replay import TrackReport
+from validator.track_file import write_track
 from validator.validation import Validation, default_profile_name, validate_mission
 
 __all__ = ["Validation", "build_parser", "default_profile_name", "format_report",
@@ -180,13 +181,20 @@ def validate_mission_main(argv: Sequence[str] | None = None) -> int:
     if args.json:
         print("validate-mission: --json is deprecated: use --report", file=sys.stderr)
     try:
+        flying = bool(args.sitl or args.sitl_binary or args.sitl_url)
+        if args.track and not flying:
+            raise InputError("--track: only a flight has a track (add --sitl, --sitl-binary "
+                             "or --sitl-url)")
         params = parse_param_overrides(args.param)
         vehicle_params = read_params(args.params) if args.params else None
         v = validate_mission(args.plan, args.site, replay_flight=args.replay,
                              profile=args.profile, params=params or None, dt_s=args.dt,
                              vehicle_params=vehicle_params)
-        if args.sitl or args.sitl_binary or args.sitl_url:
+        if flying:
             run_sitl(v, args, vehicle_params)
+        if args.track and v.recorded is not None:
+            write_track(args.track, v.recorded,
+                        (f"plan {args.plan}", f"vehicle {v.extra['sitl_flight']['vehicle']}"))
         if report_path:
             write_atomic(report_path, json.dumps(v.as_dict(), indent=1, allow_nan=False) + "\n")
     except InputError as err:

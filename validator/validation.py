@@ -22,6 +22,7 @@ from validator.flight import Finding, Flight, resolve_flight
 from validator.plan_format import Autopilot, Plan, read_plan
 from validator.replay import TrackReport, replay, score_track
 from validator.site import Site, load_site
+from validator.track_file import RecordedTrack
 
 
 @dataclass
@@ -43,6 +44,7 @@ class Validation:
     dt_s: float = 0.05
     replay: TrackReport | None = None
     sitl: TrackReport | None = None
+    recorded: RecordedTrack | None = None  # what the SITL vehicle sent, for --track
     vehicle_params: dict[str, float] = field(default_factory=dict)
     param_findings: list[Finding] = field(default_factory=list)
     extra: dict[str, Any] = field(default_factory=dict)

@@ -330,6 +330,9 @@ def add_sitl_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--sitl-time-limit", type=_positive, metavar="S",
                    help="longest mission to record, vehicle seconds (default: twice the "
                         "replayed mission plus 120 s)")
+    g.add_argument("--track", metavar="OUT.csv",
+                   help="also write what the vehicle flew (position, velocity, mission item "
+                        "per report; .gz compresses) for scoring or plotting later")
     g.add_argument("--sitl-sysid", type=_sysid, metavar="N",
                    help="external vehicle's system id (default: the first one heard)")
 
@@ -383,6 +386,7 @@ def run_sitl(v: Validation, args: argparse.Namespace,
             result = fly_and_score(v.plan, v.site, v.flight, url, time_limit_s=limit,
                                    timeout_s=args.sitl_timeout, params=sent or None)
     v.sitl = result.report
+    v.recorded = result.recorded()
     v.extra["sitl_flight"] = {
         "vehicle": result.vehicle,
         "kind": kind,
@@ -395,4 +399,5 @@ def run_sitl(v: Validation, args: argparse.Namespace,
         "end": result.telemetry.end_reason,
         "fence_breach_samples": int(result.telemetry.fence_breach.sum()),
         "mode_changes": [{"t_s": t, "mode": m} for t, m in result.telemetry.mode_changes],
+        "messages": [{"t_s": t, "text": m} for t, m in result.telemetry.messages],
     }

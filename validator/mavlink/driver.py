@@ -39,6 +39,7 @@ from validator.mavlink.wire import mavlink, mavutil
 from validator.plan_format import Cmd, Plan
 from validator.replay import Track, TrackReport, replay, score_track, track_from_geodetic
 from validator.site import Site
+from validator.track_file import RecordedTrack
 
 TAKEOFF_REACHED_FRACTION = 0.95
 LANDING_COMMANDS = (Cmd.NAV_LAND, Cmd.NAV_RETURN_TO_LAUNCH)
@@ -99,9 +100,9 @@ class Telemetry:
     ``armed``; ``fence_breach``. ``reached`` lists (t_s, seq) of MISSION_ITEM_REACHED, a hint
     only (ArduCopter sends one per loop, so an item followed by a DO command or the final LAND
     is never reported); ``mode_changes`` (t_s, mode name) each time the vehicle left the
-    mission mode on its own (a fence breach action, a failsafe); ``takeoff_start_s`` and
-    ``mission_start_s`` when NAV_TAKEOFF and MISSION_START were asked for; ``end_reason`` why
-    recording stopped.
+    mission mode on its own (a fence breach action, a failsafe); ``messages`` (t_s, text) what
+    the vehicle said (STATUSTEXT); ``takeoff_start_s`` and ``mission_start_s`` when
+    NAV_TAKEOFF and MISSION_START were asked for; ``end_reason`` why recording stopped.
     """
 
     t_s: NDArray[np.float64]
@@ -114,6 +115,7 @@ class Telemetry:
     fence_breach: NDArray[np.bool_]
     reached: list[tuple[float, int]] = field(default_factory=list)
     mode_changes: list[tuple[float, str]] = field(default_factory=list)
+    messages: list[tuple[float, str]] = field(default_factory=list)
     mission_start_s: float = math.nan
     takeoff_start_s: float = math.nan
     end_reason: str = ""
@@ -137,6 +139,7 @@ class _Recorder:
         self.reached: list[tuple[float, int]] = []
         self.mission_mode: int | None = None  # set once the mission runs: leaving it is news
         self.mode_changes: list[tuple[float, str]] = []
+        self.messages: list[tuple[float, str]] = []
         self.prearm_ok = False
         self.sys_status_seen = False
         self.landed_state = mavlink.MAV_LANDED_STATE_UNDEFINED
@@ -189,6 +192,8 @@ class _Recorder:
             self.reached.append((self.t_s, int(m.seq)))
         elif kind == "FENCE_STATUS":
             self.breach = bool(m.breach_status)
+        elif kind == "STATUSTEXT":
+            self.messages.append((self.t_s, str(m.text)))
         elif kind == "EXTENDED_SYS_STATE":
             self.landed_state = int(m.landed_state)
             if self.landed_state in (mavlink.MAV_LANDED_STATE_IN_AIR,
@@ -210,6 +215,7 @@ class _Recorder:
             fence_breach=np.asarray(cols[9], dtype=bool),
             reached=list(self.reached),
             mode_changes=list(self.mode_changes),
+            messages=list(self.messages),
             mission_start_s=mission_start_s,
             takeoff_start_s=takeoff_start_s,
             end_reason=end_reason,
@@ -410,15 +416,32 @@ def telemetry_track(telemetry: Telemetry, flight: Flight, site: Site, *, ardupil
     )
 
 
+def recorded_track(telemetry: Telemetry, *, ardupilot: bool) -> RecordedTrack:
+    """The telemetry as a :class:`~validator.track_file.RecordedTrack`: times from the start
+    of the takeoff (as :func:`telemetry_track`), mission items as ``.plan`` indices."""
+    t0 = telemetry.takeoff_start_s
+    if not math.isfinite(t0):
+        t0 = telemetry.mission_start_s if math.isfinite(telemetry.mission_start_s) else 0.0
+    seq = telemetry.mission_seq - (1 if ardupilot else 0)
+    return RecordedTrack(telemetry.t_s - t0, telemetry.lat_deg, telemetry.lon_deg,
+                         telemetry.rel_alt_m, telemetry.vel_mps,
+                         np.where(telemetry.mission_seq < 0, -1, seq).astype(np.int64),
+                         telemetry.armed, telemetry.fence_breach)
+
+
 @dataclass
 class SitlResult:
     """What :func:`fly_and_score` measured: the scored track, the raw telemetry and how the
-    upload went."""
+    upload went; ``ardupilot`` tells how the telemetry numbers mission items."""
 
     report: TrackReport
     telemetry: Telemetry
     upload_summary: str
     vehicle: str
+    ardupilot: bool = False
+
+    def recorded(self) -> RecordedTrack:
+        return recorded_track(self.telemetry, ardupilot=self.ardupilot)
 
 
 def default_time_limit_s(flight: Flight, profile: Profile) -> float:
@@ -493,7 +516,7 @@ def fly_and_score(
                              None))
     if extra:
         report = dataclasses.replace(report, findings=(*report.findings, *extra))
-    return SitlResult(report, telemetry, up.summary(), vehicle)
+    return SitlResult(report, telemetry, up.summary(), vehicle, ardupilot)
 
 
 @contextmanager
