@@ -24,11 +24,18 @@ Three profiles (:func:`make_profile`), parameters in the autopilot's own names a
     fires; every stop at a waypoint is counted STOP_LAG_S after the S-curve ends (all three
     fitted to ArduCopter 4.5.6 SITL flights, ``../shared/data/arducopter-sitl-2``).
 ``px4``
-    PX4 mission following: corners rounded by an arc inside NAV_ACC_RAD, corner speed
-    sqrt(MPC_ACC_HOR · r) (PX4's waypoint speed rule), speed along the path driven by a
-    jerk-limited follower (MPC_ACC_HOR, MPC_JERK_AUTO) under the caps and the braking
-    distances to every lower cap ahead; cruise at the commanded speed or MPC_XY_CRUISE, capped
-    by MPC_XY_VEL_MAX. Holds keep fractional seconds.
+    PX4 v1.15 mission following, its own rules ported (:mod:`validator.motion.px4`): toward
+    each waypoint the fastest speed from which it can still arrive, with PX4's conservative
+    2·A/J reaction delay (MPC_ACC_HOR, MPC_JERK_AUTO), smoothed by its jerk-limited velocity
+    smoother; corners rounded by an arc inside NAV_ACC_RAD at PX4's corner speed
+    (MPC_XY_TRAJ_P); a waypoint with a hold stops the vehicle, and the hold starts when the
+    vehicle is within NAV_ACC_RAD (NAV_MC_ALT_RAD vertically). The vehicle follows that
+    trajectory through PX4's position and velocity loops against a linear drag
+    (VEHICLE_LIN_DRAG, SIH's quad by default) within MPC_TILTMAX_AIR, which also sets its top
+    speed. Takeoff climbs after PX4_LIFTOFF_DELAY_S; a landing descends at MPC_Z_V_AUTO_DN,
+    slowing to MPC_LAND_SPEED between MPC_LAND_ALT1 and MPC_LAND_ALT2, and ends
+    PX4_LAND_DETECT_S after touchdown. Holds keep fractional seconds. Checked on PX4 v1.15.4
+    SIH flights of our plans (``tests/data/px4-sih``).
 
 Accelerations and jerks default to the site's ``uav.max_accel`` / ``uav.max_jerk``, speeds to
 its ``max_speed``; ``VEHICLE_SPEED_MAX`` (m/s, every profile) is the vehicle's real top speed
@@ -51,6 +58,7 @@ from numpy.typing import NDArray
 
 from validator.errors import InputError
 from validator.flight import Flight, Leg
+from validator.motion import px4
 from validator.site import Site
 
 ProfileName = Literal["ideal", "arducopter", "px4"]
@@ -74,6 +82,11 @@ LAND_DETECT_S = 1.57
 # clock while the vehicle lags its target (AC_WPNav's track scaler). Measured 0.3-1.2 s per
 # horizontal rest-to-rest leg in the SITL flights, median 0.6 s.
 STOP_LAG_S = 0.6
+# PX4 v1.15 SIH (quad x), measured on flights of our plans: arming to the start of the climb
+# (spool-up and the MPC_TKO_RAMP_T takeoff ramp), and touchdown to disarm (land detector, then
+# COM_DISARM_LAND).
+PX4_LIFTOFF_DELAY_S = 3.0
+PX4_LAND_DETECT_S = 2.5
 
 
 @dataclass(frozen=True)
@@ -139,7 +152,26 @@ PARAM_SPECS: dict[str, dict[str, ParamSpec]] = {
                                  "(default 2)"),
         "MPC_Z_V_AUTO_UP": ParamSpec("m/s", 1.0, "climb speed (default 3)"),
         "MPC_Z_V_AUTO_DN": ParamSpec("m/s", 1.0, "descent speed (default 1.5)"),
-        "MPC_ACC_UP_MAX": ParamSpec("m/s/s", 1.0, "vertical acceleration (default 4)"),
+        "MPC_ACC_UP_MAX": ParamSpec("m/s/s", 1.0, "climb acceleration (default 4)"),
+        "MPC_ACC_DOWN_MAX": ParamSpec("m/s/s", 1.0, "descent acceleration (default 3)"),
+        "MPC_XY_TRAJ_P": ParamSpec("", 1.0, "share of MPC_ACC_HOR used to turn through a "
+                                   "waypoint (default 0.5)"),
+        "NAV_MC_ALT_RAD": ParamSpec("m", 1.0, "altitude acceptance radius (default 0.8)"),
+        "MPC_LAND_SPEED": ParamSpec("m/s", 1.0, "landing speed below MPC_LAND_ALT2 "
+                                    "(default 0.7)"),
+        "MPC_LAND_ALT1": ParamSpec("m", 1.0, "height where a landing starts to slow "
+                                   "(default 10)"),
+        "MPC_LAND_ALT2": ParamSpec("m", 1.0, "height below which it lands at MPC_LAND_SPEED "
+                                   "(default 5)"),
+        "MPC_XY_P": ParamSpec("1/s", 1.0, "horizontal position gain (default 0.95)"),
+        "MPC_XY_VEL_P_ACC": ParamSpec("1/s", 1.0, "horizontal velocity P gain (default 1.8)"),
+        "MPC_XY_VEL_I_ACC": ParamSpec("1/s/s", 1.0, "horizontal velocity I gain (default 0.4)"),
+        "MPC_XY_ERR_MAX": ParamSpec("m", 1.0, "lag at which the trajectory waits for the "
+                                    "vehicle (default 2)"),
+        "MPC_TILTMAX_AIR": ParamSpec("deg", 1.0, "tilt limit; with the drag it sets the top "
+                                     "speed (default 45)"),
+        "VEHICLE_LIN_DRAG": ParamSpec("1/s", 1.0, "drag deceleration over speed (default 1, "
+                                      "PX4 SIH's quad: SIH_KDV / SIH_MASS)"),
         **_COMMON,
     },
 }
@@ -181,6 +213,18 @@ def _defaults(name: ProfileName, site: Site) -> dict[str, float]:
         "MPC_Z_V_AUTO_UP": 3.0,
         "MPC_Z_V_AUTO_DN": 1.5,
         "MPC_ACC_UP_MAX": 4.0,
+        "MPC_ACC_DOWN_MAX": 3.0,
+        "MPC_XY_TRAJ_P": 0.5,
+        "NAV_MC_ALT_RAD": 0.8,
+        "MPC_LAND_SPEED": 0.7,
+        "MPC_LAND_ALT1": 10.0,
+        "MPC_LAND_ALT2": 5.0,
+        "MPC_XY_P": 0.95,
+        "MPC_XY_VEL_P_ACC": 1.8,
+        "MPC_XY_VEL_I_ACC": 0.4,
+        "MPC_XY_ERR_MAX": 2.0,
+        "MPC_TILTMAX_AIR": 45.0,
+        "VEHICLE_LIN_DRAG": 1.0,
         **common,
     }
 
@@ -813,7 +857,7 @@ def _fly_arducopter(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
 
 
 # --------------------------------------------------------------------------------------------
-# PX4: a rounded path and a speed profile along it
+# PX4: a rounded path and PX4's own speed rules along it (validator.motion.px4)
 
 
 def _px4_runs(flight: Flight) -> list[list[int]]:
@@ -826,50 +870,69 @@ def _px4_runs(flight: Flight) -> list[list[int]]:
     return [r for r in runs if r]
 
 
+@dataclass(frozen=True)
+class _Px4RunPath:
+    """One run's path: arc-length samples ``s_m`` and ``points_m`` (3-D), the speed cap on
+    the corners' arcs (``cap_mps``, inf on straights), each waypoint's arc length (mid-corner;
+    the run's end last) and the speed PX4 flies through it (0 at the end)."""
+
+    s_m: NDArray[np.float64]
+    points_m: NDArray[np.float64]
+    cap_mps: NDArray[np.float64]
+    waypoint_s_m: NDArray[np.float64]
+    through_mps: NDArray[np.float64]
+
+
 def _px4_run_path(
-    run: list[int], geom: LegGeometry, speed: NDArray[np.float64], acc_rad: float,
-    acc: NDArray[np.float64], ds_m: float,
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
-           NDArray[np.float64]]:
-    """Arc-length samples of one run: s (m), points (3-D), speed caps, accelerations, and the
-    arc length at which each leg of the run counts as reached (its corner begins)."""
-    unit, length = geom.unit, geom.length_m
-    # rounded corner between consecutive legs: tangent distance d and radius r
-    d_out = np.zeros(len(run))
-    radius = np.full(len(run), np.inf)
-    for j in range(len(run) - 1):
-        k = run[j]
-        if length[k] <= 0 or length[k + 1] <= 0:
+    start_m: NDArray[np.float64], ends_m: NDArray[np.float64], cruise_mps: NDArray[np.float64],
+    profile: Profile, ds_m: float = 0.05,
+) -> _Px4RunPath:
+    """The path of a run from ``start_m`` through the legs' end points ``ends_m`` (k, 3):
+    corners rounded by an arc tangent to both legs at NAV_ACC_RAD (or half a leg) from the
+    waypoint, flown at :func:`~validator.motion.px4.corner_speed_mps` at most."""
+    acc_rad = profile.si("NAV_ACC_RAD")
+    accel, jerk = profile.si("MPC_ACC_HOR"), profile.si("MPC_JERK_AUTO")
+    pts = np.vstack([start_m[None, :], ends_m])
+    delta = np.diff(pts, axis=0)
+    length = np.linalg.norm(delta, axis=1)
+    unit = np.divide(delta, length[:, None], out=np.zeros_like(delta), where=length[:, None] > 0)
+    k = len(ends_m)
+    d_out = np.zeros(k)
+    radius = np.full(k, np.inf)
+    through = np.zeros(k)
+    for j in range(k - 1):
+        if length[j] <= 0 or length[j + 1] <= 0:
             continue
-        theta = math.acos(float(np.clip(np.dot(unit[k], unit[k + 1]), -1.0, 1.0)))
+        theta = math.acos(float(np.clip(np.dot(unit[j], unit[j + 1]), -1.0, 1.0)))
+        exit_mps = px4.max_speed_from_distance(float(length[j + 1]), 0.0, accel, jerk)
+        through[j] = min(px4.corner_speed_mps(theta, accel, acc_rad, profile.si("MPC_XY_TRAJ_P")),
+                         exit_mps, cruise_mps[j], cruise_mps[j + 1])
         if theta < 1e-3:
             continue  # straight on: no corner
         if theta > math.pi - 1e-3:
             radius[j] = 0.0  # reversal: stop at the waypoint
+            through[j] = 0.0
             continue
-        d_out[j] = min(acc_rad, length[k] / 2.0, length[k + 1] / 2.0)
+        d_out[j] = min(acc_rad, length[j] / 2.0, length[j + 1] / 2.0)
         radius[j] = d_out[j] / math.tan(theta / 2.0)
-    s_parts, p_parts, c_parts, a_parts = [], [], [], []
-    reach = np.zeros(len(run))
+    s_parts, p_parts, c_parts = [], [], []
+    wp_s = np.zeros(k)
     s0 = 0.0
-    for j, k in enumerate(run):
+    for j in range(k):
         d_in = d_out[j - 1] if j > 0 else 0.0
-        straight = max(length[k] - d_in - d_out[j], 0.0)
+        straight = max(length[j] - d_in - d_out[j], 0.0)
         m = max(int(math.ceil(straight / ds_m)), 1)
         f = np.linspace(0.0, straight, m + 1)
-        begin = geom.start[k] + unit[k] * d_in
+        begin = pts[j] + unit[j] * d_in
         s_parts.append(s0 + f)
-        p_parts.append(begin + np.outer(f, unit[k]))
-        c_parts.append(np.full(f.size, speed[k]))
-        a_parts.append(np.full(f.size, acc[k]))
+        p_parts.append(begin + np.outer(f, unit[j]))
+        c_parts.append(np.full(f.size, np.inf))
         s0 += straight
-        reach[j] = s0
-        if j + 1 < len(run) and radius[j] == 0.0:
-            c_parts[-1][-1] = 0.0
-        elif j + 1 < len(run) and d_out[j] > 0:
+        wp_s[j] = s0
+        if j + 1 < k and d_out[j] > 0 and radius[j] > 0:
             r = radius[j]
             theta = 2.0 * math.atan2(d_out[j], r)
-            u1, u2 = unit[k], unit[k + 1]
+            u1, u2 = unit[j], unit[j + 1]
             normal = u2 - np.dot(u1, u2) * u1
             normal /= np.linalg.norm(normal)
             centre = begin + u1 * straight + normal * r
@@ -878,99 +941,14 @@ def _px4_run_path(
             s_parts.append(s0 + phi * r)
             p_parts.append(centre - np.outer(np.cos(phi), normal) * r
                            + np.outer(np.sin(phi), u1) * r)
-            # PX4's corner speed sqrt(A·d·tan(α/2)) with α the angle between the legs = sqrt(A·r)
-            c_parts.append(np.full(phi.size, min(math.sqrt(acc[k] * r), speed[k], speed[k + 1])))
-            a_parts.append(np.full(phi.size, acc[k]))
+            c_parts.append(np.full(phi.size, through[j]))
+            wp_s[j] = s0 + r * theta / 2.0
             s0 += r * theta
     s = np.concatenate(s_parts)
-    pts = np.concatenate(p_parts)
+    xyz = np.concatenate(p_parts)
     cap = np.concatenate(c_parts)
-    a = np.concatenate(a_parts)
     keep = np.concatenate([[True], np.diff(s) > 1e-9])  # drop repeated joints
-    s, pts, cap, a = s[keep], pts[keep], cap[keep], a[keep]
-    cap[-1] = 0.0  # a run ends at rest (it starts at rest too: the follower's initial state)
-    return s, pts, cap, a, reach
-
-
-def ramp_distance_m(
-    v_mps: NDArray[np.float64], accel_mps2: NDArray[np.float64], jerk_mps3: float
-) -> NDArray[np.float64]:
-    """Distance (m) a jerk-limited S-curve needs from rest to ``v_mps`` (or back to rest).
-
-    v·sqrt(v/J) while the acceleration stays below A (v ≤ A²/J), else v²/(2A) + v·A/(2J).
-    """
-    v = np.maximum(v_mps, 0.0)
-    a = accel_mps2
-    short = v <= a * a / jerk_mps3
-    return np.asarray(np.where(short, v * np.sqrt(v / jerk_mps3),
-                               v * v / (2.0 * a) + v * a / (2.0 * jerk_mps3)), dtype=float)
-
-
-def _ramp_speed(
-    d_m: NDArray[np.float64], accel_mps2: NDArray[np.float64], jerk_mps3: float
-) -> NDArray[np.float64]:
-    """Inverse of :func:`ramp_distance_m`: the speed that can be shed to rest within ``d_m``."""
-    d = np.maximum(d_m, 0.0)
-    a = accel_mps2
-    j = jerk_mps3
-    short = d <= a**3 / j**2
-    long_v = -a * a / (2.0 * j) + np.sqrt(a**4 / (4.0 * j * j) + 2.0 * a * d)
-    return np.asarray(np.where(short, np.cbrt(d * d * j), long_v), dtype=float)
-
-
-def braking_limit(
-    s_m: NDArray[np.float64], cap_mps: NDArray[np.float64], accel_mps2: NDArray[np.float64],
-    jerk_mps3: float,
-) -> NDArray[np.float64]:
-    """Highest speed (m/s) at each arc length ``s_m`` from which every lower cap ahead can
-    still be met: slowing from v to v_c takes the S-curve distance D(v) − D(v_c)
-    (:func:`ramp_distance_m`)."""
-    pot = ramp_distance_m(cap_mps, accel_mps2, jerk_mps3)
-    ahead = np.minimum.accumulate((pot + s_m)[::-1])[::-1] - s_m
-    return np.asarray(np.minimum(_ramp_speed(ahead, accel_mps2, jerk_mps3), cap_mps),
-                      dtype=float)
-
-
-def follow_speed_limit(
-    s_m: NDArray[np.float64], limit_mps: NDArray[np.float64], accel_mps2: float,
-    jerk_mps3: float, dt_s: float,
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Drive from rest at ``s_m[0]`` to rest at ``s_m[-1]`` as fast as a speed limit allows.
-
-    The acceleration moves by at most J·dt per step toward the limit's own acceleration
-    (v·dv/ds, feed-forward) plus sign(e)·sqrt(2·J·|e|) for the gap e to the limit, bounded by
-    A: the time-optimal way to meet a speed with bounded jerk. ``limit_mps`` must be a braking
-    limit (:func:`braking_limit`), which a jerk-limited vehicle can follow. Returns the sample
-    times (s, from 0) and arc lengths (m).
-    """
-    ff = np.clip(limit_mps * np.gradient(limit_mps, s_m), -accel_mps2, accel_mps2)
-    s_grid, lim, acc_ff = s_m.tolist(), limit_mps.tolist(), ff.tolist()
-    end, n = s_grid[-1], len(s_grid)
-    A, J = accel_mps2, jerk_mps3
-    s = s_grid[0]
-    v = a = t = 0.0
-    ts, ss = [0.0], [s]
-    i = 0
-    while not (s >= end - STOP_TOLERANCE_M and v < 0.05) and t < 1e6:
-        while i + 2 < n and s_grid[i + 1] <= s:
-            i += 1
-        f = (s - s_grid[i]) / (s_grid[i + 1] - s_grid[i]) if i + 1 < n else 0.0
-        target = lim[i] + f * (lim[i + 1] - lim[i]) if i + 1 < n else lim[i]
-        target = max(target, 0.01)  # creep onto a stop point instead of stalling short of it
-        e = target - v
-        on_limit = min(1.0, v / target)  # feed forward only what the vehicle is following
-        want = acc_ff[i] * on_limit + math.copysign(math.sqrt(2.0 * J * abs(e)), e)
-        want = max(-A, min(A, want))
-        a += max(-J * dt_s, min(J * dt_s, want - a))
-        v_new = max(v + a * dt_s, 0.0)
-        if v_new == 0.0:
-            a = max(a, 0.0)
-        s = min(s + (v + v_new) / 2.0 * dt_s, end)
-        v = v_new
-        t += dt_s
-        ts.append(t)
-        ss.append(s)
-    return np.asarray(ts, dtype=float), np.asarray(ss, dtype=float)
+    return _Px4RunPath(s[keep], xyz[keep], cap[keep], wp_s, through)
 
 
 def _fly_px4(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
@@ -978,41 +956,91 @@ def _fly_px4(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
     n = len(legs)
     geom = leg_geometry(legs)
     vcap = min(profile.si("MPC_XY_VEL_MAX"), profile.si("VEHICLE_SPEED_MAX"))
-    cmd = np.array([leg.speed_mps or profile.si("MPC_XY_CRUISE") for leg in legs], dtype=float)
-    speed = kinematic_limit(geom.unit, np.minimum(cmd, vcap), profile.si("MPC_Z_V_AUTO_UP"),
-                            profile.si("MPC_Z_V_AUTO_DN"))
-    acc = kinematic_limit(geom.unit, np.full(n, profile.si("MPC_ACC_HOR")),
-                          profile.si("MPC_ACC_UP_MAX"), profile.si("MPC_ACC_UP_MAX"))
+    cruise = np.minimum([leg.speed_mps or profile.si("MPC_XY_CRUISE") for leg in legs], vcap)
     jerk = profile.si("MPC_JERK_AUTO")
-    step = min(dt_s, 0.02)  # the follower integrates at 50 Hz or faster
     start, reached, done = np.zeros(n), np.zeros(n), np.zeros(n)
     t_parts, p_parts = [], []
     clock = 0.0
+    here = geom.start[0].copy()
     for run in _px4_runs(flight):
-        s, pts, cap, a, reach = _px4_run_path(run, geom, speed, profile.si("NAV_ACC_RAD"), acc,
-                                               ds_m=0.05)
-        if s[-1] > 0:
-            limit = braking_limit(s, cap, a, jerk)
-            t_run, s_run = follow_speed_limit(s, limit, float(np.min(a)), jerk, step)
+        ends = geom.start[run] + geom.delta[run]
+        first = legs[run[0]]
+        # a climb or descent in place (the vehicle may still be closing in on its last
+        # waypoint horizontally, as PX4 does while it lands)
+        vertical = len(run) == 1 and (legs[run[0]].kind in ("takeoff", "land")
+                                      or float(np.hypot(*geom.delta[run[0], :2])) < 1e-6)
+        if first.kind == "takeoff" and first.start_alt_m <= 0:
+            clock += PX4_LIFTOFF_DELAY_S
+        if vertical:
+            climb = ends[-1, 2] >= here[2]
+            path = _px4_run_path(here, ends, np.full(len(run), np.inf), profile)
+            accel = profile.si("MPC_ACC_UP_MAX" if climb else "MPC_ACC_DOWN_MAX")
+            limit = profile.si("MPC_Z_V_AUTO_UP" if climb else "MPC_Z_V_AUTO_DN")
+            landing = legs[run[-1]].kind == "land"
+            schedule = _px4_land_schedule(profile, float(here[2])) if landing else None
+            flown = px4.fly_run(path.waypoint_s_m, [0.0], [limit], accel, jerk,
+                                0.0 if landing else profile.si("NAV_MC_ALT_RAD"),
+                                PX4_LAND_DETECT_S if landing else legs[run[-1]].hold_s,
+                                speed_profile=schedule)
         else:
-            t_run, s_run = np.zeros(1), np.zeros(1)
-        t_run = t_run + clock
+            path = _px4_run_path(here, ends, cruise[run], profile)
+            flown = px4.fly_run(path.waypoint_s_m, path.through_mps, cruise[run],
+                                profile.si("MPC_ACC_HOR"), jerk, profile.si("NAV_ACC_RAD"),
+                                legs[run[-1]].hold_s, cap_s_m=path.s_m, cap_mps=path.cap_mps,
+                                tracking=_px4_tracking(profile))
+        t_run = flown.t_s + clock
+        xyz = np.stack([np.interp(flown.s_m, path.s_m, path.points_m[:, c]) for c in range(3)],
+                       axis=1)
         t_parts.append(t_run)
-        p_parts.append(np.stack([np.interp(s_run, s, pts[:, c]) for c in range(3)], axis=1))
-        at = np.interp(reach, s_run, t_run)
+        p_parts.append(xyz)
         for j, k in enumerate(run):
             start[k] = clock if j == 0 else reached[run[j - 1]]
-            reached[k] = done[k] = at[j]
-        last = run[-1]
-        reached[last] = float(t_run[-1])
-        done[last] = reached[last] + legs[last].hold_s
-        clock = done[last]
+            reached[k] = done[k] = clock + flown.reached_s[j]
+        done[run[-1]] = clock + flown.end_s
+        clock = done[run[-1]]
+        here = xyz[-1]
     t_abs = np.concatenate(t_parts)
-    xyz = np.concatenate(p_parts)
+    xyz_all = np.concatenate(p_parts)
     t = _time_grid(float(done[-1]), dt_s)
-    pos = np.stack([np.interp(t, t_abs, xyz[:, c]) for c in range(3)], axis=1)
+    pos = np.stack([np.interp(t, t_abs, xyz_all[:, c]) for c in range(3)], axis=1)
     vel = np.gradient(pos, t, axis=0) if t.size > 1 else np.zeros_like(pos)
     return FlownPath(t, pos, vel, _active_leg(done, t), start, reached, done)
+
+
+def px4_top_speed_mps(profile: Profile) -> float:
+    """The fastest a ``px4`` profile's vehicle flies (m/s): where its drag (VEHICLE_LIN_DRAG)
+    uses up the tilt limit (g·tan MPC_TILTMAX_AIR), capped by MPC_XY_VEL_MAX and
+    VEHICLE_SPEED_MAX."""
+    drag = profile.si("VEHICLE_LIN_DRAG")
+    tilt = math.radians(profile.si("MPC_TILTMAX_AIR"))
+    top = GRAVITY_MPS2 * math.tan(tilt) / drag if drag > 0 else math.inf
+    return min(top, profile.si("MPC_XY_VEL_MAX"), profile.si("VEHICLE_SPEED_MAX"))
+
+
+def px4_rest_to_rest(profile: Profile, lengths_m: NDArray[np.float64],
+                     speed_mps: float) -> px4.SampledLegs:
+    """Straight horizontal legs flown alone from rest to a hold by a ``px4`` profile at
+    ``speed_mps`` (capped by :func:`px4_top_speed_mps`); see
+    :func:`validator.motion.px4.rest_to_rest`."""
+    return px4.rest_to_rest(lengths_m, min(speed_mps, px4_top_speed_mps(profile)),
+                            profile.si("MPC_ACC_HOR"), profile.si("MPC_JERK_AUTO"),
+                            profile.si("NAV_ACC_RAD"), _px4_tracking(profile))
+
+
+def _px4_tracking(profile: Profile) -> px4.Tracking:
+    return px4.Tracking(profile.si("MPC_XY_P"), profile.si("MPC_XY_VEL_P_ACC"),
+                        profile.si("MPC_XY_VEL_I_ACC"), profile.si("MPC_TILTMAX_AIR"),
+                        profile.si("VEHICLE_LIN_DRAG"), profile.si("MPC_XY_ERR_MAX"))
+
+
+def _px4_land_schedule(profile: Profile, alt_m: float) -> tuple[NDArray[np.float64],
+                                                                  NDArray[np.float64]]:
+    """PX4's landing descent speed against the height still to go (m): MPC_Z_V_AUTO_DN down
+    to MPC_LAND_ALT1, blending to MPC_LAND_SPEED at MPC_LAND_ALT2 and below."""
+    alt1, alt2 = profile.si("MPC_LAND_ALT1"), profile.si("MPC_LAND_ALT2")
+    fast, slow = profile.si("MPC_Z_V_AUTO_DN"), profile.si("MPC_LAND_SPEED")
+    h = np.array([0.0, alt2, max(alt1, alt2 + 1e-3), max(alt_m, alt1) + 1.0])
+    return h, np.array([slow, slow, fast, fast])
 
 
 def fly(flight: Flight, profile: Profile, *, dt_s: float = 0.05) -> FlownPath:

@@ -164,8 +164,10 @@ def test_px4_rounds_corners_inside_nav_acc_rad(open_site):
     k = int(np.argmin(d))
     # arc tangent 5 m before and after the corner: radius 5 m, apex 5·(sqrt(2) − 1) m away
     assert d[k] == pytest.approx(5.0 * (math.sqrt(2.0) - 1.0), abs=0.05)
-    # corner speed sqrt(A·r) = sqrt(15)
-    assert np.hypot(*path.vel_mps[k, :2]) == pytest.approx(math.sqrt(15.0), rel=0.05)
+    # PX4's corner speed sqrt(MPC_XY_TRAJ_P·A·NAV_ACC_RAD·tan(45°)) = sqrt(7.5) for the
+    # trajectory; the vehicle, lagging it, is a little faster at the apex
+    corner = math.sqrt(0.5 * 3.0 * 5.0)
+    assert corner <= np.hypot(*path.vel_mps[k, :2]) <= 1.25 * corner
 
 
 def test_unknown_parameter_is_bad_input(open_site):
@@ -189,15 +191,28 @@ def test_defaults_come_from_the_site_limits():
     assert make_profile("px4", site).si("MPC_JERK_AUTO") == 3.0
 
 
-def test_px4_straight_run_lasts_as_long_as_the_s_curve(open_site):
-    # rest to rest over 100 m at 10 m/s, A = 2.5, J = 1: 100/10 + 10/2.5 + 2.5/1 = 16.5 s
+def _px4_straight(open_site, **params):
     items = [nav(open_site, Cmd.NAV_TAKEOFF, (0, 0)), speed(10.0),
              nav(open_site, Cmd.NAV_WAYPOINT, (0, 0), p1=1.0),
-             nav(open_site, Cmd.NAV_WAYPOINT, (100, 0), p1=1.0)]
+             nav(open_site, Cmd.NAV_WAYPOINT, (100, 0), p1=20.0)]
     flight = resolve_flight(plan_of(open_site, items, fence=False), open_site)
-    path = fly(flight, make_profile("px4", open_site), dt_s=0.01)
-    # (the follower reaches the final stop a little late: it creeps the last centimetres)
-    assert path.reached_s[2] - path.start_s[2] == pytest.approx(16.5, rel=0.05)
+    path = fly(flight, make_profile("px4", open_site, params), dt_s=0.01)
+    return path, path.reached_s[2] - path.start_s[2]
+
+
+def test_px4_brakes_more_cautiously_than_an_s_curve(open_site):
+    # rest to rest over 100 m at 10 m/s, A = 2.5, J = 1: a jerk-limited S-curve takes
+    # 100/10 + 10/2.5 + 2.5/1 = 16.5 s; PX4 plans its braking with a 2A/J reaction delay and
+    # counts the waypoint only within NAV_ACC_RAD, so it takes longer
+    path, took = _px4_straight(open_site, MPC_ACC_HOR=2.5, MPC_JERK_AUTO=1.0)
+    assert took > 16.5 * 1.2
+    # ... and a larger jerk shortens that delay
+    _, quicker = _px4_straight(open_site, MPC_ACC_HOR=2.5, MPC_JERK_AUTO=4.0)
+    assert quicker < took - 3.0
+    # the hold starts within NAV_ACC_RAD (2 m); the vehicle closes in on the waypoint during it
+    at = np.searchsorted(path.t_s, path.reached_s[2])
+    assert 1.5 < 100.0 - path.xyz_m[at, 0] <= 2.0
+    assert path.xyz_m[-1, 0] == pytest.approx(100.0, abs=0.05)
 
 
 def test_top_speed_is_where_drag_uses_up_the_lean_limit():
