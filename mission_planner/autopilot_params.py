@@ -123,7 +123,7 @@ def recommended_params(mission: Mission) -> AutopilotParams:
     """The parameters ``mission`` needs on its autopilot (``mission.options.autopilot``)."""
     site = mission.solution.site
     autopilot = mission.options.autopilot
-    speed = min(fastest_leg_mps(mission), top_speed_mps(site))
+    speed = min(fastest_leg_mps(mission), top_speed_mps(site, autopilot))
     radius = waypoint_radius_m(site, mission.fence_margin_m)
     if autopilot == "px4":
         values = {

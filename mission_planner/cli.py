@@ -35,7 +35,12 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
-from mission_planner.autopilot_params import AutopilotParams, dumps_params, recommended_params
+from mission_planner.autopilot_params import (
+    AutopilotParams,
+    dumps_params,
+    recommended_params,
+    waypoint_radius_m,
+)
 from mission_planner.flight_report import FlightCheck, replay_mission
 from mission_planner.mission import (
     AUTOPILOTS,
@@ -44,6 +49,7 @@ from mission_planner.mission import (
     MissionOptions,
     build_mission,
     check_options,
+    fence_margin_for,
     mission_summary,
 )
 from mission_planner.optimize.retime import top_speed_mps
@@ -161,15 +167,20 @@ def plan_and_build(
         raise InputError(f"dynamics: expected one of {', '.join(DYNAMICS)}, got {dynamics!r}")
     from mission_planner.optimize import PlannerOptions, plan  # cvxpy is slow to import
 
-    planner_options = PlannerOptions(dynamics=dynamics)
+    # PX4 counts a waypoint reached at NAV_ACC_RAD and starts its hold there: legs are timed
+    # with the radius the parameter file will set
+    timing = ({"NAV_ACC_RAD": waypoint_radius_m(site, fence_margin_for(site, opt))}
+              if opt.autopilot == "px4" else {})
+    planner_options = PlannerOptions(dynamics=dynamics, autopilot=opt.autopilot,
+                                     timing_params=timing)
     solution = plan(site, scheme, options=planner_options, progress=progress)
     return build_mission(solution, opt)
 
 
-def speed_warning(site: Site, dynamics: str) -> str | None:
+def speed_warning(site: Site, dynamics: str, autopilot: str = "ardupilot") -> str | None:
     """One line when the site's V is above the vehicle's real top speed
     (:func:`~mission_planner.optimize.retime.top_speed_mps`), else None."""
-    top = top_speed_mps(site)
+    top = top_speed_mps(site, autopilot)
     if site.max_speed_mps <= top:
         return None
     then = (f"planning at {top:.2f} m/s" if dynamics == "vehicle" else
@@ -318,7 +329,7 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
         return 130
     for note in autopilot_params.notes:
         print(f"plan-mission: note: {note}", file=sys.stderr)
-    too_fast = speed_warning(site, args.dynamics)
+    too_fast = speed_warning(site, args.dynamics, args.autopilot)
     if too_fast:
         print(f"plan-mission: warning: {too_fast}", file=sys.stderr)
     warning = flight.warning()

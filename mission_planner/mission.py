@@ -66,7 +66,7 @@ Decisions where autopilots and the plan disagree (all in :class:`MissionOptions`
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -74,11 +74,11 @@ import numpy as np
 import shapely
 from numpy.typing import ArrayLike, NDArray
 
-from mission_planner.optimize.retime import cruise_speed_mps, leg_profiles
+from mission_planner.optimize.retime import LegMotion, cruise_speed_mps, leg_profiles
 from mission_planner.optimize.solution import Solution
 from mission_planner.transit import DEFAULT_ARC_STEP_DEG, path_length_m, shortest_safe_path
 from validator.audit import audit
-from validator.dynamics import STOP_LAG_S, Profiles1D
+from validator.dynamics import STOP_LAG_S
 from validator.errors import InputError
 from validator.geodesy import LocalFrame, round_e7
 from validator.geometry import (
@@ -268,10 +268,22 @@ def service_steps(trajectory_m: ArrayLike, delta_s: ArrayLike,
     return steps
 
 
-def scurve_legs(site: Site, lengths_m: ArrayLike, speed_mps: float) -> Profiles1D:
-    """Rest-to-rest S-curves (the validator's ``arducopter`` model) of straight legs flown at
-    ``speed_mps`` within the site's limits: the timing dynamics-aware plans were made with."""
-    return leg_profiles(site, lengths_m, speed_mps)
+def scurve_legs(site: Site, lengths_m: ArrayLike, speed_mps: float,
+                notes: Mapping[str, object] | None = None) -> LegMotion:
+    """Rest-to-rest motion of straight legs flown at ``speed_mps`` within the site's limits,
+    by the autopilot model and parameters a dynamics-aware plan was timed with (its solution's
+    ``notes``: "autopilot", "timing_params"; default ArduCopter's S-curves)."""
+    autopilot, params = _timing_of(notes)
+    return leg_profiles(site, lengths_m, speed_mps, autopilot, params)
+
+
+def _timing_of(notes: Mapping[str, object] | None) -> tuple[str, dict[str, float]]:
+    """The autopilot and timing parameters a solution was re-timed with (its notes)."""
+    notes = notes or {}
+    autopilot = str(notes.get("autopilot", "ardupilot"))
+    raw = notes.get("timing_params")
+    params = {str(k): float(v) for k, v in raw.items()} if isinstance(raw, Mapping) else {}
+    return autopilot, params
 
 
 @dataclass(frozen=True)
@@ -337,7 +349,7 @@ def merge_straight_steps(
     steps: list[CycleStep], trajectory_m: ArrayLike, *, angle_deg: float = 1.0,
     speed_rel: float = 0.01, offset_m: float = 0.05, min_speed_mps: float = 0.0,
     nfz_xy_m: ArrayLike = (), nfz_radius_m: ArrayLike = (), clearance_target_m: float = 0.0,
-    scurve: Callable[[NDArray[np.float64]], Profiles1D] | None = None,
+    scurve: Callable[[NDArray[np.float64]], LegMotion] | None = None,
     scurve_speed_mps: float | None = None, scurve_time_tol_s: float = 0.02,
 ) -> list[CycleStep]:
     """Merge consecutive slots on one straight line into one waypoint when one leg flies them.
@@ -352,7 +364,7 @@ def merge_straight_steps(
       ``speed_rel`` (fraction) of the chord's constant speed and at least ``min_speed_mps``;
       between boundaries both move linearly in time, so the boundaries bound the gap;
     - **as the autopilot's own S-curve**: the longest straight run from each waypoint, when
-      ``scurve`` (lengths -> :class:`~validator.dynamics.Profiles1D`, e.g. :func:`scurve_legs`)
+      ``scurve`` (lengths -> leg motion, e.g. :func:`scurve_legs`)
       flown at ``scurve_speed_mps`` from rest to rest matches the slots and arrives within
       ``scurve_time_tol_s`` of the plan: the planner timed the leg that way (dynamics-aware
       plans), so one waypoint with that speed replaces the speed changes between its slots.
@@ -610,6 +622,7 @@ def build_mission(solution: Solution, options: MissionOptions | None = None) -> 
     q[-1] = q[0]
 
     steps = service_steps(q, delta, opt.stationary_tol_m)
+    timed_speed = cruise_speed_mps(site, _timing_of(solution.notes)[0])
     radii = site.planning_radius_m
     per_slot = len(steps)
     if opt.merge_legs:
@@ -617,8 +630,8 @@ def build_mission(solution: Solution, options: MissionOptions | None = None) -> 
             steps, q, angle_deg=opt.merge_angle_deg, speed_rel=opt.merge_speed_rel,
             offset_m=opt.merge_offset_m, min_speed_mps=opt.min_speed_mps,
             nfz_xy_m=site.nfz_xy_m, nfz_radius_m=radii, clearance_target_m=opt.export_margin_m,
-            scurve=lambda lengths: scurve_legs(site, lengths, cruise_speed_mps(site)),
-            scurve_speed_mps=cruise_speed_mps(site))
+            scurve=lambda lengths: scurve_legs(site, lengths, timed_speed, solution.notes),
+            scurve_speed_mps=timed_speed)
     cyc_idx = [0] + [s.index for s in steps if s.index not in (0, len(q) - 1)]
     pts, moved = nudge_clear(q[cyc_idx], site.nfz_xy_m, radii, target_margin_m=opt.export_margin_m,
                              max_nudge_m=opt.max_nudge_m, closed=True)

@@ -526,6 +526,13 @@ def _sample_slots(
         hd = smap.hold.get(k)
         if mv is not None and mv.size:
             f = segment_point_closest_fraction(leg.start_xy_m, leg.end_xy_m, track.xy_m[sel])
+            # The move ends where the autopilot counted the waypoint reached: on it for
+            # ArduCopter, up to the acceptance radius short of it for PX4, whose hold starts
+            # there. The plan laid the move's slots out to that moment, so the flown move is
+            # measured to the same point.
+            at_reach = f[~in_hold][-1] if np.any(~in_hold) and np.any(in_hold) else 1.0
+            if 0.5 < at_reach < 1.0:
+                f = np.minimum(f / at_reach, 1.0)
             s = f * mv[-1, 2]
             j = np.clip(np.searchsorted(mv[:, 2], s, side="right"), 0, mv.shape[0] - 1)
             slot[sel] = mv[j, 0].astype(np.int64)

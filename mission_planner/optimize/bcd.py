@@ -12,7 +12,7 @@ With ``dynamics="vehicle"`` the optimised path is then re-timed as a multicopter
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -49,9 +49,11 @@ class PlannerOptions:
     that solver tolerance and MAVLink's int32 1e-7° rounding (≤ 0.8 cm) never cost clearance.
 
     ``dynamics`` "none" is the paper's kinematic model (top speed only). "vehicle" re-times
-    the optimised path with the site's ``max_accel`` / ``max_jerk`` as ArduCopter flies it
-    (:mod:`.retime`); when the moves then overrun T, the path is planned again for a lower
-    effective top speed, up to ``retime_attempts`` times.
+    the optimised path with the site's ``max_accel`` / ``max_jerk`` as ``autopilot``
+    ("ardupilot" or "px4") flies it (:mod:`.retime`), with the autopilot parameters
+    ``timing_params`` the plan will set (autopilot units, e.g. PX4's NAV_ACC_RAD); when the
+    moves then overrun T, the path is planned again for a lower effective top speed, up to
+    ``retime_attempts`` times.
     """
 
     gamma: float = 100.0
@@ -65,6 +67,8 @@ class PlannerOptions:
     nfz_margin_m: float = 0.02
     dynamics: str = "none"
     retime_attempts: int = 8
+    autopilot: str = "ardupilot"
+    timing_params: Mapping[str, float] = field(default_factory=dict)
 
 
 @dataclass
@@ -256,7 +260,8 @@ def _retimed(
     sk = retime.skeleton(
         paper.trajectory_m, paper.delta_s, site.nfz_xy_m, site.planning_radius_m + opt.nfz_margin_m
     )
-    move_s, timed = retime.time_cycle(site, sk, site.period_s, site.slots)
+    move_s, timed = retime.time_cycle(site, sk, site.period_s, site.slots, opt.autopilot,
+                                      opt.timing_params)
     paper_move_s = max(site.period_s - float(np.sum(sk.hold_s)), 1e-9)
     if timed is None:
         return None, move_s / paper_move_s
@@ -288,7 +293,7 @@ def _plan_flyable(
     is lower; the speed falls until the re-timed moves fit, then a bisection between the last
     speed that overran and the first that fit keeps the candidate with the best min rate.
     """
-    speed, too_fast = retime.cruise_speed_mps(site), None
+    speed, too_fast = retime.cruise_speed_mps(site, opt.autopilot), None
     best: _Flyable | None = None
     iterations = 0
     for _ in range(opt.retime_attempts):
@@ -313,6 +318,8 @@ def _plan_flyable(
     sc = scale_site(site, opt.nfz_margin_m, opt.gamma)
     notes: dict[str, object] = {
         "dynamics": "vehicle",
+        "autopilot": opt.autopilot,
+        "timing_params": dict(opt.timing_params),
         "planning_speed_mps": best.speed_mps,
         "speeds_tried": iterations,
         "waypoint_slots": best.waypoint_slots,

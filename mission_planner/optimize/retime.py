@@ -1,22 +1,24 @@
 """Flyable timing: re-time an optimised path the way a multicopter really flies it.
 
-The paper's model lets the UAV jump between hovering and top speed. ArduCopter (measured in
-SITL, see the shared notes) flies each leg between waypoints as a jerk-limited S-curve from
-rest to rest, so a dash that the paper times at V takes far longer, and the period T is
-overrun several times. This module keeps the optimised path but flies it honestly:
+The paper's model lets the UAV jump between hovering and top speed. An autopilot flies each
+leg between waypoints from rest to rest under its own rules, so a dash that the paper times at
+V takes far longer, and the period T is overrun several times. This module keeps the optimised
+path but flies it honestly, with the validator's own model of the autopilot
+(:func:`motion_profile`), so that the plan and its replay agree by construction:
 
 1. :func:`skeleton`: the path's corners and hover points become waypoints; straight stretches
    between them (Douglas-Peucker within ``tolerance_m``, never closer to an NFZ than before)
    become single legs;
-2. :func:`leg_profiles`: each leg is timed with the validator's own ArduCopter S-curve model
-   (WPNAV_ACCEL capped by the lean angle, WPNAV_JERK with ArduCopter's jerk ramp) at
-   :func:`cruise_speed_mps`, never above the vehicle's real (lean-limited) top speed;
-3. every stop costs the autopilot's stop lag (:data:`validator.dynamics.STOP_LAG_S`: it
+2. :func:`leg_profiles`: each leg is timed at :func:`cruise_speed_mps`, never above the
+   vehicle's real top speed: ArduCopter's jerk-limited S-curve (WPNAV_ACCEL capped by the lean
+   angle, WPNAV_JERK with its jerk ramp), or PX4's braking rule and velocity smoothing, a leg
+   ending when the vehicle is within NAV_ACC_RAD of the waypoint (PX4 starts the hold there);
+3. every ArduCopter stop costs its stop lag (:data:`validator.dynamics.STOP_LAG_S`: it
    reaches the waypoint that long after the S-curve ends), counted as hover at the waypoint
    just reached (the exporter programs holds net of it); the time left in T goes to the hover
    points in proportion to the optimiser's holds;
 4. :func:`resample`: N slots are laid on that timeline: boundaries at every arrival and
-   departure, the rest spread over the moves, positions taken from the S-curves.
+   departure, the rest spread over the moves, positions taken from the leg motion.
 
 Schedule and power are then re-optimised on the re-timed trajectory by the caller. Positions
 are metres east/north; times seconds.
@@ -24,7 +26,9 @@ are metres east/north; times seconds.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -32,11 +36,14 @@ from shapely.geometry import LineString
 
 from validator.dynamics import (
     STOP_LAG_S,
-    Profiles1D,
+    Profile,
     arducopter_accel_mps2,
     arducopter_top_speed_mps,
+    flight_params,
     jerk_ramp_s,
     make_profile,
+    px4_rest_to_rest,
+    px4_top_speed_mps,
     scurve_rest_to_rest,
 )
 from validator.geometry import min_leg_clearance
@@ -47,6 +54,21 @@ HOVER_SLOT_DISCOUNT = 0.25
 MIN_SLOT_MOVE_M = 0.1  # the first and last slot of a move travel at least this far
 MIN_HOLD_S = 1.0  # every waypoint of a flyable plan holds this long at least (whole seconds)
 SIMPLIFY_STEPS_M = (50.0, 25.0, 10.0, 5.0, 2.0, 1.0, 0.5, 0.2, 0.0)
+
+
+class LegMotion(Protocol):
+    """Straight legs flown from rest, as a model times them: each leg's length (m), the time
+    (s) its waypoint counts as reached, and the motion along it
+    (:class:`validator.dynamics.Profiles1D`, :class:`validator.motion.px4.SampledLegs`)."""
+
+    @property
+    def length_m(self) -> NDArray[np.float64]: ...
+
+    @property
+    def total_s(self) -> NDArray[np.float64]: ...
+
+    def state(self, leg: NDArray[np.int64], t: NDArray[np.float64]
+              ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]: ...
 
 
 @dataclass(frozen=True)
@@ -154,26 +176,45 @@ def _indices_of(line: LineString, pts: NDArray[np.float64]) -> list[int]:
     return out
 
 
-def top_speed_mps(site: Site) -> float:
-    """The fastest the site's vehicle really flies (m/s): the lean-limited top speed with drag
-    of the validator's ``arducopter`` profile at the site's defaults (the replay's own cap;
-    PX4 plans use the same model)."""
-    return arducopter_top_speed_mps(make_profile("arducopter", site))
+def motion_profile(site: Site, autopilot: str = "ardupilot",
+                   params: Mapping[str, float] | None = None) -> Profile:
+    """The validator's model of ``autopilot`` ("ardupilot": ``arducopter``, "px4": ``px4``)
+    at the site's defaults and the parameters ``params`` (autopilot units) the plan will set:
+    the one model legs are timed with."""
+    name = "px4" if autopilot == "px4" else "arducopter"
+    return make_profile(name, site, flight_params(name, site, params or {}))
 
 
-def cruise_speed_mps(site: Site) -> float:
+def top_speed_mps(site: Site, autopilot: str = "ardupilot") -> float:
+    """The fastest the site's vehicle really flies (m/s): the replay's own cap, for ArduCopter
+    lean-limited against quadratic drag, for PX4 tilt-limited against linear drag."""
+    profile = motion_profile(site, autopilot)
+    if profile.name == "px4":
+        return px4_top_speed_mps(profile)
+    return arducopter_top_speed_mps(profile)
+
+
+def cruise_speed_mps(site: Site, autopilot: str = "ardupilot") -> float:
     """The top speed (m/s) flyable plans are made and timed at: the site's V, or the vehicle's
     real top speed (:func:`top_speed_mps`) when that is lower."""
-    return min(site.max_speed_mps, top_speed_mps(site))
+    return min(site.max_speed_mps, top_speed_mps(site, autopilot))
 
 
-def leg_profiles(site: Site, lengths_m: ArrayLike, speed_mps: float | None = None) -> Profiles1D:
-    """Rest-to-rest S-curves of straight legs as ArduCopter flies them (the validator's
-    ``arducopter`` model) at ``speed_mps`` (default: :func:`cruise_speed_mps`), never above
-    the vehicle's top speed: acceleration ``uav.max_accel`` capped by the default lean angle,
-    jerk ``uav.max_jerk`` with ArduCopter's jerk ramp."""
-    profile = make_profile("arducopter", site)
+def leg_profiles(site: Site, lengths_m: ArrayLike, speed_mps: float | None = None,
+                 autopilot: str = "ardupilot",
+                 params: Mapping[str, float] | None = None) -> LegMotion:
+    """Straight legs flown from rest to rest as the autopilot flies them (the validator's
+    model, :func:`motion_profile`) at ``speed_mps`` (default: :func:`cruise_speed_mps`), never
+    above the vehicle's top speed. ArduCopter: S-curves with acceleration ``uav.max_accel``
+    capped by the lean angle and jerk ``uav.max_jerk`` with ArduCopter's jerk ramp. PX4: its
+    own braking rule and velocity smoothing, a leg ending when the vehicle is within
+    NAV_ACC_RAD of its waypoint (:func:`validator.motion.px4.rest_to_rest`)."""
+    profile = motion_profile(site, autopilot, params)
     lengths = np.atleast_1d(np.asarray(lengths_m, dtype=float))
+    if profile.name == "px4":
+        top = px4_top_speed_mps(profile)
+        speed = top if speed_mps is None else min(speed_mps, top)
+        return px4_rest_to_rest(profile, lengths, speed)
     accel = arducopter_accel_mps2(profile)
     jerk = np.full(lengths.shape, profile.si("WPNAV_JERK"))
     top = min(profile.si("WPNAV_SPEED"), arducopter_top_speed_mps(profile))
@@ -187,31 +228,34 @@ def leg_profiles(site: Site, lengths_m: ArrayLike, speed_mps: float | None = Non
     )
 
 
-def arrival_lag_s(profiles: Profiles1D) -> NDArray[np.float64]:
-    """(W,) time (s) the vehicle reaches each waypoint after the S-curve into it ends: the
-    autopilot's stop lag when a leg leads there (waypoint w is reached by leg w − 1)."""
-    lag = np.where(profiles.length_m > 0, STOP_LAG_S, 0.0)
+def arrival_lag_s(profiles: LegMotion, autopilot: str = "ardupilot") -> NDArray[np.float64]:
+    """(W,) time (s) the vehicle reaches each waypoint after the leg's timing ends (waypoint w
+    is reached by leg w − 1): ArduCopter's stop lag after each S-curve; none for PX4, whose
+    legs are timed to the moment its navigator counts the waypoint reached."""
+    lag_s = 0.0 if autopilot == "px4" else STOP_LAG_S
+    lag = np.where(profiles.length_m > 0, lag_s, 0.0)
     return np.asarray(np.roll(lag, 1), dtype=float)
 
 
 def time_cycle(
-    site: Site, sk: Skeleton, period_s: float, slots: int
+    site: Site, sk: Skeleton, period_s: float, slots: int, autopilot: str = "ardupilot",
+    params: Mapping[str, float] | None = None,
 ) -> tuple[float, tuple[NDArray[np.float64], NDArray[np.float64]] | None]:
     """The vehicle's total move time (s) round ``sk``, and its timeline of ``slots`` slots
     filling ``period_s`` (trajectory (N+1, 2), slot lengths (N,)); None when it cannot.
 
     On the timeline each waypoint's hover begins with the stop lag (:func:`arrival_lag_s`)
     and then holds as :func:`fit_holds` says (whole seconds but one, at least a second)."""
-    profiles = leg_profiles(site, sk.leg_lengths_m)
+    profiles = leg_profiles(site, sk.leg_lengths_m, autopilot=autopilot, params=params)
     move_s = float(np.sum(move_times(profiles)))
-    lag = arrival_lag_s(profiles)
+    lag = arrival_lag_s(profiles, autopilot)
     holds = fit_holds(sk.hold_s, move_s + float(np.sum(lag)), period_s)
     if holds is None:
         return move_s, None
     return move_s, resample(sk, holds + lag, profiles, slots, lag)
 
 
-def move_times(profiles: Profiles1D) -> NDArray[np.float64]:
+def move_times(profiles: LegMotion) -> NDArray[np.float64]:
     """Duration (s) of each leg's move; a zero-length leg (a one-waypoint cycle) takes none."""
     return np.asarray(np.where(profiles.length_m > 0, profiles.total_s, 0.0), dtype=float)
 
@@ -249,7 +293,7 @@ def fit_holds(
 def resample(
     sk: Skeleton,
     hold_s: NDArray[np.float64],
-    profiles: Profiles1D,
+    profiles: LegMotion,
     slots: int,
     arrival_lag_s: NDArray[np.float64] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
@@ -308,7 +352,7 @@ def resample(
 
 
 def _move_boundaries(
-    profiles: Profiles1D, leg: int, duration_s: float, count: int
+    profiles: LegMotion, leg: int, duration_s: float, count: int
 ) -> NDArray[np.float64]:
     """End times (s) of ``count`` slots over a move: equal in time, except that every slot
     moves at least :data:`MIN_SLOT_MOVE_M` (an S-curve starts and ends so slowly that an equal

@@ -213,3 +213,30 @@ def test_every_moving_slot_moves_visibly(site: Site) -> None:
     steps = np.linalg.norm(np.diff(q, axis=0), axis=1)
     assert np.all(d > 0)
     assert np.all((steps == 0.0) | (steps >= 0.1 - 1e-9))
+
+
+@pytest.fixture(scope="module")
+def flyable_px4(site: Site) -> Solution:
+    return plan(site, "proposed", options=PlannerOptions(
+        dynamics="vehicle", max_iterations=10, autopilot="px4",
+        timing_params={"NAV_ACC_RAD": 0.05}))  # what a site without a buffer gets
+
+
+def test_px4_plans_are_timed_with_px4s_own_rules(site: Site, flyable_px4: Solution) -> None:
+    """Timed with PX4's braking rule (slower to a stop than ArduCopter's S-curve when the jerk
+    is small), exported for PX4 and replayed as PX4 flies it, the cycle keeps T and the nodes
+    get the planned min rate."""
+    from mission_planner.autopilot_params import recommended_params
+    from mission_planner.flight_report import replay_mission
+    from mission_planner.mission import MissionOptions, build_mission
+
+    assert flyable_px4.notes["autopilot"] == "px4"
+    assert leg_profiles(site, [50.0], autopilot="px4").total_s[0] > leg_profiles(
+        site, [50.0]).total_s[0]
+    mission = build_mission(flyable_px4, MissionOptions(autopilot="px4"))
+    params = recommended_params(mission)
+    assert params.values["NAV_ACC_RAD"] == 0.05
+    report = replay_mission(mission, params).report
+    assert report.cycle is not None and report.throughput is not None
+    assert report.cycle.ratio == pytest.approx(1.0, abs=0.03)
+    assert report.throughput.flown_min == pytest.approx(report.throughput.planned_min, rel=0.05)
