@@ -13,7 +13,9 @@ Prints
 - when the shared ArduCopter SITL flights of our plans are beside the repository
   (``../shared/data/arducopter-sitl-2``): per flight, the arducopter replay (at the flown
   .param) against the flight: cycle, whole mission (arming to land complete), top speed,
-  cross-track RMS and the min rate along the track. Targets: mission within 5 %, cycle 3 %.
+  cross-track RMS and the min rate along the track. Targets: mission within 5 %, cycle 3 %;
+- per recorded PX4 v1.15.4 SIH flight of our plans (``tests/data/px4-sih``): the px4 replay
+  against the flight, the same figures, and the flown cycle over T.
 """
 
 from __future__ import annotations
@@ -32,14 +34,14 @@ from typing import Any
 import numpy as np
 
 from validator.audit import audit
-from validator.dynamics import make_profile
+from validator.dynamics import flight_params, make_profile
 from validator.flight import resolve_flight
 from validator.plan_format import Cmd, FenceCircle, Frame, MissionItem, Plan, write_plan
 from validator.replay import replay, score_track
 from validator.site import Site, load_site
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the tests' flight loader
-from tests.validator import sitl_flights  # noqa: E402
+from tests.validator import px4_flights, sitl_flights  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "samples" / "paper-default.yaml"
@@ -192,6 +194,31 @@ def calibration() -> None:
               f"{model.cross_track_rms_m:>9.2f}/{flown.cross_track_rms_m:<10.2f} {rates:>18}")
 
 
+def px4_calibration() -> None:
+    """Predicted (px4 replay at the flown parameter file) vs flown, per recorded PX4 SIH
+    flight (tests/data/px4-sih)."""
+    print("px4 replay vs PX4 v1.15.4 SIH (tests/data/px4-sih; predicted / flown; mission = "
+          "takeoff to disarm)")
+    print(f"  {'flight':<20} {'cycle (s)':>15} {'err':>7} {'cycle/T':>8} {'mission (s)':>15} "
+          f"{'err':>7} {'top speed (m/s)':>16} {'cross-track RMS (m)':>20} "
+          f"{'min rate (bps/Hz)':>18}")
+    for name in px4_flights.names():
+        rec = px4_flights.load(name)
+        prof = make_profile("px4", rec.site, flight_params("px4", rec.site, rec.params))
+        model = score_track(replay(rec.flight, prof), rec.flight, rec.site, rec.plan)
+        flown = score_track(rec.track(), rec.flight, rec.site, rec.plan)
+        assert model.cycle is not None and flown.cycle is not None
+        cyc, real = model.cycle.flown_cycle_s, flown.cycle.flown_cycle_s
+        mission = model.duration_s
+        rates = (f"{model.throughput.flown_min:.3f}/{flown.throughput.flown_min:.3f}"
+                 if model.throughput and flown.throughput else "-")
+        print(f"  {name:<20} {cyc:>7.1f}/{real:<7.1f} {cyc / real - 1:>+7.1%} "
+              f"{flown.cycle.ratio:>8.3f} "
+              f"{mission:>7.1f}/{rec.mission_s:<7.1f} {mission / rec.mission_s - 1:>+7.1%} "
+              f"{model.speed_max_mps:>7.2f}/{flown.speed_max_mps:<8.2f} "
+              f"{model.cross_track_rms_m:>9.2f}/{flown.cross_track_rms_m:<10.2f} {rates:>18}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5)
@@ -201,6 +228,8 @@ def main() -> None:
     cli_figure()
     print()
     calibration()
+    print()
+    px4_calibration()
 
 
 if __name__ == "__main__":

@@ -21,6 +21,7 @@ from validator.mavlink.cli import download_mission_main, upload_mission_main
 from validator.mavlink.link import Link
 from validator.mavlink.sitl_process import px4_sih
 from validator.plan_format import Cmd, read_plan
+from validator.track_file import read_track
 
 DOCUMENTED_PATH = Path("/opt/sitl/px4/build/px4_sitl_default/bin/px4")
 
@@ -71,12 +72,13 @@ def test_upload_verifies_against_px4s_storage_and_the_fence_action_holds(realist
         [c.radius_m for c in plan.circles], abs=1e-3)
 
 
-def test_the_realistic_px4_plan_flies_to_the_end_clear_of_every_nfz(realistic, tmp_path,
-                                                                    capsys):
+def test_the_realistic_px4_plan_flies_on_time_clear_of_every_nfz(realistic, tmp_path,
+                                                                  capsys):
     site, plan, params = realistic
     out = tmp_path / "flown.json"
     status = validate_mission_main([str(plan), "--site", str(site), "--params", str(params),
-                                    "--sitl-binary", str(BINARY), "--json", str(out)])
+                                    "--sitl-binary", str(BINARY), "--report", str(out),
+                                    "--track", str(tmp_path / "track.csv.gz")])
     captured = capsys.readouterr()
     assert status == 0, captured.out + captured.err
     report = json.loads(out.read_text())
@@ -85,4 +87,10 @@ def test_the_realistic_px4_plan_flies_to_the_end_clear_of_every_nfz(realistic, t
     assert flight["end"] == "landed"  # the mission's NAV_LAND, then PX4's own disarm
     assert flight["mode_changes"] == []  # Mission mode throughout: no breach, no failsafe
     assert all(z["clearance_m"] > 0 for z in report["sitl"]["nfz"])
-    assert report["sitl"]["cycle"]["flown_cycle_s"] > 0
+    # planned with PX4's own timing: the cycle keeps T, and the px4 replay predicted it
+    flown, replayed = report["sitl"]["cycle"], report["replay"]["cycle"]
+    assert flown["ratio_to_planned"] == pytest.approx(1.0, abs=0.05)
+    assert replayed["flown_cycle_s"] == pytest.approx(flown["flown_cycle_s"], rel=0.03)
+    thr = report["sitl"]["throughput"]
+    assert thr["flown_min_bps_hz"] >= 0.97 * thr["planned_min_bps_hz"]
+    assert read_track(tmp_path / "track.csv.gz").t_s.size == flight["samples"]
