@@ -87,6 +87,10 @@ STOP_LAG_S = 0.6
 # COM_DISARM_LAND).
 PX4_LIFTOFF_DELAY_S = 3.0
 PX4_LAND_DETECT_S = 2.5
+# PX4 counts a stop waypoint reached this long after the straight-line model does: closing in,
+# the vehicle also converges on the planned line (PositionSmoothing's L1 crossing point),
+# which slows its last metre. Median over the stops of the SIH flights in tests/data/px4-sih.
+PX4_ARRIVAL_LAG_S = 0.9
 
 
 @dataclass(frozen=True)
@@ -987,7 +991,7 @@ def _fly_px4(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
             flown = px4.fly_run(path.waypoint_s_m, path.through_mps, cruise[run],
                                 profile.si("MPC_ACC_HOR"), jerk, profile.si("NAV_ACC_RAD"),
                                 legs[run[-1]].hold_s, cap_s_m=path.s_m, cap_mps=path.cap_mps,
-                                tracking=_px4_tracking(profile))
+                                tracking=_px4_tracking(profile), arrival_lag_s=PX4_ARRIVAL_LAG_S)
         t_run = flown.t_s + clock
         xyz = np.stack([np.interp(flown.s_m, path.s_m, path.points_m[:, c]) for c in range(3)],
                        axis=1)
@@ -1024,7 +1028,8 @@ def px4_rest_to_rest(profile: Profile, lengths_m: NDArray[np.float64],
     :func:`validator.motion.px4.rest_to_rest`."""
     return px4.rest_to_rest(lengths_m, min(speed_mps, px4_top_speed_mps(profile)),
                             profile.si("MPC_ACC_HOR"), profile.si("MPC_JERK_AUTO"),
-                            profile.si("NAV_ACC_RAD"), _px4_tracking(profile))
+                            profile.si("NAV_ACC_RAD"), _px4_tracking(profile),
+                            PX4_ARRIVAL_LAG_S)
 
 
 def _px4_tracking(profile: Profile) -> px4.Tracking:

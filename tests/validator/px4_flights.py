@@ -4,6 +4,7 @@ the recorded track (:mod:`validator.track_file`)."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
@@ -37,8 +38,10 @@ class Px4Flight:
 
     @property
     def mission_s(self) -> float:
-        """Takeoff to disarm (s): what a replay from the takeoff predicts."""
-        return self.recorded.disarmed_s
+        """Takeoff to disarm (s): what a replay from the takeoff predicts (the last sample
+        when the recording stopped at the landing, before the disarm)."""
+        end = self.recorded.disarmed_s
+        return end if math.isfinite(end) else float(self.recorded.t_s[-1])
 
 
 @cache

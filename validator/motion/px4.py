@@ -175,6 +175,7 @@ def fly_run(
     cap_mps: NDArray[np.float64] | None = None,
     speed_profile: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
     tracking: Tracking | None = None,
+    arrival_lag_s: float = 0.0,
     dt_s: float = LOOP_S,
 ) -> Run1D:
     """Fly from rest along a path through waypoints at arc lengths ``waypoint_s_m`` (the last
@@ -205,8 +206,8 @@ def fly_run(
             reached[j] = t
             j += 1
         if j == last and math.isnan(reached[last]) and ends[last] - here <= acceptance_m:
-            reached[last] = t
-            done_at = t + hold_s
+            reached[last] = t + arrival_lag_s
+            done_at = reached[last] + hold_s
         togo = ends[j] - vs.x
         if speed_profile is not None and j == last:
             target = float(np.interp(ends[last] - vs.x, speed_profile[0], speed_profile[1]))
@@ -240,7 +241,7 @@ def fly_run(
         ss.append(x if tracking else vs.x)
         settled = (ends[last] - (x if tracking else vs.x) <= STOPPED_M
                    and abs(v if tracking else vs.v) < STOPPED_MPS)
-        if settled and not math.isnan(reached[last]):
+        if settled and not math.isnan(reached[last]) and t >= reached[last]:
             break  # at rest on the waypoint: the rest of the hold changes nothing
     end = max(t, done_at) if math.isfinite(done_at) else t
     return Run1D(np.asarray(ts), np.asarray(ss), reached, float(end))
@@ -283,7 +284,7 @@ class SampledLegs:
 
 def rest_to_rest(
     lengths_m: NDArray[np.float64], cruise_mps: float, accel_mps2: float, jerk_mps3: float,
-    acceptance_m: float, tracking: Tracking | None = None,
+    acceptance_m: float, tracking: Tracking | None = None, arrival_lag_s: float = 0.0,
 ) -> SampledLegs:
     """Each straight leg of ``lengths_m`` flown alone, from rest to a stop (:func:`fly_run`):
     how a PX4 mission times legs that end in a hold."""
@@ -295,7 +296,7 @@ def rest_to_rest(
             total.append(0.0)
             continue
         run = _rest_to_rest(float(length), cruise_mps, accel_mps2, jerk_mps3, acceptance_m,
-                            tracking)
+                            tracking, arrival_lag_s)
         ts.append(run.t_s)
         ss.append(run.s_m)
         total.append(float(run.reached_s[-1]))
@@ -305,9 +306,10 @@ def rest_to_rest(
 
 @functools.lru_cache(maxsize=4096)
 def _rest_to_rest(length_m: float, cruise_mps: float, accel_mps2: float, jerk_mps3: float,
-                  acceptance_m: float, tracking: Tracking | None) -> Run1D:
+                  acceptance_m: float, tracking: Tracking | None,
+                  arrival_lag_s: float) -> Run1D:
     return fly_run([length_m], [0.0], [cruise_mps], accel_mps2, jerk_mps3, acceptance_m, 0.0,
-                   tracking=tracking)
+                   tracking=tracking, arrival_lag_s=arrival_lag_s)
 
 
 __all__ = [

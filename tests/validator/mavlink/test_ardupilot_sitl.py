@@ -8,13 +8,12 @@ saying how to enable them. Plans are made by ``plan-mission`` as a user makes th
 from __future__ import annotations
 
 import json
-import subprocess
 from pathlib import Path
 
 import pytest
 import yaml
 
-from tests.validator.mavlink.sitl_binaries import PLAN_MISSION, REPO, sitl_binary
+from tests.validator.mavlink.sitl_binaries import REPO, crossing_site, plan_for, sitl_binary
 from validator.autopilot.param_file import read_params
 from validator.cli import validate_mission_main
 from validator.mavlink.cli import download_mission_main, upload_mission_main
@@ -32,18 +31,11 @@ pytestmark = [pytest.mark.xdist_group("real-sitl"), pytest.mark.skipif(
            "/opt/sitl/arducopter) to run the real-autopilot tests")]
 
 
-def _plan(tmp: Path, site: Path, *extra: str) -> tuple[Path, Path]:
-    out = tmp / f"{site.stem}.plan"
-    subprocess.run([str(PLAN_MISSION), str(site), "-o", str(out), *extra],
-                   check=True, capture_output=True)
-    return out, out.with_suffix(".param")
-
-
 @pytest.fixture(scope="module")
 def sample(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, Path]:
     tmp = tmp_path_factory.mktemp("sample")
     site = REPO / "samples" / "paper-default.yaml"
-    plan, params = _plan(tmp, site)
+    plan, params = plan_for(tmp, site)
     return site, plan, params
 
 
@@ -99,25 +91,11 @@ def test_the_sample_plan_flies_to_the_end_clear_of_every_nfz(sample, tmp_path, c
     assert "flown clearance (m)" in text
 
 
-def _crossing_site(tmp: Path) -> Path:
-    """Two nodes either side of a zone, few slots: the conventional plan hops across it."""
-    site = yaml.safe_load((REPO / "samples" / "paper-default.yaml").read_text())
-    site.update(name="crossing",
-                uav={"altitude": 30.0, "max_speed": 10.0, "period": 40.0, "slots": 6},
-                ground_nodes=[{"name": "W", "x": 0.0, "y": 0.0}, {"name": "E", "x": 240.0,
-                                                                 "y": 0.0}],
-                no_fly_zones=[{"name": "MID", "x": 120.0, "y": 0.0, "radius": 40.0}])
-    site.pop("home", None)
-    path = tmp / "crossing.yaml"
-    path.write_text(yaml.safe_dump(site))
-    return path
-
-
 @pytest.fixture(scope="module")
 def crossing(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, Path]:
     tmp = tmp_path_factory.mktemp("crossing")
-    site = _crossing_site(tmp)
-    plan, params = _plan(tmp, site, "--scheme", "conventional", "--dynamics", "none", "--force")
+    site = crossing_site(tmp)
+    plan, params = plan_for(tmp, site, "--scheme", "conventional", "--dynamics", "none", "--force")
     return site, plan, params
 
 
@@ -151,7 +129,7 @@ def realistic(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, Pat
     tmp = tmp_path_factory.mktemp("realistic")
     site = REPO / "samples" / "realistic.yaml"
     report = tmp / "realistic.report.json"
-    plan, params = _plan(tmp, site, "--report", str(report))
+    plan, params = plan_for(tmp, site, "--report", str(report))
     return site, plan, params, report
 
 

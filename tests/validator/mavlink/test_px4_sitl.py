@@ -12,15 +12,23 @@ import json
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-from tests.validator.mavlink.sitl_binaries import PLAN_MISSION, REPO, sitl_binary
+from tests.validator.mavlink.sitl_binaries import (
+    PLAN_MISSION,
+    REPO,
+    crossing_site,
+    plan_for,
+    sitl_binary,
+)
 from validator.autopilot.param_file import read_params
 from validator.cli import validate_mission_main
 from validator.mavlink.cli import download_mission_main, upload_mission_main
 from validator.mavlink.link import Link
 from validator.mavlink.sitl_process import px4_sih
 from validator.plan_format import Cmd, read_plan
+from validator.site import load_site
 from validator.track_file import read_track
 
 DOCUMENTED_PATH = Path("/opt/sitl/px4/build/px4_sitl_default/bin/px4")
@@ -94,3 +102,30 @@ def test_the_realistic_px4_plan_flies_on_time_clear_of_every_nfz(realistic, tmp_
     thr = report["sitl"]["throughput"]
     assert thr["flown_min_bps_hz"] >= 0.97 * thr["planned_min_bps_hz"]
     assert read_track(tmp_path / "track.csv.gz").t_s.size == flight["samples"]
+
+
+def test_a_breach_holds_the_vehicle_short_of_crossing_the_zone(tmp_path):
+    """A conventional plan that hops across a zone (forced out), flown with the plan's
+    parameters: PX4 detects the geofence breach and holds (GF_ACTION 2) instead of flying on
+    across. It stops within its braking distance of the fence: inside the zone, which is what
+    the buffer is for; the fence is the last line, not the plan's clearance."""
+    site = crossing_site(tmp_path)
+    plan, params = plan_for(tmp_path, site, "--scheme", "conventional", "--dynamics", "none",
+                            "--force", "--autopilot", "px4")
+    out, track = tmp_path / "breach.json", tmp_path / "breach.csv"
+    status = validate_mission_main([str(plan), "--site", str(site), "--params", str(params),
+                                    "--sitl-binary", str(BINARY), "--sitl-time-limit", "150",
+                                    "--report", str(out), "--track", str(track)])
+    assert status == 1  # the audit refuses the plan's legs across MID
+    report = json.loads(out.read_text())
+    flight = report["sitl_flight"]
+    assert [c["mode"] for c in flight["mode_changes"]][:1] == ["LOITER"]
+    assert any("Geofence" in m["text"] for m in flight["messages"])
+    # it stopped before the deepest point of the leg across MID, and holds there (the flight
+    # is cut at the time limit), not on the far side
+    planned = min(z["clearance_m"] for z in report["audit"]["nfz"])
+    flown = min(z["clearance_m"] for z in report["sitl"]["nfz"])
+    assert planned < flown
+    rec = read_track(track)
+    xy = load_site(site).frame.to_local(rec.lat_deg[-1:], rec.lon_deg[-1:])[0]
+    assert np.hypot(xy[0] - 120.0, xy[1]) < 40.0 + 5.0
