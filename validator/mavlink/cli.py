@@ -4,7 +4,7 @@
     upload-mission PLAN --connect URL [--timeout S] [--sysid N] [--set-params FILE]
                    [--site SITE [--force]] [--allow-fence-off]
     download-mission --connect URL -o PLAN [--timeout S] [--sysid N]
-    sitl-vehicle --listen URL --home LAT,LON,ALT [--speedup X] [--loss P] [--seed N]
+    sitl-vehicle [--listen URL] --home LAT,LON,ALT [--speedup X] [--loss P] [--seed N]
                  [--profile NAME] [--param NAME=VALUE ...] [--sysid N]
 
 Exit status: 0 success, 1 a plan the validator rejects (upload refused), 2 bad input or a
@@ -18,6 +18,7 @@ command needs them, so ``validate-mission`` without ``--sitl`` starts as fast as
 from __future__ import annotations
 
 import argparse
+import ipaddress
 import re
 import signal
 import sys
@@ -205,6 +206,34 @@ def _glue_home(argv: list[str]) -> list[str]:
     return out
 
 
+DEFAULT_LISTEN = "udpin:127.0.0.1:14550"
+LOOPBACK = "127.0.0.1"
+
+
+def listen_url(text: str | None) -> str:
+    """The connection string ``sitl-vehicle`` listens on for ``--listen TEXT``: loopback unless
+    a host is named. None is :data:`DEFAULT_LISTEN`; ``PORT`` and ``udpin::PORT`` (which
+    pymavlink would bind on every interface) listen on 127.0.0.1; ``HOST:PORT`` is
+    ``udpin:HOST:PORT``; any other string is used as it is."""
+    if text is None:
+        return DEFAULT_LISTEN
+    scheme, rest = "udpin", text
+    for prefix in ("udpin:", "udp:"):
+        if text.startswith(prefix):
+            scheme, rest = prefix[:-1], text[len(prefix):]
+    m = re.fullmatch(r"(?:([^:]*):)?(\d+)", rest)
+    if m is None:
+        return text
+    return f"{scheme}:{m.group(1) or LOOPBACK}:{m.group(2)}"
+
+
+def is_loopback(host: str) -> bool:
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return host == "localhost"
+
+
 def sitl_parser() -> argparse.ArgumentParser:
     from validator.dynamics import PROFILES
 
@@ -214,8 +243,10 @@ def sitl_parser() -> argparse.ArgumentParser:
                     "uploaded missions in AUTO with the validator's flight model. Runs until "
                     "interrupted.",
     )
-    p.add_argument("--listen", required=True, metavar="URL",
-                   help="where to listen, e.g. udpin:127.0.0.1:14550 (port 0: any free port)")
+    p.add_argument("--listen", metavar="URL",
+                   help=f"where to listen (default {DEFAULT_LISTEN}): udpin:HOST:PORT, "
+                        "HOST:PORT or PORT (port 0: any free port); loopback unless a host "
+                        "is named, e.g. udpin:0.0.0.0:14550 for every interface")
     p.add_argument("--home", required=True, metavar="LAT,LON,ALT",
                    help="home position: degrees, degrees, metres AMSL")
     p.add_argument("--speedup", type=_positive, default=1.0, metavar="X",
@@ -249,14 +280,18 @@ def sitl_vehicle_main(argv: Sequence[str] | None = None) -> int:
             profile=args.profile,
             params=parse_param_overrides(args.param),
         )
+        url = listen_url(args.listen)
         try:
-            vehicle = SitlVehicle(args.listen, config)
+            vehicle = SitlVehicle(url, config)
         except (OSError, ValueError) as err:
-            raise InputError(f"--listen {args.listen}: cannot listen ({err})") from None
+            raise InputError(f"--listen {url}: cannot listen ({err})") from None
     except InputError as err:
         return _fail("sitl-vehicle", err)
     host, port = vehicle.address
-    scheme = args.listen.split(":", 1)[0]
+    if not is_loopback(host):
+        print(f"sitl-vehicle: listening on {host}, not loopback: any machine that reaches "
+              "this port can command the vehicle", file=sys.stderr)
+    scheme = url.split(":", 1)[0]
     print(f"sitl-vehicle: listening on {scheme}:{host}:{port} (ArduCopter, system "
           f"{args.sysid}, {args.profile}, x{args.speedup:g})", flush=True)
 
