@@ -12,6 +12,10 @@ them by construction rather than by each parser's care:
 - every number must be finite: JSON's non-standard ``NaN`` / ``Infinity`` and numbers that
   overflow a double are refused, as are YAML's ``.nan`` / ``.inf``.
 
+- a path written inside a file (:func:`resolve_referenced_path`, for the coming ``airspace:``
+  key: no reader follows one yet) stays inside that file's folder, unless the user explicitly
+  allows absolute paths.
+
 Each breach raises :class:`~validator.errors.InputError` naming the file and, where there is
 one, the field.
 """
@@ -160,3 +164,39 @@ def _where(path: tuple[str | int, ...]) -> str:
     for part in path:
         out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else part)
     return out or "top level"
+
+
+def resolve_referenced_path(base_file: str | Path, ref: object, *, field: str,
+                            allow_absolute: bool = False) -> Path:
+    """The file that a path inside the user's file ``base_file`` names (such as a site's
+    ``airspace:`` key, at ``field``), resolved; :class:`InputError` naming ``base_file`` and
+    ``field`` when it may not be used.
+
+    No input file can make the tool read or write outside the paths the user named: a relative
+    ``ref`` is taken from the folder of ``base_file`` (not the working directory) and must stay
+    inside that folder once ``..`` and symbolic links are resolved (a symbolic link out of the
+    folder, as an unpacked archive can hold, is refused too). An absolute ``ref`` is refused
+    unless ``allow_absolute``, which only an explicit choice of the user may set (a command-line
+    option), and is then taken as it stands. ``~`` is not expanded.
+    """
+    source = f"{base_file}: {field}"
+    if not isinstance(ref, str) or not ref:
+        raise InputError(f"{source}: expected a file path relative to the file's folder, "
+                         f"got {ref!r}")
+    if "\0" in ref:
+        raise InputError(f"{source}: the path holds a NUL character")
+    folder = Path(base_file).parent
+    try:
+        root = folder.resolve()
+        if Path(ref).is_absolute():
+            if not allow_absolute:
+                raise InputError(f"{source}: {ref!r} is an absolute path; name the file "
+                                 f"relative to {root}")
+            return Path(ref).resolve()
+        resolved = (folder / ref).resolve()
+    except (OSError, RuntimeError) as err:  # RuntimeError: a symbolic link loop
+        raise InputError(f"{source}: cannot resolve {ref!r} ({err})") from None
+    if not resolved.is_relative_to(root):
+        raise InputError(f"{source}: {ref!r} resolves to {resolved}, outside {root} (the "
+                         "folder of the file that names it)")
+    return resolved

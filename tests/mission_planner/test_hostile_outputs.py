@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 import random
+import re
 import signal
 import subprocess
 import sys
@@ -15,6 +16,7 @@ import pytest
 
 from mission_planner.study.store import LOCK_NAME, TrialLog, read_log
 from validator.errors import InputError
+from validator.fileio import write_all_atomic
 from validator.plan_format import read_plan
 
 ROOT = Path(__file__).parents[2]
@@ -22,8 +24,22 @@ SAMPLE = ROOT / "samples" / "paper-default.yaml"
 SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGKILL)
 
 
-def _no_temporary_files(folder: Path) -> None:
-    assert not [p.name for p in folder.iterdir() if p.name.endswith(".tmp")]
+def _temporaries(folder: Path) -> list[Path]:
+    return [p for p in folder.iterdir() if p.name.endswith(".tmp")]
+
+
+def _leftovers_go_with_the_next_write(folder: Path, names: set[str], sig: signal.Signals) -> None:
+    """What a killed writer may leave besides its files: only SIGKILL, only between linking a
+    hidden temporary of a complete file and renaming it into place (``.NAME.<hex>.tmp``); the
+    next write of those names removes it."""
+    left = _temporaries(folder)
+    if sig != signal.SIGKILL:
+        assert left == []
+    for p in left:
+        assert any(re.fullmatch(rf"\.{re.escape(n)}\.[0-9a-f]{{12}}\.tmp", p.name)
+                   for n in names), p.name
+    write_all_atomic({folder / n: "next\n" for n in names})
+    assert _temporaries(folder) == []
 
 
 # --------------------------------------------------------------------------------------------
@@ -34,7 +50,6 @@ def _check_outputs(folder: Path) -> str:
     """Either none of the outputs or all of them, each complete; returns which."""
     names = {"m.plan", "m.param", "r.json", "f.png"}
     present = {p.name for p in folder.iterdir()} & names
-    _no_temporary_files(folder)
     if not present:
         return "none"
     assert present == names, present
@@ -62,9 +77,10 @@ def test_killed_plan_mission_leaves_no_partial_file(tmp_path: Path) -> None:
         time.sleep(max(0.0, started + at_s - time.monotonic()))
         if proc.poll() is None:
             proc.send_signal(sig)
-    for _, out, proc, _ in runs:
+    for sig, out, proc, _ in runs:
         proc.communicate(timeout=120)  # (a SIGINT during the imports prints a traceback)
         _check_outputs(out)
+        _leftovers_go_with_the_next_write(out, {"m.plan", "m.param", "r.json", "f.png"}, sig)
 
 
 # --------------------------------------------------------------------------------------------
@@ -83,27 +99,34 @@ for gen in range(10**9):
 """
 
 
+def _whole_generation(f: Path) -> str:
+    text = f.read_text()
+    gen = text.split("\n", 1)[0]
+    assert text.endswith(f"END {gen}\n"), f"{f.name} is torn"
+    return gen
+
+
 @pytest.mark.parametrize("sig", SIGNALS, ids=[s.name for s in SIGNALS])
 def test_killed_writer_leaves_whole_files_of_one_generation(tmp_path: Path,
                                                             sig: signal.Signals) -> None:
     rng = random.Random(sig.value)
-    for _ in range(3):
+    names = {"a.plan", "b.param", "c.json"}
+    for _ in range(3):  # each writer starts by removing what the one killed before left
         proc = subprocess.Popen([sys.executable, "-c", _WRITER, str(tmp_path)],
                                 stdout=subprocess.PIPE, cwd=ROOT)
         assert proc.stdout is not None and proc.stdout.readline() == b"ready\n"
         time.sleep(rng.uniform(0.05, 1.0))
         proc.send_signal(sig)
         proc.wait(timeout=60)
-        files = sorted(tmp_path.iterdir())
-        _no_temporary_files(tmp_path)
-        gens = set()
-        for f in files:
-            text = f.read_text()
-            gen = text.split("\n", 1)[0]
-            assert text.endswith(f"END {gen}\n"), f"{f.name} is torn"
-            gens.add(gen)
+        files = sorted(p for p in tmp_path.iterdir() if p.name in names)
+        gens = {_whole_generation(f) for f in files}
+        left = _temporaries(tmp_path)
+        assert len(files) + len(left) == len(list(tmp_path.iterdir()))
+        for f in left:  # SIGKILL's leftovers are complete files too
+            _whole_generation(f)
         if sig != signal.SIGKILL:  # SIGKILL may split the set in the renames' microseconds
             assert len(gens) <= 1 and len(files) in (0, 3)
+    _leftovers_go_with_the_next_write(tmp_path, names, sig)
 
 
 # --------------------------------------------------------------------------------------------

@@ -1,11 +1,11 @@
 """Commands: ``upload-mission``, ``download-mission``, ``sitl-vehicle``, and ``--sitl`` for
 ``validate-mission``.
 
-    upload-mission PLAN --connect URL [--timeout S] [--sysid N] [--set-params FILE]
-                   [--site SITE [--force]] [--allow-fence-off]
-    download-mission --connect URL -o PLAN [--timeout S] [--sysid N]
-    sitl-vehicle --listen URL --home LAT,LON,ALT [--speedup X] [--loss P] [--seed N]
-                 [--profile NAME] [--param NAME=VALUE ...] [--sysid N]
+    upload-mission PLAN --connect URL [--timeout S] [--sysid N] [--signing-key FILE]
+                   [--set-params FILE] [--site SITE [--force]] [--allow-fence-off]
+    download-mission --connect URL -o PLAN [--timeout S] [--sysid N] [--signing-key FILE]
+    sitl-vehicle [--listen URL] --home LAT,LON,ALT [--speedup X] [--loss P] [--seed N]
+                 [--profile NAME] [--param NAME=VALUE ...] [--sysid N] [--signing-key FILE]
 
 Exit status: 0 success, 1 a plan the validator rejects (upload refused), 2 bad input or a
 failed link (one line on stderr; no output file). Each command is a thin wrapper over a
@@ -18,6 +18,7 @@ command needs them, so ``validate-mission`` without ``--sitl`` starts as fast as
 from __future__ import annotations
 
 import argparse
+import ipaddress
 import re
 import signal
 import sys
@@ -66,6 +67,25 @@ def _sysid(text: str) -> int:
     return value
 
 
+SIGNING_KEY_HELP = (
+    "sign every packet (MAVLink 2 signing) and refuse every packet from the vehicle that is "
+    "not signed with this key. FILE holds one line: a passphrase of printable ASCII without "
+    "spaces, whose SHA-256 is the key, as MAVProxy's 'signing setup PASSPHRASE' gives it to "
+    "the vehicle"
+)
+
+
+def _signing_key_arg(p: argparse.ArgumentParser | argparse._ArgumentGroup, help: str) -> None:
+    p.add_argument("--signing-key", metavar="FILE", help=help)
+
+
+def _signing_key(args: argparse.Namespace) -> bytes | None:
+    """The key of ``--signing-key FILE``, or None (:class:`InputError` for a bad file)."""
+    from validator.mavlink.signing import read_signing_key
+
+    return read_signing_key(args.signing_key) if args.signing_key else None
+
+
 def _link_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--connect", required=True, metavar="URL",
                    help="pymavlink connection string: udpin:0.0.0.0:14550, udpout:HOST:PORT, "
@@ -74,6 +94,7 @@ def _link_args(p: argparse.ArgumentParser) -> None:
                    help="give up when the vehicle does not answer for S seconds (default 10)")
     p.add_argument("--sysid", type=_sysid, metavar="N",
                    help="MAVLink system id of the vehicle (default: the first one heard)")
+    _signing_key_arg(p, SIGNING_KEY_HELP)
 
 
 # --------------------------------------------------------------------------------------------
@@ -114,13 +135,15 @@ def upload_mission_main(argv: Sequence[str] | None = None) -> int:
 
         plan = read_plan(args.plan)
         params = read_params(args.set_params) if args.set_params else None
+        key = _signing_key(args)
         if args.site:
             refused = _audit_refusal(args.plan, args.site)
             if refused and not args.force:
                 print(f"upload-mission: {refused}; --force uploads it anyway", file=sys.stderr)
                 return 1
         report = upload_plan(plan, args.connect, timeout_s=args.timeout, sysid=args.sysid,
-                             params=params, require_fence=not args.allow_fence_off)
+                             params=params, require_fence=not args.allow_fence_off,
+                             signing_key=key)
     except InputError as err:
         return _fail("upload-mission", err)
     print(report.summary())
@@ -163,7 +186,8 @@ def download_mission_main(argv: Sequence[str] | None = None) -> int:
         from validator.mavlink.link import download_plan
         from validator.plan_format import write_plan
 
-        plan = download_plan(args.connect, timeout_s=args.timeout, sysid=args.sysid)
+        plan = download_plan(args.connect, timeout_s=args.timeout, sysid=args.sysid,
+                             signing_key=_signing_key(args))
         write_plan(plan, args.output)
     except InputError as err:
         return _fail("download-mission", err)
@@ -205,6 +229,34 @@ def _glue_home(argv: list[str]) -> list[str]:
     return out
 
 
+DEFAULT_LISTEN = "udpin:127.0.0.1:14550"
+LOOPBACK = "127.0.0.1"
+
+
+def listen_url(text: str | None) -> str:
+    """The connection string ``sitl-vehicle`` listens on for ``--listen TEXT``: loopback unless
+    a host is named. None is :data:`DEFAULT_LISTEN`; ``PORT`` and ``udpin::PORT`` (which
+    pymavlink would bind on every interface) listen on 127.0.0.1; ``HOST:PORT`` is
+    ``udpin:HOST:PORT``; any other string is used as it is."""
+    if text is None:
+        return DEFAULT_LISTEN
+    scheme, rest = "udpin", text
+    for prefix in ("udpin:", "udp:"):
+        if text.startswith(prefix):
+            scheme, rest = prefix[:-1], text[len(prefix):]
+    m = re.fullmatch(r"(?:([^:]*):)?(\d+)", rest)
+    if m is None:
+        return text
+    return f"{scheme}:{m.group(1) or LOOPBACK}:{m.group(2)}"
+
+
+def is_loopback(host: str) -> bool:
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return host == "localhost"
+
+
 def sitl_parser() -> argparse.ArgumentParser:
     from validator.dynamics import PROFILES
 
@@ -214,8 +266,10 @@ def sitl_parser() -> argparse.ArgumentParser:
                     "uploaded missions in AUTO with the validator's flight model. Runs until "
                     "interrupted.",
     )
-    p.add_argument("--listen", required=True, metavar="URL",
-                   help="where to listen, e.g. udpin:127.0.0.1:14550 (port 0: any free port)")
+    p.add_argument("--listen", metavar="URL",
+                   help=f"where to listen (default {DEFAULT_LISTEN}): udpin:HOST:PORT, "
+                        "HOST:PORT or PORT (port 0: any free port); loopback unless a host "
+                        "is named, e.g. udpin:0.0.0.0:14550 for every interface")
     p.add_argument("--home", required=True, metavar="LAT,LON,ALT",
                    help="home position: degrees, degrees, metres AMSL")
     p.add_argument("--speedup", type=_positive, default=1.0, metavar="X",
@@ -228,6 +282,8 @@ def sitl_parser() -> argparse.ArgumentParser:
     p.add_argument("--param", action="append", metavar="NAME=VALUE",
                    help="initial parameter value, e.g. WPNAV_ACCEL=500 (repeatable)")
     p.add_argument("--sysid", type=_sysid, default=1, help="MAVLink system id (default 1)")
+    _signing_key_arg(p, "sign every packet (MAVLink 2 signing) and ignore every packet not "
+                        "signed with this key; FILE as for upload-mission --signing-key")
     return p
 
 
@@ -248,17 +304,23 @@ def sitl_vehicle_main(argv: Sequence[str] | None = None) -> int:
             seed=args.seed,
             profile=args.profile,
             params=parse_param_overrides(args.param),
+            signing_key=_signing_key(args),
         )
+        url = listen_url(args.listen)
         try:
-            vehicle = SitlVehicle(args.listen, config)
+            vehicle = SitlVehicle(url, config)
         except (OSError, ValueError) as err:
-            raise InputError(f"--listen {args.listen}: cannot listen ({err})") from None
+            raise InputError(f"--listen {url}: cannot listen ({err})") from None
     except InputError as err:
         return _fail("sitl-vehicle", err)
     host, port = vehicle.address
-    scheme = args.listen.split(":", 1)[0]
+    if not is_loopback(host):
+        print(f"sitl-vehicle: listening on {host}, not loopback: any machine that reaches "
+              "this port can command the vehicle", file=sys.stderr)
+    scheme = url.split(":", 1)[0]
+    signed = ", signed" if args.signing_key else ""
     print(f"sitl-vehicle: listening on {scheme}:{host}:{port} (ArduCopter, system "
-          f"{args.sysid}, {args.profile}, x{args.speedup:g})", flush=True)
+          f"{args.sysid}, {args.profile}, x{args.speedup:g}{signed})", flush=True)
 
     def stop(_sig: int, _frame: Any) -> None:
         vehicle.stop()
@@ -335,6 +397,7 @@ def add_sitl_arguments(p: argparse.ArgumentParser) -> None:
                         "per report; .gz compresses) for scoring or plotting later")
     g.add_argument("--sitl-sysid", type=_sysid, metavar="N",
                    help="external vehicle's system id (default: the first one heard)")
+    _signing_key_arg(g, "with --sitl-url: " + SIGNING_KEY_HELP)
 
 
 def run_sitl(v: Validation, args: argparse.Namespace,
@@ -354,6 +417,10 @@ def run_sitl(v: Validation, args: argparse.Namespace,
     from validator.plan_format import Autopilot
     from validator.validation import default_profile_name
 
+    key = _signing_key(args)
+    if key is not None and not args.sitl_url:
+        raise InputError("--signing-key: only with --sitl-url (the vehicles --sitl starts "
+                         "itself run on loopback, unsigned)")
     overrides = parse_param_overrides(getattr(args, "param", None))
     profile = v.profile or make_profile(getattr(args, "profile", None)
                                         or default_profile_name(v.plan), v.site, overrides)
@@ -369,7 +436,7 @@ def run_sitl(v: Validation, args: argparse.Namespace,
         kind = "external"
         result = fly_and_score(v.plan, v.site, v.flight, args.sitl_url, time_limit_s=limit,
                                timeout_s=args.sitl_timeout, sysid=args.sitl_sysid,
-                               params=sent or None)
+                               params=sent or None, signing_key=key)
     elif binary is not None:
         kind = "sitl-binary"
         speedup = args.sitl_speedup or (DEFAULT_PX4_SPEEDUP if is_px4(binary)

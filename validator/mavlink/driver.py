@@ -483,16 +483,18 @@ def fly_and_score(
     params: Mapping[str, float] | None = None,
     progress: Callable[[str], None] | None = None,
     wait_ready: bool = False,
+    signing_key: bytes | None = None,
 ) -> SitlResult:
     """Upload ``plan`` to the vehicle at ``url`` (``params`` set after the lists, everything
     verified by read-back), fly it and score the recorded track with :func:`score_track`.
 
-    ``wait_ready`` first waits for a freshly started vehicle to pass its pre-arm checks. A
+    ``wait_ready`` first waits for a freshly started vehicle to pass its pre-arm checks;
+    ``signing_key`` signs the link (:mod:`validator.mavlink.signing`). A
     fence the vehicle holds switched off (or with a breach action that can cross another
     zone), and every time the vehicle left the mission mode on its own, are findings of the
     report."""
     say = progress or (lambda _text: None)
-    with Link(url, timeout_s=timeout_s, target_system=sysid) as link:
+    with Link(url, timeout_s=timeout_s, target_system=sysid, signing_key=signing_key) as link:
         if wait_ready:
             say("waiting for the vehicle's pre-arm checks")
             wait_until_ready(link)

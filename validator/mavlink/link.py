@@ -31,6 +31,7 @@ from typing import Any
 from validator.autopilot.fence import FENCE_RULES
 from validator.errors import InputError
 from validator.mavlink import NETWORK_URL
+from validator.mavlink.signing import RefusedTraffic, carries_signature, sign_and_verify
 from validator.mavlink.storage import first_stored_difference, storage_losses
 from validator.mavlink.wire import (
     MissionType,
@@ -173,7 +174,9 @@ class Link:
     """A connection to one vehicle, from the ground station's side.
 
     ``target_system`` picks the vehicle by MAVLink system id; None takes the first autopilot
-    heard. Opening waits up to ``timeout_s`` for its HEARTBEAT. Use as a context manager.
+    heard. Opening waits up to ``timeout_s`` for its HEARTBEAT. With ``signing_key`` every
+    packet sent is signed and every packet received that is not signed with that key is
+    refused (:mod:`validator.mavlink.signing`). Use as a context manager.
     """
 
     def __init__(
@@ -185,6 +188,7 @@ class Link:
         retry_s: float = DEFAULT_RETRY_S,
         source_system: int = GCS_SYSTEM_ID,
         source_component: int = GCS_COMPONENT_ID,
+        signing_key: bytes | None = None,
     ) -> None:
         if not timeout_s > 0:
             raise InputError(f"--timeout: must be > 0, got {timeout_s}")
@@ -196,6 +200,13 @@ class Link:
         self.conn = open_connection(url, source_system=source_system,
                                     source_component=source_component, timeout_s=timeout_s)
         self.mav = self.conn.mav
+        # with a key: everything sent is signed, everything unsigned or signed otherwise is
+        # refused, and counted here to explain a vehicle that seems silent
+        self.refused: RefusedTraffic | None = None
+        if signing_key is not None:
+            sign_and_verify(self.mav, signing_key)
+            self.refused = RefusedTraffic(signing_key)
+        self.vehicle_signs = False  # its heartbeat was signed
         self._last_gcs_heartbeat = 0.0
         # called with every message from the vehicle that recv() reads, wanted or not
         self.listeners: list[Callable[[Any], None]] = [self._keep_statustext]
@@ -266,6 +277,8 @@ class Link:
                 else:
                     time.sleep(min(remaining, 0.01))
                 continue
+            if self.refused is not None:
+                self.refused.note(msg)
             if hasattr(self, "vehicle") and msg.get_srcSystem() != self.vehicle.system_id:
                 if msg.get_type() == "HEARTBEAT" and (
                         msg.autopilot != mavlink.MAV_AUTOPILOT_INVALID):
@@ -287,6 +300,9 @@ class Link:
         while True:
             msg = self.recv(["HEARTBEAT"], deadline)
             if msg is None:
+                if self.refused:
+                    raise LinkError(f"--connect {self.url}: no signed heartbeat within "
+                                    f"{self.timeout_s:g} s; {self.refused.explanation()}")
                 if heard:
                     raise LinkError(
                         f"--connect {self.url}: no vehicle with system id {target_system} "
@@ -301,6 +317,7 @@ class Link:
             if target_system is not None and sysid != target_system:
                 heard.add(sysid)
                 continue
+            self.vehicle_signs = carries_signature(msg)
             return VehicleInfo(sysid, msg.get_srcComponent(), int(msg.autopilot), int(msg.type))
 
     # -- mission protocol ------------------------------------------------------------------
@@ -630,10 +647,12 @@ def upload_plan(
     sysid: int | None = None,
     params: Mapping[str, float] | None = None,
     require_fence: bool = True,
+    signing_key: bytes | None = None,
 ) -> UploadReport:
     """Upload ``plan`` to the vehicle at ``url`` and verify it (``upload-mission``; see
-    :func:`upload_to`)."""
-    with Link(url, timeout_s=timeout_s, target_system=sysid) as link, _naming_others(link, sysid):
+    :func:`upload_to`); with ``signing_key``, over a signed link (:mod:`.signing`)."""
+    with Link(url, timeout_s=timeout_s, target_system=sysid, signing_key=signing_key) as link, \
+            _explaining(link, sysid):
         return upload_to(link, plan, params, require_fence=require_fence)
 
 
@@ -642,19 +661,28 @@ OTHERS_LISTEN_S = 1.5
 
 
 @contextmanager
-def _naming_others(link: Link, sysid: int | None) -> Iterator[None]:
-    """Add to a :class:`LinkError` the other autopilots heard: without ``--sysid`` the vehicle
-    is the first heard, perhaps not the one meant (then listen a moment to find out)."""
+def _explaining(link: Link, sysid: int | None) -> Iterator[None]:
+    """Add to a :class:`LinkError` the other autopilots heard (without ``--sysid`` the vehicle
+    is the first heard, perhaps not the one meant: then listen a moment to find out) and the
+    packets a signed link refused."""
     try:
         yield
     except LinkError as err:
         if sysid is None and not link.other_autopilots:
             link.recv((), time.monotonic() + min(OTHERS_LISTEN_S, link.timeout_s))
-        if not link.other_autopilots:
+        text = str(err)
+        if link.other_autopilots:
+            others = ", ".join(str(s) for s in sorted(link.other_autopilots))
+            text += (f" (talking to system id {link.vehicle.system_id}; also heard system id "
+                     f"{others}: choose one with --sysid)")
+        if link.refused:
+            text += f"; {link.refused.explanation()}"
+        elif link.refused is None and link.vehicle_signs:
+            text += ("; the vehicle signs its packets and may refuse unsigned ones: connect "
+                     "with --signing-key FILE")
+        if text == str(err):
             raise
-        others = ", ".join(str(s) for s in sorted(link.other_autopilots))
-        raise LinkError(f"{err} (talking to system id {link.vehicle.system_id}; also heard "
-                        f"system id {others}: choose one with --sysid)") from None
+        raise LinkError(text) from None
 
 
 def home_of(link: Link) -> tuple[float, float, float] | None:
@@ -682,8 +710,10 @@ def download_from(link: Link) -> Plan:
 
 
 def download_plan(url: str, *, timeout_s: float = DEFAULT_TIMEOUT_S,
-                  sysid: int | None = None) -> Plan:
-    """What the vehicle at ``url`` holds, as a plan (``download-mission``)."""
-    with Link(url, timeout_s=timeout_s, target_system=sysid) as link, _naming_others(link, sysid):
+                  sysid: int | None = None, signing_key: bytes | None = None) -> Plan:
+    """What the vehicle at ``url`` holds, as a plan (``download-mission``); with
+    ``signing_key``, over a signed link (:mod:`.signing`)."""
+    with Link(url, timeout_s=timeout_s, target_system=sysid, signing_key=signing_key) as link, \
+            _explaining(link, sysid):
         return download_from(link)
 

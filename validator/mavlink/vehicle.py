@@ -19,10 +19,12 @@ and behaves like ArduCopter 4.x towards a ground station:
 
 Time is simulated: ``speedup`` simulated seconds pass per wall second, and every timestamp the
 vehicle sends (``time_boot_ms``) is simulated time. ``loss`` drops that fraction of packets at
-random in each direction (seeded). Differences from ArduCopter, on purpose: the fence is on
-and report-only by default (``FENCE_ENABLE`` 1, ``FENCE_ACTION`` 0; set ``FENCE_ACTION`` 1
-for RTL, 2 for LAND, 4 for BRAKE); outside AUTO the vehicle moves by a plain speed- and
-acceleration-limited point follower.
+random in each direction (seeded). With ``signing_key`` it signs everything it sends (MAVSDK's
+answers re-signed as a second stream) and ignores every packet not signed with that key, as
+ArduPilot does on a signed port (:mod:`validator.mavlink.signing`). Differences from
+ArduCopter, on purpose: the fence is on and report-only by default (``FENCE_ENABLE`` 1,
+``FENCE_ACTION`` 0; set ``FENCE_ACTION`` 1 for RTL, 2 for LAND, 4 for BRAKE); outside AUTO the
+vehicle moves by a plain speed- and acceleration-limited point follower.
 """
 
 from __future__ import annotations
@@ -45,6 +47,7 @@ from numpy.typing import NDArray
 from validator.errors import InputError
 from validator.geodesy import LocalFrame
 from validator.mavlink.autoflight import AutoTrack, build_auto_track, vehicle_profile, vehicle_site
+from validator.mavlink.signing import sign_and_verify
 from validator.mavlink.wire import (
     MissionType,
     WireItem,
@@ -118,7 +121,7 @@ class VehicleConfig:
     ``telemetry_hz`` the GLOBAL_POSITION_INT rate in simulated time; ``profile`` the flight
     model flown in AUTO (:data:`validator.dynamics.PROFILES`); ``params`` initial parameter
     values (autopilot units) over ArduCopter's defaults; ``max_speed_mps`` the vehicle's top
-    speed (the profile's VEHICLE_SPEED_MAX default).
+    speed (the profile's VEHICLE_SPEED_MAX default); ``signing_key`` a MAVLink 2 signing key.
     """
 
     home: tuple[float, float, float]
@@ -130,6 +133,7 @@ class VehicleConfig:
     profile: str = "arducopter"
     params: Mapping[str, float] = field(default_factory=dict)
     max_speed_mps: float = SITL_TOP_SPEED_MPS
+    signing_key: bytes | None = None  # sign, and refuse what is not signed (mavlink.signing)
 
 
 class LossyWriter:
@@ -223,6 +227,15 @@ class SitlVehicle:
         self._rx_rng = random.Random(rng.random())
         self.writer = LossyWriter(self.conn, config.loss, random.Random(rng.random()))
         self.mav = mavlink.MAVLink(self.writer, srcSystem=config.system_id, srcComponent=1)
+        # MAVSDK's answers, re-signed as a second stream (link id 1) when signing is on
+        self._mavsdk_signer: Any = None
+        self._mavsdk_signer_lock = threading.Lock()
+        if config.signing_key is not None:
+            sign_and_verify(self.conn.mav, config.signing_key)  # refuses unsigned input
+            sign_and_verify(self.mav, config.signing_key)
+            self._mavsdk_signer = mavlink.MAVLink(self.writer, srcSystem=config.system_id,
+                                                  srcComponent=1)
+            sign_and_verify(self._mavsdk_signer, config.signing_key, link_id=1)
         self._lists_lock = threading.Lock()
         self._lists: dict[int, tuple[WireItem, ...]] = {0: (), 1: (), 2: ()}
         self._completed: dict[int, int] = {}  # mission_type -> items of its finished upload
@@ -357,8 +370,13 @@ class SitlVehicle:
         except Exception:  # a packet we cannot parse is one we would not forward either
             return
         for msg in msgs:
-            if msg.get_type() in MAVSDK_PACKET_TYPES_TO_GCS:
+            if msg.get_type() not in MAVSDK_PACKET_TYPES_TO_GCS:
+                continue
+            if self._mavsdk_signer is None:
                 self.writer.write(bytes(msg.get_msgbuf()))
+            else:
+                with self._mavsdk_signer_lock:
+                    self._mavsdk_signer.send(msg)
 
     def lists(self) -> WireLists:
         """The mission, fence and rally lists the vehicle holds."""

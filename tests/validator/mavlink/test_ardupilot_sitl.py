@@ -8,6 +8,7 @@ saying how to enable them. Plans are made by ``plan-mission`` as a user makes th
 from __future__ import annotations
 
 import json
+import time
 from pathlib import Path
 
 import pytest
@@ -18,6 +19,7 @@ from validator.autopilot.param_file import read_params
 from validator.cli import validate_mission_main
 from validator.mavlink.cli import download_mission_main, upload_mission_main
 from validator.mavlink.link import Link
+from validator.mavlink.signing import SIGNING_EPOCH_UNIX_S, key_from_passphrase
 from validator.mavlink.sitl_process import ardupilot_sitl, find_defaults
 from validator.plan_format import read_plan
 
@@ -146,3 +148,32 @@ def test_a_realistic_plan_keeps_its_period_on_the_real_autopilot(realistic, tmp_
     assert cycle["flown_cycle_s"] == pytest.approx(period, rel=0.05)
     assert cycle["flown_cycle_s"] == pytest.approx(predicted, rel=0.03)
     assert all(z["clearance_m"] > 0 for z in report["sitl"]["nfz"])
+
+
+def test_a_signed_link_works_with_ardupilots_signing_and_an_unsigned_one_is_refused(
+        sample, sitl_url, tmp_path, capsys):
+    """The key a passphrase file gives is the one MAVProxy's ``signing setup`` puts on the
+    autopilot: set it over SERIAL0 (ArduPilot's USB channel, which always takes unsigned
+    packets), then talk over SERIAL1, where ArduPilot refuses anything unsigned."""
+    _, plan, params = sample
+    passphrase = "a-long-random-passphrase-for-the-test"
+    key_file = tmp_path / "link.key"
+    key_file.write_text(passphrase + "\n")
+    with Link(sitl_url, timeout_s=20) as link:
+        link.mav.setup_signing_send(*link.target, list(key_from_passphrase(passphrase)),
+                                    int((time.time() - SIGNING_EPOCH_UNIX_S) * 100_000))
+        link.recv((), time.monotonic() + 1.0)  # ArduPilot acknowledges nothing: give it time
+    host, port = sitl_url.rsplit(":", 1)
+    serial1 = f"{host}:{int(port) + 2}"
+    assert upload_mission_main([str(plan), "--connect", serial1, "--set-params", str(params),
+                                "--timeout", "20", "--signing-key", str(key_file)]) == 0
+    assert capsys.readouterr().out.startswith("uploaded and verified")
+    assert download_mission_main(["--connect", serial1, "--timeout", "5",
+                                  "-o", str(tmp_path / "unsigned.plan")]) == 2
+    assert "the vehicle signs its packets and may refuse unsigned ones" in capsys.readouterr().err
+    wrong = tmp_path / "wrong.key"
+    wrong.write_text("not-the-passphrase\n")
+    assert download_mission_main(["--connect", serial1, "--timeout", "5", "--signing-key",
+                                  str(wrong), "-o", str(tmp_path / "wrong.plan")]) == 2
+    assert "signed with another key" in capsys.readouterr().err
+    assert not (tmp_path / "unsigned.plan").exists() and not (tmp_path / "wrong.plan").exists()

@@ -10,7 +10,14 @@ import yaml
 
 from tests.validator.builders import make_site, waypoint_plan
 from tests.validator.mavlink.conftest import FakeVehicle, free_udp_port, url_of
-from validator.mavlink.cli import download_mission_main, sitl_vehicle_main, upload_mission_main
+from validator.mavlink.cli import (
+    download_mission_main,
+    is_loopback,
+    listen_url,
+    sitl_parser,
+    sitl_vehicle_main,
+    upload_mission_main,
+)
 from validator.mavlink.link import download_plan
 from validator.plan_format import read_plan, write_plan
 from validator.site import site_to_dict
@@ -97,16 +104,33 @@ def test_sitl_vehicle_bad_loss_exits_2(capsys):
     assert "--loss: must be in [0, 1)" in capsys.readouterr().err
 
 
-def test_sitl_vehicle_command_serves_and_stops_on_sigterm(plan):
+@pytest.mark.parametrize("text, url", [
+    (None, "udpin:127.0.0.1:14550"),
+    ("14551", "udpin:127.0.0.1:14551"),
+    ("udpin::14552", "udpin:127.0.0.1:14552"),  # pymavlink: every interface
+    (":0", "udpin:127.0.0.1:0"),
+    ("udp:14553", "udp:127.0.0.1:14553"),
+    ("udpin:0.0.0.0:14550", "udpin:0.0.0.0:14550"),  # asked for: every interface
+    ("192.168.1.5:14550", "udpin:192.168.1.5:14550"),
+    ("udpin:localhost:14550", "udpin:localhost:14550"),
+])
+def test_sitl_vehicle_listens_on_loopback_unless_a_host_is_named(text, url):
+    args = sitl_parser().parse_args(["--home", "1,2,3"] + ([] if text is None else
+                                                           ["--listen", text]))
+    assert listen_url(args.listen) == url
+
+
+@pytest.mark.parametrize("listen", ["0", "udpin::0"])
+def test_sitl_vehicle_command_serves_and_stops_on_sigterm(plan, listen):
     code = "import sys; from validator.mavlink.cli import sitl_vehicle_main as m; sys.exit(m())"
     proc = subprocess.Popen(
-        [sys.executable, "-c", code, "--listen", "udpin:127.0.0.1:0", "--home",
+        [sys.executable, "-c", code, "--listen", listen, "--home",
          f"{plan.home_lat_deg},{plan.home_lon_deg},{plan.home_alt_m}", "--speedup", "10"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )
     try:
         assert proc.stdout is not None
-        line = proc.stdout.readline()
+        line = proc.stdout.readline()  # the address the socket is bound to
         assert line.startswith("sitl-vehicle: listening on udpin:127.0.0.1:")
         port = int(line.split(":")[3].split()[0])
         held = download_plan(f"udpout:127.0.0.1:{port}", timeout_s=5)
@@ -115,3 +139,12 @@ def test_sitl_vehicle_command_serves_and_stops_on_sigterm(plan):
     finally:
         proc.send_signal(signal.SIGTERM)
         assert proc.wait(timeout=10) == 0
+    assert proc.stderr is not None and "not loopback" not in proc.stderr.read()
+
+
+@pytest.mark.parametrize("host, loopback", [("127.0.0.1", True), ("127.0.0.2", True),
+                                            ("::1", True), ("localhost", True),
+                                            ("0.0.0.0", False), ("192.168.1.5", False),
+                                            ("example.org", False)])
+def test_sitl_vehicle_warns_when_not_on_loopback(host, loopback):
+    assert is_loopback(host) == loopback
