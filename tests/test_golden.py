@@ -12,8 +12,11 @@ Regenerate after an intended change, and review the diff like code::
 
     UPDATE_GOLDEN=1 .venv/bin/python -m pytest -q tests/test_golden.py
 
-Tolerances (a difference beyond them is a change a vehicle or a reader of the report would
-notice; solver noise on another BLAS is orders of magnitude below them):
+Tolerances: a difference beyond them is a change a vehicle or a reader of the report would
+notice. Repeated runs here agree bit for bit; another solver or BLAS build moves a solution
+by solver noise (about 1e-6 relative), far below them, though a ``--dynamics vehicle`` plan
+whose speed search sits on an edge could pick another candidate speed (README, *The
+optimiser*): regenerate then, and say so.
 
 - coordinates ``*_deg``: 3e-7° (three steps of MAVLink's int32 1e-7°, about 3 cm);
 - lengths, positions, radii, clearances ``*_m``: 1 cm;
