@@ -28,7 +28,6 @@ from mission_planner.mission.steps import (
 )
 from mission_planner.optimize.retime import cruise_speed_mps
 from mission_planner.optimize.solution import Solution
-from validator.audit import audit
 from validator.plan_format import Cmd, Frame, MissionItem, Plan
 
 _NAN = math.nan
@@ -210,9 +209,7 @@ def build_mission(solution: Solution, options: MissionOptions | None = None) -> 
             "cycles": opt.cycles,
         },
     )
-    problems += plan_problems(plan, site, (first, closing))
-    # The validator's own verdict too: never emit what validate-mission would reject.
-    problems += [f"validator: {f.message}" for f in audit(plan, site).violations]
+    problems += plan_problems(plan, site)
     return Mission(
         plan=plan, solution=solution, options=opt, trajectory_m=q, steps=tuple(steps),
         outbound_m=outbound, return_m=back, cycle_items=(first, closing), fence_margin_m=margin,
