@@ -26,6 +26,7 @@ import shapely
 from numpy.typing import NDArray
 
 from validator.dynamics import ideal_leg_times, make_profile
+from validator.fence_geometry import local_fence
 from validator.flight import Finding, Flight, resolve_flight
 from validator.geometry import leg_clearances, segment_point_closest_fraction
 from validator.plan_format import Autopilot, Cmd, Plan
@@ -114,22 +115,6 @@ def _leg_name(flight: Flight, k: int) -> str:
     return f"leg {origin} -> item {leg.item} ({leg.kind})"
 
 
-def _fence_geometry(
-    plan: Plan, site: Site
-) -> tuple[list[tuple[NDArray[np.float64], float, bool]], list[tuple[shapely.Polygon, bool]]]:
-    circles = [
-        (np.asarray(site.frame.to_local(c.lat_deg, c.lon_deg), dtype=float), c.radius_m,
-         c.inclusion)
-        for c in plan.circles
-    ]
-    polygons = []
-    for p in plan.polygons:
-        lat = np.array([v[0] for v in p.vertices_deg])
-        lon = np.array([v[1] for v in p.vertices_deg])
-        polygons.append((shapely.Polygon(site.frame.to_local(lat, lon)), p.inclusion))
-    return circles, polygons
-
-
 def _check_legs(
     flight: Flight, site: Site, clr: NDArray[np.float64], tol: float, require_buffer: bool
 ) -> list[Finding]:
@@ -157,7 +142,8 @@ def _check_legs(
 
 def _check_fence(plan: Plan, flight: Flight, site: Site, tol: float) -> list[Finding]:
     out: list[Finding] = []
-    circles, polygons = _fence_geometry(plan, site)
+    fence = local_fence(plan, site.frame)
+    circles, polygons = fence.circles, fence.polygons
     excl_c = [(c, r) for c, r, inc in circles if not inc]
     incl_c = [(c, r) for c, r, inc in circles if inc]
     excl_p = [p for p, inc in polygons if not inc]
