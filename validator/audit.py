@@ -9,8 +9,10 @@ points outside exclusions and inside inclusions. It also checks commanded speeds
 site's V, altitudes against its H, and lists what the flight model could not resolve.
 
 Clearances are metres from the NFZ boundary as published (negative = inside); the site's
-safety buffer is reported but only its breach of the published radius is a violation. A
-tolerance of :data:`CLEARANCE_TOLERANCE_M` absorbs MAVLink's 1e-7° coordinate rounding.
+safety buffer is reported but only its breach of the published radius is a violation, unless
+the buffer is required (``require_buffer``: the planner's own safety gate, which planned every
+leg R + buffer away). One tolerance, :data:`CLEARANCE_TOLERANCE_M`, absorbs MAVLink's 1e-7°
+coordinate rounding in every clearance check here and in the replay.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import shapely
 from numpy.typing import NDArray
 
 from validator.dynamics import ideal_leg_times, make_profile
+from validator.fence_geometry import local_fence
 from validator.flight import Finding, Flight, resolve_flight
 from validator.geometry import leg_clearances, segment_point_closest_fraction
 from validator.plan_format import Autopilot, Cmd, Plan
@@ -112,24 +115,8 @@ def _leg_name(flight: Flight, k: int) -> str:
     return f"leg {origin} -> item {leg.item} ({leg.kind})"
 
 
-def _fence_geometry(
-    plan: Plan, site: Site
-) -> tuple[list[tuple[NDArray[np.float64], float, bool]], list[tuple[shapely.Polygon, bool]]]:
-    circles = [
-        (np.asarray(site.frame.to_local(c.lat_deg, c.lon_deg), dtype=float), c.radius_m,
-         c.inclusion)
-        for c in plan.circles
-    ]
-    polygons = []
-    for p in plan.polygons:
-        lat = np.array([v[0] for v in p.vertices_deg])
-        lon = np.array([v[1] for v in p.vertices_deg])
-        polygons.append((shapely.Polygon(site.frame.to_local(lat, lon)), p.inclusion))
-    return circles, polygons
-
-
 def _check_legs(
-    flight: Flight, site: Site, clr: NDArray[np.float64], tol: float
+    flight: Flight, site: Site, clr: NDArray[np.float64], tol: float, require_buffer: bool
 ) -> list[Finding]:
     out: list[Finding] = []
     reported: set[tuple[int, int, int]] = set()
@@ -146,7 +133,8 @@ def _check_legs(
             out.append(Finding("violation", f"{_leg_name(flight, k)} enters {name} by "
                                f"{-c:.2f} m", leg.item))
         elif site.buffer_m > 0:
-            out.append(Finding("warning", f"{_leg_name(flight, k)} passes {c:.2f} m from "
+            out.append(Finding("violation" if require_buffer else "warning",
+                               f"{_leg_name(flight, k)} passes {c:.2f} m from "
                                f"{name}, inside its {site.buffer_m:g} m safety buffer",
                                leg.item))
     return out
@@ -154,7 +142,8 @@ def _check_legs(
 
 def _check_fence(plan: Plan, flight: Flight, site: Site, tol: float) -> list[Finding]:
     out: list[Finding] = []
-    circles, polygons = _fence_geometry(plan, site)
+    fence = local_fence(plan, site.frame)
+    circles, polygons = fence.circles, fence.polygons
     excl_c = [(c, r) for c, r, inc in circles if not inc]
     incl_c = [(c, r) for c, r, inc in circles if inc]
     excl_p = [p for p, inc in polygons if not inc]
@@ -300,10 +289,12 @@ def audit(
     *,
     tolerance_m: float = CLEARANCE_TOLERANCE_M,
     source: str = "plan",
+    require_buffer: bool = False,
 ) -> AuditReport:
     """Check ``plan`` against ``site`` exactly (see the module docstring).
 
-    ``flight`` is the resolved plan (resolved here when not given). Raises
+    ``flight`` is the resolved plan (resolved here when not given). ``require_buffer`` makes a
+    leg inside an NFZ's safety buffer a violation instead of a warning. Raises
     :class:`~validator.errors.InputError` for missions that cannot be resolved.
     """
     if flight is None:
@@ -319,7 +310,7 @@ def audit(
     else:
         clr = np.zeros((len(flight.legs), site.num_nfzs))
     findings = list(flight.findings)
-    findings += _check_legs(flight, site, clr, tolerance_m)
+    findings += _check_legs(flight, site, clr, tolerance_m, require_buffer)
     findings += _check_fence(plan, flight, site, tolerance_m)
     findings += _check_items(plan, flight, site)
     order = {"violation": 0, "warning": 1, "note": 2}

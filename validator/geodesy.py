@@ -55,6 +55,12 @@ def to_int_e7(deg: ArrayLike) -> NDArray[np.int64]:
     return np.rint(np.asarray(deg, dtype=float) * E7).astype(np.int64)
 
 
+def from_int_e7(value: ArrayLike) -> NDArray[np.float64]:
+    """Degrees of MAVLink int32 degrees x 1e7 (as MISSION_ITEM_INT, GLOBAL_POSITION_INT and
+    HOME_POSITION carry them)."""
+    return np.asarray(value, dtype=float) / E7
+
+
 def round_e7(deg: ArrayLike) -> NDArray[np.float64]:
     """Degrees after a trip through MAVLink's int32 1e-7 degree representation."""
-    return to_int_e7(deg).astype(float) / E7
+    return from_int_e7(to_int_e7(deg))

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from validator.fence_geometry import local_fence
 from validator.fileio import write_atomic
 from validator.geodesy import LocalFrame
 from validator.plan_format import EXTRA_KEY, Cmd, Plan
@@ -77,10 +78,9 @@ def plan_geojson(plan: Plan, site: Site) -> dict[str, Any]:
         if site.buffer_m > 0:
             feats.append(_circle(frame, xy, float(r + site.buffer_m), kind="nfz_buffered",
                                  name=name, buffer_m=site.buffer_m))
-    for c in plan.circles:
-        centre = frame.to_local(c.lat_deg, c.lon_deg)
-        feats.append(_circle(frame, centre, c.radius_m,
-                             kind="fence_inclusion" if c.inclusion else "fence_exclusion"))
+    for centre, radius, inclusion in local_fence(plan, frame).circles:
+        feats.append(_circle(frame, centre, radius,
+                             kind="fence_inclusion" if inclusion else "fence_exclusion"))
     for p in plan.polygons:
         ring = [[lon, lat] for lat, lon in p.vertices_deg]
         ring.append(ring[0])

@@ -32,6 +32,7 @@ from validator.audit import CLEARANCE_TOLERANCE_M
 from validator.channel import spectral_efficiency
 from validator.dynamics import Profile, fly, make_profile
 from validator.errors import InputError
+from validator.fence_geometry import local_fence
 from validator.flight import Finding, Flight, ServicePlan
 from validator.geometry import segment_point_closest_fraction, segment_point_distance
 from validator.plan_format import Plan
@@ -614,10 +615,8 @@ def score_track(
                     f"t = {at_t:.1f} s (item {int(seq[k[m]])})", int(seq[k[m]])))
     fence: list[Finding] = []
     if plan is not None:
-        excl = [c for c in plan.circles if not c.inclusion]
-        if excl:
-            centres = np.array([site.frame.to_local(c.lat_deg, c.lon_deg) for c in excl])
-            radii = np.array([c.radius_m for c in excl])
+        centres, radii = local_fence(plan, site.frame).exclusion_circles()
+        if radii.size:
             fclr, fk, _ = track_clearances(xy, centres, radii)
             for j in np.flatnonzero(fclr < -CLEARANCE_TOLERANCE_M):
                 fence.append(Finding(

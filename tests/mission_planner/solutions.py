@@ -10,6 +10,11 @@ from numpy.typing import NDArray
 from mission_planner.optimize.solution import Solution
 from validator.site import Site, parse_site
 
+# What the exporter promises beyond its safety gate: legs re-read from int32-rounded
+# coordinates keep R + buffer less at most this (m). It nudges legs a centimetre beyond R +
+# buffer and the rounding moves a leg by less than 0.8 cm.
+NUDGED_LEG_SLACK_M = 1e-3
+
 
 def site_dict(**changes: Any) -> dict[str, Any]:
     """The paper's default site as a mapping; keyword arguments replace top-level keys."""

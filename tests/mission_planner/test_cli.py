@@ -13,10 +13,16 @@ import yaml
 
 import mission_planner.optimize
 from mission_planner.cli import plan_mission_main
-from mission_planner.mission import CLEARANCE_TOLERANCE_M, flown_legs, planned_cycle_s
+from mission_planner.mission import flown_legs, planned_cycle_s
 from mission_planner.optimize.retime import top_speed_mps
 from tests.mission_planner.mavsdk_peer import mavsdk_import
-from tests.mission_planner.solutions import circle_points, site_dict, solution_for, subdivided
+from tests.mission_planner.solutions import (
+    NUDGED_LEG_SLACK_M,
+    circle_points,
+    site_dict,
+    solution_for,
+    subdivided,
+)
 from validator.audit import audit
 from validator.autopilot.param_file import parse_params
 from validator.geometry import segment_point_distance
@@ -109,7 +115,7 @@ def test_geometry_reread_from_the_file_clears_every_nfz(small_run):
     plan = read_plan(out)
     _, legs = flown_legs(plan, site.frame, tuple(plan.extra["cycle_items"]), rounded=True)
     d = segment_point_distance(legs[:, None, 0], legs[:, None, 1], site.nfz_xy_m[None])
-    assert np.all(d >= site.planning_radius_m - CLEARANCE_TOLERANCE_M)
+    assert np.all(d >= site.planning_radius_m - NUDGED_LEG_SLACK_M)
     assert audit(plan, site).ok
 
 
@@ -125,7 +131,7 @@ def test_home_behind_an_nfz_gets_a_bent_transit(tmp_path, capsys):
     first = plan.extra["cycle_items"][0]
     _, legs = flown_legs(plan, site.frame, None, rounded=True)
     d = segment_point_distance(legs[:, 0], legs[:, 1], site.nfz_xy_m[0])
-    assert np.min(d) >= site.planning_radius_m[0] - CLEARANCE_TOLERANCE_M
+    assert np.min(d) >= site.planning_radius_m[0] - NUDGED_LEG_SLACK_M
     # the straight line home -> q[0] would have crossed the zone
     q0 = np.array(plan.extra["trajectory_m"][0])
     assert segment_point_distance(site.home_xy_m, q0, site.nfz_xy_m[0]) < site.nfz_radius_m[0]

@@ -44,6 +44,20 @@ def test_route_around_the_nfz_passes(site):
     assert report.nfz[0].clearance_m == pytest.approx(20.0, abs=1e-3)
 
 
+def test_a_leg_inside_the_buffer_warns_and_fails_only_when_the_buffer_is_required(site):
+    # R = 20 m, buffer 2 m: legs 21 m from the centre are outside the zone, inside its buffer
+    plan = waypoint_plan(site, [(0, -21), (200, -21), (200, 60), (0, 60)])
+    report = audit(plan, site)
+    assert report.ok
+    assert any("passes 1.00 m from NFZ1, inside its 2 m safety buffer" in f.message
+               for f in report.findings if f.severity == "warning")
+    strict = violations(audit(plan, site, require_buffer=True))
+    assert any("passes 1.00 m from NFZ1, inside its 2 m safety buffer" in m for m in strict)
+    # 22 m away keeps the buffer, up to the one tolerance (1 cm)
+    clear = waypoint_plan(site, [(0, -21.995), (200, -21.995), (200, 60), (0, 60)])
+    assert audit(clear, site, require_buffer=True).ok
+
+
 def test_rtl_whose_straight_line_home_crosses_an_nfz_is_rejected(site):
     # fly around the NFZ to its far side, then RTL straight back through it
     plan = waypoint_plan(site, [(0, -40), (200, -40), (200, 0)], end="rtl")

@@ -12,6 +12,7 @@ from pymavlink import mavutil, mavwp  # noqa: E402
 
 from tests.validator.builders import jump, make_site, nav, plan_of, speed  # noqa: E402
 from validator.errors import InputError  # noqa: E402
+from validator.mavlink.wire import plan_to_wire  # noqa: E402
 from validator.plan_format import Cmd, FencePolygon  # noqa: E402
 from validator.waypoints_format import (  # noqa: E402
     HEADER,
@@ -70,6 +71,22 @@ def test_our_reader_gets_back_exactly_what_we_wrote(tmp_path, plan):
     assert back.polygons == plan.polygons
     assert back.rally == plan.rally
     assert back.breach_return == plan.breach_return
+
+
+def test_the_files_hold_the_lists_that_go_over_the_wire(tmp_path, plan):
+    files = waypoint_files(plan, tmp_path / "m.waypoints")
+    assert len(files) == 3
+    wire = plan_to_wire(plan, home_item=True)
+    for text, sent in zip(files.values(), (wire.mission, wire.fence, wire.rally), strict=True):
+        rows = [line.split("\t") for line in text.splitlines()[1:]]
+        assert [tuple(int(f) for f in (*r[:4], r[11])) for r in rows] == [
+            (w.seq, w.current, w.frame, w.command, w.autocontinue) for w in sent]
+        assert [(round(float(r[8]) * 1e7), round(float(r[9]) * 1e7)) for r in rows] == [
+            (w.x, w.y) for w in sent]
+        for r, w in zip(rows, sent, strict=True):
+            params = [w.param1, w.param2, w.param3, w.param4, w.z]
+            np.testing.assert_allclose([float(f) for f in (*r[4:8], r[10])],
+                                       np.nan_to_num(params), rtol=1e-6, atol=1e-6)
 
 
 def test_mavwp_loads_mission_fence_and_rally_files(tmp_path, plan):

@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 
 from validator.dynamics import Profile
 from validator.flight import Finding, Flight
+from validator.geodesy import from_int_e7
 from validator.mavlink.link import Link, LinkError, command_name, fence_problems, upload_to
 from validator.mavlink.wire import mavlink, mavutil
 from validator.plan_format import Cmd, Plan
@@ -171,7 +172,8 @@ class _Recorder:
         if kind == "GLOBAL_POSITION_INT":
             self.t_s = m.time_boot_ms / 1000.0
             self.home_amsl_m = (m.alt - m.relative_alt) / 1000.0
-            self.rows.append((self.t_s, m.lat / 1e7, m.lon / 1e7, m.relative_alt / 1000.0,
+            self.rows.append((self.t_s, float(from_int_e7(m.lat)), float(from_int_e7(m.lon)),
+                              m.relative_alt / 1000.0,
                               m.vx / 100.0, m.vy / 100.0, m.vz / 100.0,
                               self.seq, self.armed, self.breach))
         elif kind == "HEARTBEAT":

@@ -30,6 +30,7 @@ from typing import Any
 
 from validator.autopilot.fence import FENCE_RULES
 from validator.errors import InputError
+from validator.geodesy import from_int_e7
 from validator.mavlink import NETWORK_URL
 from validator.mavlink.signing import RefusedTraffic, carries_signature, sign_and_verify
 from validator.mavlink.storage import first_stored_difference, storage_losses
@@ -695,7 +696,8 @@ def home_of(link: Link) -> tuple[float, float, float] | None:
                                    float(mavlink.MAVLINK_MSG_ID_HOME_POSITION), 0, 0, 0, 0, 0, 0)
         msg = link.recv(["HOME_POSITION"], min(deadline, time.monotonic() + 3 * link.retry_s))
         if msg is not None:
-            return msg.latitude / 1e7, msg.longitude / 1e7, msg.altitude / 1000.0
+            return (float(from_int_e7(msg.latitude)), float(from_int_e7(msg.longitude)),
+                    msg.altitude / 1000.0)
     return None
 
 

@@ -44,6 +44,7 @@ from pathlib import Path
 from types import FrameType
 
 from validator.errors import InputError
+from validator.geodesy import to_int_e7
 
 BINARY_ENV = "ARDUPILOT_SITL"
 PX4_BINARY_ENV = "PX4_SITL"
@@ -252,8 +253,8 @@ def px4_sih(binary: Path, home: tuple[float, float, float], *, speedup: float) -
         (rc / "px4-rc.params").write_text(f"#!/bin/sh\nparam set SIH_LOC_H0 {home[2]:.3f}\n")
         (rc / "px4-rc.params").chmod(0o755)
         env = {**os.environ, "PX4_SIMULATOR": "sihsim", "PX4_SIM_MODEL": "sihsim_quadx",
-               "PX4_HOME_LAT": str(round(home[0] * 1e7)),
-               "PX4_HOME_LON": str(round(home[1] * 1e7)),
+               "PX4_HOME_LAT": str(int(to_int_e7(home[0]))),
+               "PX4_HOME_LON": str(int(to_int_e7(home[1]))),
                "PX4_SIM_SPEED_FACTOR": f"{speedup:g}",
                "PATH": f"{rc}{os.pathsep}{os.environ.get('PATH', '')}"}
         argv = [str(binary), "-d", "-i", str(instance), str(etc)]

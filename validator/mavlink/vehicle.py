@@ -45,7 +45,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from validator.errors import InputError
-from validator.geodesy import LocalFrame
+from validator.fence_geometry import local_fence
+from validator.geodesy import LocalFrame, to_int_e7
 from validator.mavlink.autoflight import AutoTrack, build_auto_track, vehicle_profile, vehicle_site
 from validator.mavlink.signing import sign_and_verify
 from validator.mavlink.wire import (
@@ -183,18 +184,8 @@ class _Fence:
 
 
 def _fence_of(plan: Plan, frame: LocalFrame) -> _Fence:
-    circles = [
-        (frame.to_local(c.lat_deg, c.lon_deg), c.radius_m, c.inclusion) for c in plan.circles
-    ]
-    polygons = []
-    if plan.polygons:
-        from shapely.geometry import Polygon
-
-        for p in plan.polygons:
-            lat = np.array([v[0] for v in p.vertices_deg])
-            lon = np.array([v[1] for v in p.vertices_deg])
-            polygons.append((Polygon(frame.to_local(lat, lon)), p.inclusion))
-    return _Fence(circles, polygons)
+    fence = local_fence(plan, frame)
+    return _Fence(fence.circles, fence.polygons)
 
 
 class SitlVehicle:
@@ -622,7 +613,7 @@ class SitlVehicle:
         m = mavlink
         if msg_id == m.MAVLINK_MSG_ID_HOME_POSITION:
             lat, lon, alt = self.config.home
-            self.mav.home_position_send(int(round(lat * 1e7)), int(round(lon * 1e7)),
+            self.mav.home_position_send(int(to_int_e7(lat)), int(to_int_e7(lon)),
                                         int(round(alt * 1000)), 0.0, 0.0, 0.0,
                                         [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0)
             return m.MAV_RESULT_ACCEPTED
@@ -822,8 +813,8 @@ class SitlVehicle:
         heading = math.degrees(math.atan2(self.vel[0], self.vel[1])) % 360.0
         self.mav.global_position_int_send(
             int(self.t_s * 1000),
-            int(round(float(lat) * 1e7)),
-            int(round(float(lon) * 1e7)),
+            int(to_int_e7(lat)),
+            int(to_int_e7(lon)),
             int(round((self.config.home[2] + self.alt_m) * 1000)),
             int(round(self.alt_m * 1000)),
             int(round(self.vel[1] * 100)),  # north

@@ -1,26 +1,16 @@
 """The MAVLink wire format of a plan: :class:`Plan` <-> MISSION_ITEM_INT lists. Nothing else.
 
-This is the one module that knows how a QGroundControl plan travels over MAVLink 2:
-
-- mission (``mission_type`` 0): the plan's items in order. ArduPilot keeps its home position
-  at seq 0, so for an ArduPilot vehicle a home item (NAV_WAYPOINT, frame GLOBAL, altitude
-  AMSL) is put first and the plan's items follow from seq 1, as QGroundControl does. DO_JUMP's
-  param1 is a ``doJumpId`` (1-based plan index) in the file and a seq number on the wire.
-- fence (1): a circle is one NAV_FENCE_CIRCLE_INCLUSION/EXCLUSION item with param1 = radius
-  (m); a polygon is one NAV_FENCE_POLYGON_VERTEX_* item per vertex with param1 = vertex count;
-  the breach return point is NAV_FENCE_RETURN_POINT. Frame GLOBAL.
-- rally (2): one NAV_RALLY_POINT per point, frame GLOBAL_RELATIVE_ALT: a .plan's rally and
-  breach-return altitudes are above home, as QGroundControl writes them and ArduPilot reads
-  them by default.
-
-Latitude and longitude travel as int32 degrees x 1e7 (rounded to nearest); params and z as
-float32. Importing this module selects pymavlink's MAVLink 2 ArduPilot dialect (MAVLink 1
-has no ``mission_type``, so fences and rally points would be lost).
+The lists themselves (what goes in which order: home at seq 0 for ArduPilot, fence polygons,
+circles and the breach return point, rally points) are :mod:`validator.item_lists`, shared
+with ``.waypoints`` files. Here they travel: latitude and longitude as int32 degrees x 1e7
+(rounded to nearest, :func:`validator.geodesy.to_int_e7`), local x/y as int32 metres x 1e4,
+params and z as float32, each item with its ``mission_type`` (0 mission, 1 fence, 2 rally).
+Importing this module selects pymavlink's MAVLink 2 ArduPilot dialect (MAVLink 1 has no
+``mission_type``, so fences and rally points would be lost).
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import os
 import struct
@@ -36,32 +26,26 @@ if mavutil.mavlink.WIRE_PROTOCOL_VERSION != "2.0":  # someone imported pymavlink
     mavutil.set_dialect("ardupilotmega")
 
 from validator.errors import InputError  # noqa: E402
-from validator.geodesy import E7  # noqa: E402
-from validator.plan_format import (  # noqa: E402
-    Autopilot,
-    Cmd,
-    FenceCircle,
-    FencePolygon,
-    Frame,
-    MissionItem,
-    Plan,
+from validator.geodesy import from_int_e7, to_int_e7  # noqa: E402
+from validator.item_lists import (  # noqa: E402
+    GLOBAL_FRAMES,
+    ItemLists,
+    ListItem,
+    fence_from_items,
+    mission_from_items,
+    plan_items,
+    rally_from_items,
 )
+from validator.plan_format import Autopilot, Plan  # noqa: E402
 
 mavlink: Any = mavutil.mavlink  # the MAVLink 2 dialect module (message classes and enums)
 
-NAV_FENCE_RETURN_POINT = 5000
 INT32_MAX = 2**31 - 1
 
-# Frames whose x/y are latitude/longitude in degrees x 1e7 in MISSION_ITEM_INT.
-GLOBAL_FRAMES = frozenset({0, 3, 5, 6, 10, 11})
+# GLOBAL_FRAMES (validator.item_lists): x/y are latitude/longitude, int32 degrees x 1e7 here.
 # Frames whose x/y are metres x 1e4 in MISSION_ITEM_INT.
 LOCAL_FRAMES = frozenset({1, 4, 7, 8, 9, 12, 13, 14, 15, 20, 21})
-
-_FENCE_CIRCLES = (int(Cmd.NAV_FENCE_CIRCLE_INCLUSION), int(Cmd.NAV_FENCE_CIRCLE_EXCLUSION))
-_FENCE_VERTICES = (
-    int(Cmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION),
-    int(Cmd.NAV_FENCE_POLYGON_VERTEX_EXCLUSION),
-)
+LOCAL_SCALE = 1e4
 
 
 class MissionType(IntEnum):
@@ -181,124 +165,52 @@ def _xy_int(value: float, frame: int, what: str) -> int:
     """A param5/param6 value as MISSION_ITEM_INT's int32 x/y for ``frame``."""
     if math.isnan(value):
         return 0
-    scale = E7 if frame in GLOBAL_FRAMES else 1e4 if frame in LOCAL_FRAMES else 1.0
-    out = int(round(value * scale))
+    if frame in GLOBAL_FRAMES:
+        out = int(to_int_e7(value))
+    else:
+        out = int(round(value * (LOCAL_SCALE if frame in LOCAL_FRAMES else 1.0)))
     if abs(out) > INT32_MAX:
         raise InputError(f"{what}: {value} does not fit MISSION_ITEM_INT (int32)")
     return out
 
 
 def _xy_float(value: int, frame: int) -> float:
-    scale = E7 if frame in GLOBAL_FRAMES else 1e4 if frame in LOCAL_FRAMES else 1.0
-    return value / scale
+    if frame in GLOBAL_FRAMES:
+        return float(from_int_e7(value))
+    return value / (LOCAL_SCALE if frame in LOCAL_FRAMES else 1.0)
 
 
-def _check_latlon(lat: float, lon: float, what: str) -> None:
-    if not (-90.0 <= lat <= 90.0):
-        raise InputError(f"{what}: latitude {lat} outside [-90, 90]")
-    if not (-180.0 <= lon <= 180.0):
-        raise InputError(f"{what}: longitude {lon} outside [-180, 180]")
-
-
-def _global(
-    seq: int, command: int, lat: float, lon: float, alt: float, mission_type: MissionType,
-    what: str, param1: float = 0.0, frame: int = int(Frame.GLOBAL),
-) -> WireItem:
-    _check_latlon(lat, lon, what)
-    return WireItem(
-        seq, frame, command, f32(param1), 0.0, 0.0, 0.0,
-        _xy_int(lat, frame, what), _xy_int(lon, frame, what), f32(alt), int(mission_type),
-    )
-
-
-def mission_to_wire(plan: Plan, *, home_item: bool) -> tuple[WireItem, ...]:
-    """The plan's mission items as MISSION_ITEM_INT (``mission_type`` 0).
-
-    With ``home_item`` (ArduPilot) the plan's home comes first at seq 0 and DO_JUMP targets
-    keep their ``doJumpId`` as seq; without it (PX4) seq = doJumpId - 1.
-    """
-    out: list[WireItem] = []
-    offset = 1 if home_item else 0
-    if home_item:
-        out.append(_global(0, int(Cmd.NAV_WAYPOINT), plan.home_lat_deg, plan.home_lon_deg,
-                           plan.home_alt_m, MissionType.MISSION, "mission.plannedHomePosition"))
-    for i, it in enumerate(plan.items):
-        what = f"mission.items[{i}]"
-        p = [float(v) for v in it.params]
-        if it.frame in GLOBAL_FRAMES and not (math.isnan(p[4]) and math.isnan(p[5])):
-            _check_latlon(p[4], p[5], what)
-        if it.command == Cmd.DO_JUMP:
-            target = int(round(p[0]))
-            if not 1 <= target <= len(plan.items):
-                raise InputError(f"{what}: DO_JUMP target {p[0]:g} is not an item of the plan")
-            p[0] = float(target - 1 + offset)
-        out.append(
-            WireItem(
-                seq=i + offset,
-                frame=int(it.frame),
-                command=int(it.command),
-                param1=f32(p[0]),
-                param2=f32(p[1]),
-                param3=f32(p[2]),
-                param4=f32(p[3]),
-                x=_xy_int(p[4], it.frame, f"{what} param5"),
-                y=_xy_int(p[5], it.frame, f"{what} param6"),
-                z=f32(p[6]),
-                mission_type=int(MissionType.MISSION),
-                autocontinue=int(bool(it.autocontinue)),
-            )
-        )
-    if out:  # QGroundControl and MAVSDK flag the first item as current; ArduPilot ignores it
-        out[0] = dataclasses.replace(out[0], current=1)
+def _to_wire(items: tuple[ListItem, ...], mission_type: MissionType) -> tuple[WireItem, ...]:
+    out = []
+    for seq, it in enumerate(items):
+        p = it.params
+        out.append(WireItem(
+            seq=seq, frame=it.frame, command=it.command,
+            param1=f32(p[0]), param2=f32(p[1]), param3=f32(p[2]), param4=f32(p[3]),
+            x=_xy_int(p[4], it.frame, f"{it.label} param5"),
+            y=_xy_int(p[5], it.frame, f"{it.label} param6"),
+            z=f32(p[6]), mission_type=int(mission_type),
+            autocontinue=int(it.autocontinue), current=int(it.current),
+        ))
     return tuple(out)
 
 
-def fence_to_wire(plan: Plan) -> tuple[WireItem, ...]:
-    """The plan's geofence as fence items (``mission_type`` 1)."""
-    out: list[WireItem] = []
-    fence = MissionType.FENCE
-    for i, poly in enumerate(plan.polygons):
-        cmd = _FENCE_VERTICES[0] if poly.inclusion else _FENCE_VERTICES[1]
-        n = len(poly.vertices_deg)
-        for lat, lon in poly.vertices_deg:
-            out.append(_global(len(out), cmd, lat, lon, 0.0, fence,
-                               f"geoFence.polygons[{i}]", param1=n))
-    for i, c in enumerate(plan.circles):
-        if not c.radius_m > 0:
-            raise InputError(f"geoFence.circles[{i}].radius: must be > 0")
-        cmd = _FENCE_CIRCLES[0] if c.inclusion else _FENCE_CIRCLES[1]
-        out.append(_global(len(out), cmd, c.lat_deg, c.lon_deg, 0.0, fence,
-                           f"geoFence.circles[{i}]", param1=c.radius_m))
-    if plan.breach_return is not None:
-        lat, lon, alt = plan.breach_return
-        out.append(_global(len(out), NAV_FENCE_RETURN_POINT, lat, lon, alt, fence,
-                           "geoFence.breachReturn", frame=int(Frame.GLOBAL_RELATIVE_ALT)))
-    return tuple(out)
-
-
-def rally_to_wire(plan: Plan) -> tuple[WireItem, ...]:
-    """The plan's rally points as NAV_RALLY_POINT items (``mission_type`` 2), altitude above
-    home."""
+def _from_wire(items: tuple[WireItem, ...]) -> tuple[ListItem, ...]:
     return tuple(
-        _global(i, int(Cmd.NAV_RALLY_POINT), lat, lon, alt, MissionType.RALLY,
-                f"rallyPoints.points[{i}]", frame=int(Frame.GLOBAL_RELATIVE_ALT))
-        for i, (lat, lon, alt) in enumerate(plan.rally)
-    )
+        ListItem(w.frame, w.command, (w.param1, w.param2, w.param3, w.param4,
+                                      _xy_float(w.x, w.frame), _xy_float(w.y, w.frame), w.z),
+                 bool(w.autocontinue), bool(w.current))
+        for w in items)
 
 
 def plan_to_wire(plan: Plan, *, home_item: bool) -> WireLists:
-    """All three lists of ``plan`` as they go over the wire (see :func:`mission_to_wire`)."""
-    return WireLists(mission_to_wire(plan, home_item=home_item), fence_to_wire(plan),
-                     rally_to_wire(plan))
-
-
-def _latlon(item: WireItem) -> tuple[float, float]:
-    return item.x / E7, item.y / E7
-
-
-def _above_home(item: WireItem, home: tuple[float, float, float]) -> float:
-    """A rally or return point's altitude above home, whatever frame the vehicle used."""
-    return item.z - home[2] if item.frame in (0, 5) else item.z
+    """All three lists of ``plan`` as they go over the wire. With ``home_item`` (ArduPilot)
+    the plan's home comes first at seq 0 and DO_JUMP targets keep their ``doJumpId`` as seq;
+    without it (PX4) seq = doJumpId - 1 (:func:`validator.item_lists.mission_items`)."""
+    lists = plan_items(plan, home_item=home_item)
+    return WireLists(_to_wire(lists.mission, MissionType.MISSION),
+                     _to_wire(lists.fence, MissionType.FENCE),
+                     _to_wire(lists.rally, MissionType.RALLY))
 
 
 def wire_to_plan(
@@ -314,56 +226,15 @@ def wire_to_plan(
     ``plannedHomePosition``; otherwise ``home`` (lat, lon, alt AMSL) is used, or the first
     positioned item at altitude 0 when the vehicle reported none.
     """
-    items_in = list(lists.mission)
-    offset = 0
-    if home_item and items_in:
-        h = items_in.pop(0)
-        home = (h.x / E7, h.y / E7, h.z)
-        offset = 1
-    items: list[MissionItem] = []
-    for w in items_in:
-        p1 = w.param1
-        if w.command == Cmd.DO_JUMP:
-            p1 = float(int(round(p1)) - offset + 1)
-        params = [p1, w.param2, w.param3, w.param4,
-                  _xy_float(w.x, w.frame), _xy_float(w.y, w.frame), w.z]
-        items.append(MissionItem(w.command, params, w.frame, bool(w.autocontinue)))
+    decoded = ItemLists(_from_wire(lists.mission), _from_wire(lists.fence),
+                        _from_wire(lists.rally))
+    items, first = mission_from_items(decoded.mission, home_item=home_item)
+    home = first or home
     if home is None:
-        pos = [w for w in items_in if w.frame in GLOBAL_FRAMES and (w.x or w.y)]
-        home = (pos[0].x / E7, pos[0].y / E7, 0.0) if pos else (0.0, 0.0, 0.0)
-
-    circles: list[FenceCircle] = []
-    polygons: list[FencePolygon] = []
-    breach: tuple[float, float, float] | None = None
-    fence = list(lists.fence)
-    i = 0
-    while i < len(fence):
-        w = fence[i]
-        if w.command in _FENCE_CIRCLES:
-            lat, lon = _latlon(w)
-            circles.append(FenceCircle(lat, lon, w.param1,
-                                       inclusion=w.command == Cmd.NAV_FENCE_CIRCLE_INCLUSION))
-            i += 1
-        elif w.command in _FENCE_VERTICES:
-            n = int(round(w.param1))
-            group = fence[i : i + n]
-            if n < 3 or len(group) < n or any(g.command != w.command for g in group):
-                raise InputError(f"fence item {i}: polygon of {w.param1:g} vertices is broken")
-            polygons.append(FencePolygon([_latlon(g) for g in group],
-                                         inclusion=w.command == _FENCE_VERTICES[0]))
-            i += n
-        elif w.command == NAV_FENCE_RETURN_POINT:
-            lat, lon = _latlon(w)
-            breach = (lat, lon, _above_home(w, home))
-            i += 1
-        else:
-            raise InputError(f"fence item {i}: unknown fence command {w.command}")
-    rally = []
-    for j, w in enumerate(lists.rally):
-        if w.command != Cmd.NAV_RALLY_POINT:
-            raise InputError(f"rally item {j}: expected NAV_RALLY_POINT, got command {w.command}")
-        lat, lon = _latlon(w)
-        rally.append((lat, lon, _above_home(w, home)))
+        pos = [w for w in lists.mission if w.frame in GLOBAL_FRAMES and (w.x or w.y)]
+        home = ((float(from_int_e7(pos[0].x)), float(from_int_e7(pos[0].y)), 0.0) if pos
+                else (0.0, 0.0, 0.0))
+    circles, polygons, breach = fence_from_items(decoded.fence, home[2], "fence")
     return Plan(
         items=items,
         home_lat_deg=home[0],
@@ -372,7 +243,7 @@ def wire_to_plan(
         firmware_type=firmware_type,
         circles=circles,
         polygons=polygons,
-        rally=rally,
+        rally=rally_from_items(decoded.rally, home[2], "rally"),
         breach_return=breach,
     )
 

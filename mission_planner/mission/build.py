@@ -1,0 +1,220 @@
+"""A planned service cycle laid out as a QGroundControl plan: takeoff, transits, the cycle,
+jumps, landing, fence and rally (:func:`build_mission`; the steps are in the package doc)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mission_planner.mission.clearance import nudge_clear, safe_transits
+from mission_planner.mission.fence import Geofence
+from mission_planner.mission.gate import plan_problems
+from mission_planner.mission.options import (
+    AUTOPILOTS,
+    MissionOptions,
+    check_options,
+    fence_margin_for,
+)
+from mission_planner.mission.speeds import assign_speeds, stop_lags, whole_second_holds
+from mission_planner.mission.steps import (
+    CycleStep,
+    merge_straight_steps,
+    place_on_legs,
+    scurve_legs,
+    service_steps,
+    timing_of,
+)
+from mission_planner.optimize.retime import cruise_speed_mps
+from mission_planner.optimize.solution import Solution
+from validator.plan_format import Cmd, Frame, MissionItem, Plan
+
+_NAN = math.nan
+
+
+@dataclass(frozen=True)
+class Mission:
+    """An exported mission and what went into it.
+
+    ``trajectory_m`` (N+1, 2) is the service trajectory as exported (after any clearance
+    nudge); ``outbound_m`` and ``return_m`` are the transit polylines (home → q[0], last
+    waypoint → home); ``cycle_items`` the 0-based first and last item of the service cycle.
+    ``problems`` lists every reason the safety gate refuses the mission (empty: safe).
+    ``merged_waypoints`` is how many per-slot waypoints long straight legs replaced, and
+    ``merge_offset_m`` the largest distance (m) a merged slot's end point moved onto its leg.
+    """
+
+    plan: Plan
+    solution: Solution
+    options: MissionOptions
+    trajectory_m: NDArray[np.float64]
+    steps: tuple[CycleStep, ...]
+    outbound_m: NDArray[np.float64]
+    return_m: NDArray[np.float64]
+    cycle_items: tuple[int, int]
+    fence_margin_m: float
+    operating_area_m: NDArray[np.float64] | None
+    max_nudge_m: float
+    problems: tuple[str, ...] = field(default_factory=tuple)
+    merged_waypoints: int = 0
+    merge_offset_m: float = 0.0
+
+    @property
+    def safe(self) -> bool:
+        return not self.problems
+
+
+def _nav(cmd: Cmd, lat: float, lon: float, alt: float, p1: float = 0.0) -> MissionItem:
+    # param4 NaN: keep the current yaw (QGroundControl's default).
+    return MissionItem(int(cmd), [p1, 0.0, 0.0, _NAN, lat, lon, alt],
+                       int(Frame.GLOBAL_RELATIVE_ALT))
+
+
+def _speed(speed_mps: float) -> MissionItem:
+    # param1 1 = ground speed; param3 −1 = leave the throttle alone.
+    return MissionItem(int(Cmd.DO_CHANGE_SPEED), [1.0, float(speed_mps), -1.0, 0.0, 0.0, 0.0, 0.0],
+                       int(Frame.MISSION))
+
+
+def _jump(target_item: int, repeats: int) -> MissionItem:
+    # param1 is the target's doJumpId (1-based item number; ArduPilot's seq, home being 0).
+    return MissionItem(int(Cmd.DO_JUMP), [float(target_item + 1), float(repeats), 0, 0, 0, 0, 0],
+                       int(Frame.MISSION))
+
+
+@dataclass(frozen=True)
+class _Cycle:
+    """The service cycle as it will be exported: trajectory (after nudges and with merged
+    slots placed on their legs), waypoints with speeds, holds as written, and what moved."""
+
+    trajectory_m: NDArray[np.float64]
+    steps: list[CycleStep]
+    holds_s: NDArray[np.float64]
+    max_nudge_m: float
+    merge_offset_m: float
+    merged_waypoints: int
+    problems: list[str]
+
+
+def _service_cycle(solution: Solution, opt: MissionOptions) -> _Cycle:
+    """Slots grouped and merged into waypoints (:mod:`.steps`), nudged clear (:mod:`.clearance`),
+    with speeds and holds the autopilot takes (:mod:`.speeds`)."""
+    site = solution.site
+    q = np.array(solution.trajectory_m, dtype=float)
+    delta = np.asarray(solution.delta_s, dtype=float)
+    if q.ndim != 2 or q.shape[1] != 2 or len(q) != len(delta) + 1 or len(delta) == 0:
+        raise ValueError("solution: trajectory_m must be (N+1, 2) and delta_s (N,)")
+    if np.hypot(*(q[-1] - q[0])) > opt.stationary_tol_m:
+        raise ValueError("solution: trajectory is not closed (q[N] != q[0])")
+    q[-1] = q[0]
+
+    steps = service_steps(q, delta, opt.stationary_tol_m)
+    timed_speed = cruise_speed_mps(site, timing_of(solution.notes)[0])
+    radii = site.planning_radius_m
+    per_slot = len(steps)
+    if opt.merge_legs:
+        steps = merge_straight_steps(
+            steps, q, angle_deg=opt.merge_angle_deg, speed_rel=opt.merge_speed_rel,
+            offset_m=opt.merge_offset_m, min_speed_mps=opt.min_speed_mps,
+            nfz_xy_m=site.nfz_xy_m, nfz_radius_m=radii, clearance_target_m=opt.export_margin_m,
+            scurve=lambda lengths: scurve_legs(site, lengths, timed_speed, solution.notes),
+            scurve_speed_mps=timed_speed)
+    cyc_idx = [0] + [s.index for s in steps if s.index not in (0, len(q) - 1)]
+    pts, moved = nudge_clear(q[cyc_idx], site.nfz_xy_m, radii, target_margin_m=opt.export_margin_m,
+                             max_nudge_m=opt.max_nudge_m, closed=True)
+    planned_q = q.copy()
+    q[cyc_idx] = pts
+    q[-1] = q[0]
+    q = place_on_legs(q, delta, steps)
+    inner = [n for s in steps for n in s.slots[:s.moving_slots - 1]]
+    merge_offset = (float(np.max(np.hypot(*(q[inner] - planned_q[inner]).T))) if inner else 0.0)
+    steps, problems = assign_speeds(steps, q, site.max_speed_mps, opt.min_speed_mps)
+    if opt.autopilot == "ardupilot":
+        if solution.notes.get("dynamics") == "vehicle":
+            steps = stop_lags(steps)
+        holds = whole_second_holds([s.hold_s - s.stop_lag_s for s in steps])
+    else:
+        holds = np.array([s.hold_s for s in steps])
+    return _Cycle(q, steps, holds, moved, merge_offset, per_slot - len(steps), problems)
+
+
+def build_mission(solution: Solution, options: MissionOptions | None = None) -> Mission:
+    """Lay out the mission of ``solution`` (see the package doc). Raises :class:`InputError`
+    for bad options; unsafe geometry is not an exception but listed in ``Mission.problems``."""
+    opt = options or MissionOptions()
+    site = solution.site
+    check_options(site, opt)
+    frame = site.frame
+    alt = site.altitude_m
+    transit_speed = opt.transit_speed_mps or cruise_speed_mps(site, opt.autopilot)
+    cycle = _service_cycle(solution, opt)
+    q, steps, holds = cycle.trajectory_m, cycle.steps, cycle.holds_s
+    delta = np.asarray(solution.delta_s, dtype=float)
+    problems = list(cycle.problems)
+
+    home = site.home_xy_m
+    last = q[steps[-1].index] if steps else q[0]
+    outbound, back = safe_transits(site, home, q[0], last, opt, problems)
+
+    def latlon(xy: NDArray[np.float64]) -> tuple[float, float]:
+        lat, lon = frame.to_geodetic(xy)
+        return float(lat), float(lon)
+
+    items: list[MissionItem] = []
+    items.append(_nav(Cmd.NAV_TAKEOFF, *latlon(home), alt))
+    items.append(_speed(transit_speed))
+    for p in outbound[1:]:
+        items.append(_nav(Cmd.NAV_WAYPOINT, *latlon(p), alt))
+    first = len(items)
+    current: float | None = None
+    for s, hold in zip(steps, holds, strict=True):
+        if s.speed_mps is not None and (current is None or
+                                        abs(s.speed_mps - current) > opt.speed_tol_mps):
+            items.append(_speed(s.speed_mps))
+            current = s.speed_mps
+        items.append(_nav(Cmd.NAV_WAYPOINT, *latlon(q[s.index]), alt, p1=float(hold)))
+    closing = len(items) - 1
+    if opt.cycles > 1:
+        items.append(_jump(first, opt.cycles - 1))
+    items.append(_speed(transit_speed))
+    for p in back[1:-1]:
+        items.append(_nav(Cmd.NAV_WAYPOINT, *latlon(p), alt))
+    items.append(_nav(Cmd.NAV_LAND, *latlon(home), 0.0))
+
+    margin = fence_margin_for(site, opt)
+    fence = Geofence.around(site, margin, np.vstack([outbound, q, back]), opt.operating_area,
+                            opt.operating_area_margin_m)
+    home_ll = latlon(home)
+    plan = Plan(
+        items=items,
+        home_lat_deg=home_ll[0],
+        home_lon_deg=home_ll[1],
+        home_alt_m=frame.alt0_m,
+        firmware_type=int(AUTOPILOTS[opt.autopilot]),
+        cruise_speed_mps=float(transit_speed),
+        hover_speed_mps=float(transit_speed),
+        circles=fence.circles,
+        polygons=fence.polygons,
+        rally=[(home_ll[0], home_ll[1], alt)],
+        breach_return=(home_ll[0], home_ll[1], alt),
+        extra={
+            "format": 1,
+            "site": site.name,
+            "scheme": solution.scheme,
+            "trajectory_m": q.tolist(),
+            "delta_s": [float(d) for d in delta],
+            "power_w": [float(p) for p in solution.power_w],
+            "schedule": [site.gn_names[k] if k >= 0 else None for k in solution.schedule],
+            "cycle_items": [first, closing],
+            "cycles": opt.cycles,
+        },
+    )
+    problems += plan_problems(plan, site)
+    return Mission(
+        plan=plan, solution=solution, options=opt, trajectory_m=q, steps=tuple(steps),
+        outbound_m=outbound, return_m=back, cycle_items=(first, closing), fence_margin_m=margin,
+        operating_area_m=fence.area_m, max_nudge_m=cycle.max_nudge_m, problems=tuple(problems),
+        merged_waypoints=cycle.merged_waypoints, merge_offset_m=cycle.merge_offset_m,
+    )

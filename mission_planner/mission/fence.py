@@ -1,0 +1,74 @@
+"""The mission's geofence: an exclusion circle per zone (R + fence margin) and an optional
+inclusion area around everything flown."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from numpy.typing import ArrayLike, NDArray
+
+from validator.geodesy import LocalFrame
+from validator.plan_format import FenceCircle, FencePolygon
+from validator.site import Site
+
+
+def operating_area(points_m: ArrayLike, kind: str, margin_m: float) -> NDArray[np.float64]:
+    """Vertices (V, 2), not closed, of an inclusion zone ``margin_m`` around the points.
+
+    "polygon": the convex hull grown by the margin (mitred corners, bevelled when sharp), so
+    the zone stays convex and every leg between points inside it stays inside. "circle": the
+    smallest enclosing circle grown by the margin, returned as [[cx, cy], [radius, 0]].
+    """
+    hull = shapely.MultiPoint(np.asarray(points_m, dtype=float)).convex_hull
+    if kind == "circle":
+        radius = float(shapely.minimum_bounding_radius(hull))
+        centre = shapely.minimum_bounding_circle(hull).centroid
+        if radius == 0.0:
+            centre = hull.centroid
+        return np.array([[centre.x, centre.y], [radius + margin_m, 0.0]])
+    # Simplifying a convex polygon keeps a subset of its vertices: still convex, and inside the
+    # buffered hull by at most a quarter of the margin, so far fewer fence points suffice.
+    area = hull.buffer(margin_m, join_style="mitre", mitre_limit=2.0).simplify(margin_m / 4.0)
+    ring = shapely.get_coordinates(shapely.normalize(area).exterior)[:-1]
+    return np.asarray(ring, dtype=float)
+
+
+def _latlon(frame: LocalFrame, xy_m: NDArray[np.float64]) -> tuple[float, float]:
+    lat, lon = frame.to_geodetic(xy_m)
+    return float(lat), float(lon)
+
+
+@dataclass(frozen=True)
+class Geofence:
+    """The fence of a mission: ``circles`` and ``polygons`` as the plan stores them, and
+    ``area_m`` the inclusion area's local vertices (:func:`operating_area`), None without one."""
+
+    circles: list[FenceCircle]
+    polygons: list[FencePolygon]
+    area_m: NDArray[np.float64] | None
+
+    @classmethod
+    def around(cls, site: Site, margin_m: float, flown_m: ArrayLike, area: str | None,
+               area_margin_m: float) -> Geofence:
+        """An exclusion circle of radius R + ``margin_m`` per NFZ and, when ``area`` is
+        "polygon" or "circle", an inclusion zone ``area_margin_m`` around the points
+        ``flown_m``."""
+        frame = site.frame
+        circles = [
+            FenceCircle(*_latlon(frame, c), float(r + margin_m), inclusion=False)
+            for c, r in zip(site.nfz_xy_m, site.nfz_radius_m, strict=True)
+        ]
+        polygons: list[FencePolygon] = []
+        vertices_m: NDArray[np.float64] | None = None
+        if area is not None:
+            vertices_m = operating_area(flown_m, area, area_margin_m)
+            if area == "circle":
+                circles.append(FenceCircle(*_latlon(frame, vertices_m[0]),
+                                           float(vertices_m[1, 0]), inclusion=True))
+            else:
+                lat, lon = frame.to_geodetic(vertices_m)
+                vertices = [(float(a), float(b)) for a, b in zip(lat, lon, strict=True)]
+                polygons.append(FencePolygon(vertices, inclusion=True))
+        return cls(circles, polygons, vertices_m)

@@ -1,0 +1,84 @@
+"""How a mission is laid out: :class:`MissionOptions`, their checks, the autopilots served."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from mission_planner.transit import DEFAULT_ARC_STEP_DEG
+from validator.errors import InputError
+from validator.plan_format import Autopilot
+from validator.site import Site
+
+AUTOPILOTS = {"ardupilot": Autopilot.ARDUPILOTMEGA, "px4": Autopilot.PX4}
+OPERATING_AREAS = ("polygon", "circle")
+
+
+@dataclass(frozen=True)
+class MissionOptions:
+    """How to lay out the mission; every length in metres, speed in m/s, time in seconds.
+
+    ``fence_margin_m`` None means half the site's safety buffer. ``operating_area`` None, or
+    "polygon" (buffered convex hull) / "circle" (bounding circle) around everything flown,
+    ``operating_area_margin_m`` outside it. ``transit_speed_mps`` None means the site's V.
+    ``merge_legs`` False keeps one waypoint per moving slot (the paper's layout); otherwise
+    straight runs merge within ``merge_angle_deg`` (degrees), ``merge_speed_rel`` (fraction)
+    and ``merge_offset_m`` (see :func:`merge_straight_steps`).
+    """
+
+    autopilot: str = "ardupilot"
+    cycles: int = 1
+    fence_margin_m: float | None = None
+    operating_area: str | None = None
+    operating_area_margin_m: float = 20.0
+    transit_speed_mps: float | None = None
+    export_margin_m: float = 0.01
+    max_nudge_m: float = 0.05
+    stationary_tol_m: float = 0.05
+    min_speed_mps: float = 0.2
+    speed_tol_mps: float = 1e-3
+    arc_step_deg: float = DEFAULT_ARC_STEP_DEG
+    merge_legs: bool = True
+    merge_angle_deg: float = 1.0
+    merge_speed_rel: float = 0.01
+    merge_offset_m: float = 0.05
+
+
+def check_options(site: Site, options: MissionOptions) -> None:
+    """Refuse option values that cannot give a sensible mission (:class:`InputError`)."""
+    if options.autopilot not in AUTOPILOTS:
+        raise InputError(
+            f"autopilot: expected one of {', '.join(AUTOPILOTS)}, got {options.autopilot!r}")
+    if options.cycles < 1:
+        raise InputError(f"cycles: must be >= 1, got {options.cycles}")
+    margin = fence_margin_for(site, options)
+    if margin < 0:
+        raise InputError(f"fence_margin_m: must be >= 0, got {margin:g}")
+    if margin > site.buffer_m:
+        raise InputError(
+            f"fence_margin_m: {margin:g} m is larger than the planned clearance (safety buffer "
+            f"{site.buffer_m:g} m): the planned legs would breach the fence"
+        )
+    if options.operating_area not in (None, *OPERATING_AREAS):
+        raise InputError(
+            f"operating_area: expected one of {', '.join(OPERATING_AREAS)}, "
+            f"got {options.operating_area!r}")
+    if not options.operating_area_margin_m > 0:
+        raise InputError(
+            f"operating_area_margin_m: must be > 0, got {options.operating_area_margin_m:g}")
+    if options.transit_speed_mps is not None and not (
+        0 < options.transit_speed_mps <= site.max_speed_mps
+    ):
+        raise InputError(
+            f"transit_speed_mps: must be in (0, {site.max_speed_mps:g}], "
+            f"got {options.transit_speed_mps:g}")
+    if not 0 <= options.min_speed_mps < site.max_speed_mps:
+        raise InputError(f"min_speed_mps: must be in [0, V), got {options.min_speed_mps:g}")
+    for name in ("export_margin_m", "max_nudge_m", "stationary_tol_m", "speed_tol_mps",
+                 "arc_step_deg", "merge_angle_deg", "merge_speed_rel", "merge_offset_m"):
+        if not getattr(options, name) >= 0:
+            raise InputError(f"{name}: must be >= 0, got {getattr(options, name)}")
+
+
+def fence_margin_for(site: Site, options: MissionOptions) -> float:
+    """The fence margin (m) outside each NFZ radius: the option, else half the buffer."""
+    return site.buffer_m / 2.0 if options.fence_margin_m is None else float(options.fence_margin_m)

@@ -1,0 +1,87 @@
+"""Leg speeds and holds as the autopilot takes them: the speed limit, slow legs, stop lags and
+whole-second holds.
+
+- **Speed limit.** A leg speed never exceeds the site's V: float excess is clipped (the leg
+  then takes a hair longer than δ); an excess above 1 % is reported as a problem. S-curve legs
+  and transits fly at V or the vehicle's real top speed, whichever is lower
+  (:func:`mission_planner.optimize.retime.cruise_speed_mps`).
+- **Slow legs.** ArduCopter ignores a DO_CHANGE_SPEED below 0.2 m/s (WPNAV_WP_SPEED_MIN), so
+  a leg that would need less is flown at ``min_speed_mps`` and the waypoint holds for the
+  rest of its slot: the slot keeps its length and the UAV ends it at the same place.
+- **Stop lag.** ArduCopter reaches a waypoint it stops at
+  :data:`validator.dynamics.STOP_LAG_S` after the S-curve ends. A dynamics-aware plan
+  (``solution.notes["dynamics"] == "vehicle"``) counts that lag as the start of the waypoint's
+  hover (:mod:`mission_planner.optimize.retime`), so on ArduPilot each stop's hold is written
+  net of it (``CycleStep.stop_lag_s``) and the cycle still lasts T.
+- **Whole-second holds.** ArduCopter stores a waypoint hold as whole seconds (it truncates).
+  For ArduPilot holds are rounded by error diffusion along the cycle (each hold is the
+  rounded running sum minus the previous rounded running sum), so no hold is off by a second
+  or more and the cycle's total hold differs from the plan by less than half a second; the
+  summary reports the difference. PX4 keeps fractional holds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from mission_planner.mission.steps import CycleStep
+from validator.dynamics import STOP_LAG_S
+
+SPEED_EXCESS_ALLOWED = 0.01  # relative excess over V clipped silently (solver tolerance)
+
+
+def assign_speeds(steps: list[CycleStep], trajectory_m: NDArray[np.float64], max_speed_mps: float,
+                  min_speed_mps: float) -> tuple[list[CycleStep], list[str]]:
+    """Fill in each step's leg speed (m/s) from the final geometry.
+
+    speed = leg length / leg time, clipped to ``max_speed_mps``; a leg slower than
+    ``min_speed_mps`` is flown at that speed and the step holds for the time saved; an
+    S-curve leg keeps its top speed. Returns the steps and a problem for each leg whose speed
+    exceeds V by more than 1 %.
+    """
+    out: list[CycleStep] = []
+    problems: list[str] = []
+    prev = trajectory_m[0]
+    for s in steps:
+        here = trajectory_m[s.index]
+        length = float(np.hypot(*(here - prev)))
+        prev = here
+        if s.leg_s <= 0:
+            out.append(replace(s, leg_s=0.0, speed_mps=None))
+            continue
+        speed = s.speed_mps if s.scurve and s.speed_mps is not None else length / s.leg_s
+        hold = s.hold_s
+        if speed > max_speed_mps:
+            if speed > max_speed_mps * (1 + SPEED_EXCESS_ALLOWED):
+                problems.append(
+                    f"slot {s.slots[0]}: leg of {length:.2f} m in {s.leg_s:.3f} s needs "
+                    f"{speed:.2f} m/s, above the vehicle's {max_speed_mps:g} m/s")
+            speed = max_speed_mps
+        elif speed < min_speed_mps:
+            hold += s.leg_s - length / min_speed_mps
+            speed = min_speed_mps
+        out.append(replace(s, hold_s=hold, speed_mps=speed))
+    return out, problems
+
+
+def stop_lags(steps: list[CycleStep]) -> list[CycleStep]:
+    """The steps with ArduCopter's stop lag (:data:`validator.dynamics.STOP_LAG_S`) taken
+    out of the hold of every waypoint the vehicle stops at after a leg (one that holds longer
+    than the lag); hold-only steps and pass-through waypoints arrive without it."""
+    return [replace(s, stop_lag_s=STOP_LAG_S)
+            if s.speed_mps is not None and s.leg_s > 0 and s.hold_s > STOP_LAG_S else s
+            for s in steps]
+
+
+def whole_second_holds(holds_s: ArrayLike) -> NDArray[np.float64]:
+    """Holds (s) rounded to whole seconds by error diffusion along the sequence.
+
+    Hold k becomes round(Σ_{i≤k} h_i) − round(Σ_{i<k} h_i): never negative, zero where the
+    planned hold is zero, and the total stays within half a second of the planned total.
+    """
+    cum = np.cumsum(np.asarray(holds_s, dtype=float))
+    rounded = np.floor(cum + 0.5)
+    return np.diff(np.concatenate([[0.0], rounded]))

@@ -1,0 +1,91 @@
+"""The mission part of the report: items, the cycle as laid out, transits, fence, expanded
+radii and clearance."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from mission_planner.mission.build import Mission
+from mission_planner.mission.readback import flown_legs
+from mission_planner.transit import path_length_m
+from validator.geometry import expanded_radius, segment_point_distance
+from validator.plan_format import Cmd
+
+
+def cycle_duration_s(mission: Mission) -> float:
+    """Duration (s) of one service cycle as laid out: each leg at its speed (an S-curve leg
+    for its S-curve time) plus the holds as written in the plan and the stop lags they were
+    written net of."""
+    first, last = mission.cycle_items
+    holds = [it.params[0] for it in mission.plan.items[first:last + 1]
+             if it.command == Cmd.NAV_WAYPOINT]
+    q = mission.trajectory_m
+    prev = q[0]
+    total = 0.0
+    for s, hold in zip(mission.steps, holds, strict=True):
+        here = q[s.index]
+        if s.speed_mps is not None:
+            total += s.leg_s if s.scurve else float(np.hypot(*(here - prev))) / s.speed_mps
+        total += hold + s.stop_lag_s
+        prev = here
+    return total
+
+
+def mission_summary(mission: Mission) -> dict[str, Any]:
+    """The mission part of the report: items, cycle duration, transits, fence, expanded radii."""
+    plan = mission.plan
+    site = mission.solution.site
+    sol = mission.solution
+    first, last = mission.cycle_items
+    cycle_s = cycle_duration_s(mission)
+    speeds = [it.params[1] for it in plan.items if it.command == Cmd.DO_CHANGE_SPEED]
+    service_speeds = [s.speed_mps for s in mission.steps if s.speed_mps is not None]
+    planned_hold = float(sum(s.hold_s for s in mission.steps))
+    written_hold = float(sum(plan.items[i].params[0] for i in range(first, last + 1)
+                             if plan.items[i].command == Cmd.NAV_WAYPOINT))
+    exp = (expanded_radius(site.planning_radius_m[None, :],
+                           (site.max_speed_mps * sol.delta_s)[:, None])
+           if site.num_nfzs else np.zeros((0, 0)))
+    _, legs = flown_legs(plan, site.frame, mission.cycle_items, rounded=True)
+    clearance = (segment_point_distance(legs[:, None, 0, :], legs[:, None, 1, :],
+                                        site.nfz_xy_m[None]) - site.nfz_radius_m[None, :]
+                 if site.num_nfzs and len(legs) else np.zeros((0, 0)))
+    out_len = path_length_m(mission.outbound_m)
+    ret_len = path_length_m(mission.return_m)
+    return {
+        "autopilot": mission.options.autopilot,
+        "items": len(plan.items),
+        "service_waypoints": len(mission.steps),
+        "service_waypoints_merged": mission.merged_waypoints,
+        "scurve_legs": sum(s.scurve for s in mission.steps),
+        "merge_offset_max_m": mission.merge_offset_m,
+        "speed_changes": len(speeds),
+        "cycle_items": [first, last],
+        "cycles": mission.options.cycles,
+        "period_s": site.period_s,
+        "cycle_duration_s": cycle_s,
+        "hold_planned_s": planned_hold,
+        "hold_written_s": written_hold,
+        "stop_lag_s": float(sum(s.stop_lag_s for s in mission.steps)),
+        "max_service_speed_mps": max(service_speeds) if service_speeds else 0.0,
+        "transit_speed_mps": plan.cruise_speed_mps,
+        "transit_out_m": out_len,
+        "transit_out_waypoints": len(mission.outbound_m) - 1,
+        "transit_return_m": ret_len,
+        "transit_return_waypoints": len(mission.return_m) - 1,
+        "mission_duration_s": (mission.options.cycles * cycle_s
+                               + (out_len + ret_len) / plan.cruise_speed_mps),
+        "fence_margin_m": mission.fence_margin_m,
+        "fence_radii_m": {n: float(r + mission.fence_margin_m)
+                          for n, r in zip(site.nfz_names, site.nfz_radius_m, strict=True)},
+        "operating_area": mission.options.operating_area,
+        "expanded_radius_max_m": float(np.max(exp)) if exp.size else None,
+        "expanded_radius_by_nfz_m": {n: float(np.max(exp[:, m]))
+                                     for m, n in enumerate(site.nfz_names)} if exp.size else {},
+        "nfz_clearance_min_m": float(np.min(clearance)) if clearance.size else None,
+        "clearance_nudge_max_m": mission.max_nudge_m,
+        "rally_points": len(plan.rally),
+        "problems": list(mission.problems),
+    }
