@@ -38,6 +38,7 @@ from validator.site import Site
 Progress = Callable[[int, float], None]
 DYNAMICS = ("none", "vehicle")
 SEARCH_ITERATIONS = 15  # Algorithm 1 iterations per candidate top speed with dynamics on
+BRACKET_REL = 0.05  # the top-speed search stops bisecting within 5 % of the overrunning speed
 
 
 @dataclass(frozen=True)
@@ -290,25 +291,37 @@ def _plan_flyable(
 
     The vehicle's moves take longer than the paper's; planning for a lower top speed gives a
     shorter path. The search starts at the site's V or the vehicle's real top speed, whichever
-    is lower; the speed falls until the re-timed moves fit, then a bisection between the last
-    speed that overran and the first that fit keeps the candidate with the best min rate.
+    is lower; the speed falls until the re-timed moves fit, then bisects between the fastest
+    speed that fit and the slowest that overran (each speed once, ``retime_attempts``
+    candidates at most). The candidate with the best min rate is kept.
     """
-    speed, too_fast = retime.cruise_speed_mps(site, opt.autopilot), None
+    speed = retime.cruise_speed_mps(site, opt.autopilot)
+    fits_at: float | None = None  # the fastest speed whose moves fit T
+    over_at: float | None = None  # the slowest speed whose moves overran T
     best: _Flyable | None = None
+    tried: set[float] = set()
     iterations = 0
     for _ in range(opt.retime_attempts):
         cand, overrun = _retimed(site, scheme, speed, opt, progress)
-        if cand is None:
-            too_fast = speed
-        elif best is None or cand.min_rate > best.min_rate:
-            best = cand
+        tried.add(round(speed, 3))
         iterations += 1
-        if best is None:
-            speed *= float(np.clip(0.9 / overrun, 0.2, 0.9))
-        elif too_fast is None or too_fast - best.speed_mps < 0.05 * too_fast:
-            break
+        if cand is None:
+            over_at = speed if over_at is None else min(over_at, speed)
         else:
-            speed = (best.speed_mps + too_fast) / 2
+            fits_at = speed if fits_at is None else max(fits_at, speed)
+            if best is None or cand.min_rate > best.min_rate:
+                best = cand
+        if fits_at is None:
+            speed *= float(np.clip(0.9 / overrun, 0.2, 0.9))
+            continue
+        if over_at is None or over_at - fits_at < BRACKET_REL * over_at:
+            break
+        # Bisect between the fastest fit and the slowest overrun. A fitting candidate with a
+        # lower min rate than the best still moves the bracket: the min rate is not monotonic
+        # in the planning speed (each speed gives Algorithm 1 another path).
+        speed = (fits_at + over_at) / 2
+        if round(speed, 3) in tried:
+            break
     if best is None:
         raise InputError(
             f"uav: no flyable cycle of {site.period_s:g} s found within max_accel "
