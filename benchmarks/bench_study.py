@@ -102,8 +102,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--skip-scaling", action="store_true")
     args = parser.parse_args(argv)
     warnings.simplefilter("ignore")  # cvxpy's per-solve accuracy warnings would drown the table
-    options = (PlannerOptions() if args.max_iterations is None
-               else PlannerOptions(max_iterations=args.max_iterations))
+    options = (PlannerOptions(dynamics="none") if args.max_iterations is None
+               else PlannerOptions(dynamics="none", max_iterations=args.max_iterations))
 
     print(f"machine: {default_workers()} CPUs available to this process")
     if not args.skip_throughput:

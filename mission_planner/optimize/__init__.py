@@ -11,13 +11,13 @@ from typing import TYPE_CHECKING, Any
 from mission_planner.optimize.solution import SCHEMES, Solution
 
 if TYPE_CHECKING:
-    from mission_planner.optimize.bcd import PlannerOptions, plan
+    from mission_planner.optimize.bcd import PAPER_OPTIONS, PlannerOptions, plan
 
-__all__ = ["SCHEMES", "PlannerOptions", "Solution", "plan"]
+__all__ = ["PAPER_OPTIONS", "SCHEMES", "PlannerOptions", "Solution", "plan"]
 
 
 def __getattr__(name: str) -> Any:
-    if name in ("plan", "PlannerOptions"):
+    if name in ("plan", "PlannerOptions", "PAPER_OPTIONS"):
         from mission_planner.optimize import bcd
 
         return getattr(bcd, name)

@@ -49,12 +49,13 @@ class PlannerOptions:
     uses the paper's η as written. ``nfz_margin_m`` is added to every (buffered) NFZ radius so
     that solver tolerance and MAVLink's int32 1e-7° rounding (≤ 0.8 cm) never cost clearance.
 
-    ``dynamics`` "none" is the paper's kinematic model (top speed only). "vehicle" re-times
+    ``dynamics`` "vehicle" (the default, as ``plan-mission``'s) re-times
     the optimised path with the site's ``max_accel`` / ``max_jerk`` as ``autopilot``
     ("ardupilot" or "px4") flies it (:mod:`.retime`), with the autopilot parameters
     ``timing_params`` the plan will set (autopilot units, e.g. PX4's NAV_ACC_RAD); when the
     moves then overrun T, the path is planned again for a lower effective top speed, up to
-    ``retime_attempts`` times.
+    ``retime_attempts`` times. "none" is the paper's kinematic model (top speed only): the
+    studies reproducing the paper's figures use it (:data:`PAPER_OPTIONS`).
     """
 
     gamma: float = 100.0
@@ -66,10 +67,13 @@ class PlannerOptions:
     eta_scale: str = "per-period"
     binary_tolerance: float = 1e-3
     nfz_margin_m: float = 0.02
-    dynamics: str = "none"
+    dynamics: str = "vehicle"
     retime_attempts: int = 8
     autopilot: str = "ardupilot"
     timing_params: Mapping[str, float] = field(default_factory=dict)
+
+
+PAPER_OPTIONS = PlannerOptions(dynamics="none")  # the paper's model, for its figures
 
 
 @dataclass

@@ -86,14 +86,17 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _options(args: argparse.Namespace) -> Any:
-    """PlannerOptions from the command line (the planner's defaults where not given)."""
-    from mission_planner.optimize import PlannerOptions
+    """PlannerOptions from the command line: the paper's model (the figures reproduce it), the
+    planner's defaults where not given."""
+    from dataclasses import replace
+
+    from mission_planner.optimize import PAPER_OPTIONS
 
     if args.max_iterations is None:
-        return PlannerOptions()
+        return PAPER_OPTIONS
     if args.max_iterations < 1:
         raise InputError(f"--max-iterations: must be >= 1, got {args.max_iterations}")
-    return PlannerOptions(max_iterations=args.max_iterations)
+    return replace(PAPER_OPTIONS, max_iterations=args.max_iterations)
 
 
 def _fig3(args: argparse.Namespace) -> int:

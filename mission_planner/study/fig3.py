@@ -84,9 +84,11 @@ class Fig3Result:
 
 def plan_both(site: Site, options: Any = None, schemes: Sequence[str] = SCHEMES
               ) -> list[Solution]:
-    """Plan ``site`` with each scheme (proposed first)."""
-    from mission_planner.optimize import plan
+    """Plan ``site`` with each scheme (proposed first); ``options`` None: the paper's model
+    (:data:`~mission_planner.optimize.PAPER_OPTIONS`)."""
+    from mission_planner.optimize import PAPER_OPTIONS, plan
 
+    options = options if options is not None else PAPER_OPTIONS
     return [plan(site, scheme=s, options=options) for s in schemes]
 
 

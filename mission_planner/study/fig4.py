@@ -97,11 +97,11 @@ def run_fig4(
     ``study.json`` make re-running into ``out_dir`` resume. See :func:`run_trials` for the
     executor arguments.
     """
-    from mission_planner.optimize import PlannerOptions
+    from mission_planner.optimize import PAPER_OPTIONS
     from mission_planner.study.plots import plot_fig4, save_png
     from mission_planner.study.store import table_csv
 
-    options = options if options is not None else PlannerOptions()
+    options = options if options is not None else PAPER_OPTIONS
     config = config or Fig4Config()
     config.check()
     check_table_format(table_format)

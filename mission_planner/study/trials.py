@@ -71,13 +71,15 @@ def _one_line(err: BaseException) -> str:
 def run_trial(spec: TrialSpec, options: Any = None) -> dict[str, Any]:
     """Run one trial and return its table row (keys :data:`TABLE_COLUMNS`).
 
-    ``options`` is a :class:`mission_planner.optimize.PlannerOptions` (None: the defaults).
+    ``options`` is a :class:`mission_planner.optimize.PlannerOptions` (None: the paper's
+    model, :data:`~mission_planner.optimize.PAPER_OPTIONS`).
     A failure (bad parameters, solver error) is returned as a row whose ``error`` is a one-line
     message and whose result columns are None. Units: rates in bps/Hz, clearance in metres
     (negative: the leg enters the zone), ``solve_seconds`` the wall time of the planner.
     """
-    from mission_planner.optimize import plan
+    from mission_planner.optimize import PAPER_OPTIONS, plan
 
+    options = options if options is not None else PAPER_OPTIONS
     row: dict[str, Any] = {"key": spec.key, **asdict(spec)}
     row.update(dict.fromkeys(RESULT_COLUMNS))
     row["error"] = ""

@@ -12,7 +12,7 @@ from validator.channel import hover_upper_bound, spectral_efficiency
 from validator.errors import InputError
 from validator.site import Site, parse_site
 
-FAST = PlannerOptions(max_iterations=15)
+FAST = PlannerOptions(max_iterations=15, dynamics="none")  # the paper's algorithm
 
 
 def _site(

@@ -15,7 +15,7 @@ from mission_planner.study.trials import WALL_TIME_COLUMNS, TrialSpec
 
 # Small problems and a short iteration cap keep each solve around a second; the tables compared
 # below come from the real planner all the same.
-FAST = PlannerOptions(max_iterations=15)
+FAST = PlannerOptions(max_iterations=15, dynamics="none")  # the paper's algorithm
 
 
 def _specs(seeds: range) -> list[TrialSpec]:

@@ -14,7 +14,7 @@ from mission_planner.study.fig3 import run_fig3
 from mission_planner.study.sites import random_site
 from validator.errors import InputError
 
-FAST = PlannerOptions(max_iterations=15)
+FAST = PlannerOptions(max_iterations=15, dynamics="none")  # the paper's algorithm
 Fig3Files = tuple[Path, list[Solution]]
 
 

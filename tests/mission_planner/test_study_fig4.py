@@ -10,7 +10,7 @@ from mission_planner.study.config import Fig4Config
 from mission_planner.study.fig4 import run_fig4
 from mission_planner.study.trials import TrialSpec, run_trial
 
-FAST = PlannerOptions(max_iterations=15)
+FAST = PlannerOptions(max_iterations=15, dynamics="none")  # the paper's algorithm
 # Large zones and few, long legs (N = 10 slots of ~5 s at up to 30 m/s): point-only constraints
 # let legs cut straight through zones, which the expanded constraint must never allow.
 SMALL = Fig4Config(trials=3, radii_m=(50.0,), counts=(3,), radius_m=50.0, num_nfzs=3, slots=10)
