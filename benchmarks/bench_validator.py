@@ -37,7 +37,7 @@ from validator.audit import audit
 from validator.dynamics import flight_params, make_profile
 from validator.flight import resolve_flight
 from validator.plan_format import Cmd, FenceCircle, Frame, MissionItem, Plan, write_plan
-from validator.replay import replay, score_track
+from validator.replay import TrackReport, replay, score_track
 from validator.site import Site, load_site
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the tests' flight loader
@@ -169,6 +169,27 @@ def cli_figure() -> None:
           f"(exit {proc.returncode})")
 
 
+CALIBRATION_HEADER = (f"{'cycle (s)':>15} {'err':>7} {'cycle/T':>8} {'mission (s)':>15} {'err':>7} "
+                      f"{'top speed (m/s)':>16} {'cross-track RMS (m)':>20} "
+                      f"{'min rate (bps/Hz)':>18}")
+
+
+def calibration_row(name: str, model: TrackReport, flown: TrackReport, flown_cycle_s: float,
+                    flown_mission_s: float) -> str:
+    """One flight: predicted / flown cycle, cycle over T, mission, top speed, cross-track and
+    min rate (``flown_cycle_s`` and ``flown_mission_s`` as the data set measures them)."""
+    assert model.cycle is not None
+    cyc, mission = model.cycle.flown_cycle_s, model.duration_s
+    ratio = flown.cycle.ratio if flown.cycle is not None else float("nan")
+    rates = (f"{model.throughput.flown_min:.3f}/{flown.throughput.flown_min:.3f}"
+             if model.throughput and flown.throughput else "-")
+    return (f"  {name:<24} {cyc:>7.1f}/{flown_cycle_s:<7.1f} {cyc / flown_cycle_s - 1:>+7.1%} "
+            f"{ratio:>8.3f} "
+            f"{mission:>7.1f}/{flown_mission_s:<7.1f} {mission / flown_mission_s - 1:>+7.1%} "
+            f"{model.speed_max_mps:>7.2f}/{flown.speed_max_mps:<8.2f} "
+            f"{model.cross_track_rms_m:>9.2f}/{flown.cross_track_rms_m:<10.2f} {rates:>18}")
+
+
 def calibration() -> None:
     """Predicted (arducopter replay at the flown .param) vs flown, per shared SITL flight."""
     if not sitl_flights.available():
@@ -176,22 +197,13 @@ def calibration() -> None:
         return
     print("arducopter replay vs ArduCopter 4.5.6 SITL (../shared/data/arducopter-sitl-2; "
           "predicted / flown; mission = arming to land complete)")
-    print(f"  {'flight':<15} {'cycle (s)':>15} {'err':>7} {'mission (s)':>15} {'err':>7} "
-          f"{'top speed (m/s)':>16} {'cross-track RMS (m)':>20} {'min rate (bps/Hz)':>18}")
+    print(f"  {'flight':<24} {CALIBRATION_HEADER}")
     for name in sitl_flights.names():
         rec = sitl_flights.load(name)
         prof = make_profile("arducopter", rec.site, rec.params)
         model = score_track(replay(rec.flight, prof), rec.flight, rec.site, rec.plan)
         flown = score_track(rec.track(), rec.flight, rec.site, rec.plan)
-        assert model.cycle is not None
-        cyc = model.cycle.flown_cycle_s
-        mission = model.duration_s
-        rates = (f"{model.throughput.flown_min:.3f}/{flown.throughput.flown_min:.3f}"
-                 if model.throughput and flown.throughput else "-")
-        print(f"  {name:<15} {cyc:>7.1f}/{rec.cycle_s:<7.1f} {cyc / rec.cycle_s - 1:>+7.1%} "
-              f"{mission:>7.1f}/{rec.mission_s:<7.1f} {mission / rec.mission_s - 1:>+7.1%} "
-              f"{model.speed_max_mps:>7.2f}/{flown.speed_max_mps:<8.2f} "
-              f"{model.cross_track_rms_m:>9.2f}/{flown.cross_track_rms_m:<10.2f} {rates:>18}")
+        print(calibration_row(name, model, flown, rec.cycle_s, rec.mission_s))
 
 
 def px4_calibration() -> None:
@@ -199,24 +211,14 @@ def px4_calibration() -> None:
     flight (tests/data/px4-sih)."""
     print("px4 replay vs PX4 v1.15.4 SIH (tests/data/px4-sih; predicted / flown; mission = "
           "takeoff to disarm)")
-    print(f"  {'flight':<20} {'cycle (s)':>15} {'err':>7} {'cycle/T':>8} {'mission (s)':>15} "
-          f"{'err':>7} {'top speed (m/s)':>16} {'cross-track RMS (m)':>20} "
-          f"{'min rate (bps/Hz)':>18}")
+    print(f"  {'flight':<24} {CALIBRATION_HEADER}")
     for name in px4_flights.names():
         rec = px4_flights.load(name)
         prof = make_profile("px4", rec.site, flight_params("px4", rec.site, rec.params))
         model = score_track(replay(rec.flight, prof), rec.flight, rec.site, rec.plan)
         flown = score_track(rec.track(), rec.flight, rec.site, rec.plan)
-        assert model.cycle is not None and flown.cycle is not None
-        cyc, real = model.cycle.flown_cycle_s, flown.cycle.flown_cycle_s
-        mission = model.duration_s
-        rates = (f"{model.throughput.flown_min:.3f}/{flown.throughput.flown_min:.3f}"
-                 if model.throughput and flown.throughput else "-")
-        print(f"  {name:<20} {cyc:>7.1f}/{real:<7.1f} {cyc / real - 1:>+7.1%} "
-              f"{flown.cycle.ratio:>8.3f} "
-              f"{mission:>7.1f}/{rec.mission_s:<7.1f} {mission / rec.mission_s - 1:>+7.1%} "
-              f"{model.speed_max_mps:>7.2f}/{flown.speed_max_mps:<8.2f} "
-              f"{model.cross_track_rms_m:>9.2f}/{flown.cross_track_rms_m:<10.2f} {rates:>18}")
+        assert flown.cycle is not None
+        print(calibration_row(name, model, flown, flown.cycle.flown_cycle_s, rec.mission_s))
 
 
 def main() -> None:
