@@ -34,8 +34,8 @@ from typing import Any
 import numpy as np
 
 from validator.audit import audit
-from validator.dynamics import flight_params, make_profile
 from validator.flight import resolve_flight
+from validator.motion.profile import flight_params, make_profile
 from validator.plan_format import Cmd, FenceCircle, Frame, MissionItem, Plan, write_plan
 from validator.replay import TrackReport, replay, score_track
 from validator.site import Site, load_site

@@ -23,8 +23,8 @@ from typing import Any
 
 from mission_planner.autopilot_params import AutopilotParams, recommended_params
 from mission_planner.mission import Mission
-from validator.dynamics import Profile, flight_params, make_profile
 from validator.flight import resolve_flight
+from validator.motion.profile import Profile, flight_params, make_profile
 from validator.replay import TrackReport, replay, score_track
 
 CYCLE_OVERRUN_WARN = 0.10  # warn when the flown cycle is off T by more than this fraction

@@ -26,10 +26,10 @@ import sys
 from collections.abc import Sequence
 
 from validator.autopilot.param_file import read_params
-from validator.dynamics import PROFILES, parse_param_overrides
 from validator.errors import InputError
 from validator.fileio import write_atomic
 from validator.mavlink.cli import add_sitl_arguments, run_sitl, split_sitl_url
+from validator.motion.profile import PROFILES, parse_param_overrides
 from validator.replay import TrackReport
 from validator.track_file import write_track
 from validator.validation import Validation, default_profile_name, validate_mission

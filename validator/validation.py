@@ -16,9 +16,9 @@ from typing import Any
 
 from validator.audit import AuditReport, audit
 from validator.autopilot.fence import FENCE_RULES
-from validator.dynamics import Profile, flight_params, make_profile
 from validator.errors import InputError
 from validator.flight import Finding, Flight, resolve_flight
+from validator.motion.profile import Profile, flight_params, make_profile
 from validator.plan_format import Autopilot, Plan, read_plan
 from validator.replay import TrackReport, replay, score_track
 from validator.site import Site, load_site

@@ -13,7 +13,7 @@ path but flies it honestly, with the validator's own model of the autopilot
    vehicle's real top speed: ArduCopter's jerk-limited S-curve (WPNAV_ACCEL capped by the lean
    angle, WPNAV_JERK with its jerk ramp), or PX4's braking rule and velocity smoothing, a leg
    ending when the vehicle is within NAV_ACC_RAD of the waypoint (PX4 starts the hold there);
-3. every ArduCopter stop costs its stop lag (:data:`validator.dynamics.STOP_LAG_S`: it
+3. every ArduCopter stop costs its stop lag (:data:`validator.motion.arducopter.STOP_LAG_S`: it
    reaches the waypoint that long after the S-curve ends), counted as hover at the waypoint
    just reached (the exporter programs holds net of it); the time left in T goes to the hover
    points in proportion to the optimiser's holds;
@@ -34,19 +34,16 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from shapely.geometry import LineString
 
-from validator.dynamics import (
+from validator.geometry import min_leg_clearance
+from validator.motion.arducopter import (
     STOP_LAG_S,
-    Profile,
     arducopter_accel_mps2,
     arducopter_top_speed_mps,
-    flight_params,
     jerk_ramp_s,
-    make_profile,
-    px4_rest_to_rest,
-    px4_top_speed_mps,
-    scurve_rest_to_rest,
 )
-from validator.geometry import min_leg_clearance
+from validator.motion.profile import Profile, flight_params, make_profile
+from validator.motion.px4_mission import px4_rest_to_rest, px4_top_speed_mps
+from validator.motion.scurve import scurve_rest_to_rest
 from validator.site import Site
 
 STATIONARY_M = 0.05  # a slot that moves less than this is hovering
@@ -59,7 +56,7 @@ SIMPLIFY_STEPS_M = (50.0, 25.0, 10.0, 5.0, 2.0, 1.0, 0.5, 0.2, 0.0)
 class LegMotion(Protocol):
     """Straight legs flown from rest, as a model times them: each leg's length (m), the time
     (s) its waypoint counts as reached, and the motion along it
-    (:class:`validator.dynamics.Profiles1D`, :class:`validator.motion.px4.SampledLegs`)."""
+    (:class:`validator.motion.scurve.Profiles1D`, :class:`validator.motion.px4.SampledLegs`)."""
 
     @property
     def length_m(self) -> NDArray[np.float64]: ...

@@ -17,7 +17,7 @@ from mission_planner.optimize.retime import (
     top_speed_mps,
 )
 from mission_planner.study.sites import random_site
-from validator.dynamics import STOP_LAG_S
+from validator.motion.arducopter import STOP_LAG_S
 from validator.site import Site
 
 

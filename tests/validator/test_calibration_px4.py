@@ -10,7 +10,7 @@ from __future__ import annotations
 import pytest
 
 from tests.validator import px4_flights
-from validator.dynamics import flight_params, make_profile
+from validator.motion.profile import flight_params, make_profile
 from validator.replay import TrackReport, replay, score_track
 
 FLIGHTS = px4_flights.names()

@@ -9,7 +9,7 @@ from functools import cache
 import pytest
 
 from tests.validator import sitl_flights
-from validator.dynamics import make_profile
+from validator.motion.profile import make_profile
 from validator.replay import TrackReport, replay, score_track
 
 pytestmark = pytest.mark.skipif(

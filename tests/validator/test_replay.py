@@ -5,8 +5,8 @@ import pytest
 
 from tests.validator.builders import ALT_M, make_site, service_plan, waypoint_plan
 from validator.audit import audit
-from validator.dynamics import make_profile
 from validator.flight import resolve_flight
+from validator.motion.profile import make_profile
 from validator.replay import replay, score_track, track_from_samples
 
 

@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 from validator.audit import audit
-from validator.dynamics import make_profile
 from validator.flight import resolve_flight
+from validator.motion.profile import make_profile
 from validator.plan_format import read_plan
 from validator.replay import TrackReport, replay, score_track, track_from_geodetic
 from validator.site import load_site

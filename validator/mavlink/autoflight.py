@@ -20,9 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from validator.dynamics import PARAM_SPECS, Profile, make_profile
 from validator.flight import Leg, resolve_flight
 from validator.geodesy import LocalFrame
+from validator.motion.profile import PARAM_SPECS, Profile, make_profile
 from validator.plan_format import Cmd, Plan
 from validator.replay import replay
 from validator.site import DEFAULT_MAX_ACCEL_MPS2, DEFAULT_MAX_JERK_MPS3, Site

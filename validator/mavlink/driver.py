@@ -32,11 +32,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from validator.dynamics import Profile
 from validator.flight import Finding, Flight
 from validator.geodesy import from_int_e7
 from validator.mavlink.link import Link, LinkError, command_name, fence_problems, upload_to
 from validator.mavlink.wire import mavlink, mavutil
+from validator.motion.profile import Profile
 from validator.plan_format import Cmd, Plan
 from validator.replay import Track, TrackReport, replay, score_track, track_from_geodetic
 from validator.site import Site

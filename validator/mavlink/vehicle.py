@@ -96,7 +96,7 @@ INT16 = int(mavlink.MAV_PARAM_TYPE_INT16)
 
 # ArduCopter's names, units (cm, cm/s, cm/s^2 as ArduCopter keeps them) and defaults, except
 # the fence, which is on and report-only here so a validation sees every breach. The flight
-# profile's own parameters (validator.dynamics.PARAM_SPECS) are added to these.
+# profile's own parameters (validator.motion.profile.PARAM_SPECS) are added to these.
 BASE_PARAMS: dict[str, tuple[float, int]] = {
     "WPNAV_SPEED": (1000.0, REAL32),
     "WPNAV_ACCEL": (250.0, REAL32),
@@ -120,7 +120,7 @@ class VehicleConfig:
     ``home`` is (lat deg, lon deg, alt m AMSL); ``speedup`` simulated seconds per wall second;
     ``loss`` the fraction of packets dropped in each direction (``seed`` makes it repeatable);
     ``telemetry_hz`` the GLOBAL_POSITION_INT rate in simulated time; ``profile`` the flight
-    model flown in AUTO (:data:`validator.dynamics.PROFILES`); ``params`` initial parameter
+    model flown in AUTO (:data:`validator.motion.profile.PROFILES`); ``params`` initial parameter
     values (autopilot units) over ArduCopter's defaults; ``max_speed_mps`` the vehicle's top
     speed (the profile's VEHICLE_SPEED_MAX default); ``signing_key`` a MAVLink 2 signing key.
     """

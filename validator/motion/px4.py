@@ -252,9 +252,9 @@ class SampledLegs:
     """Straight legs flown from rest, each sampled in time: ``length_m`` (n,), ``total_s``
     (n,) the time each leg's waypoint counts as reached, and per leg the samples ``t_s[k]``,
     ``s_m[k]`` of the distance flown. :meth:`state` answers like
-    :class:`validator.dynamics.Profiles1D`, with the distance scaled so that a leg ends on its
-    waypoint exactly when it counts as reached (the last ``acceptance_m`` is closed during the
-    hold)."""
+    :class:`validator.motion.scurve.Profiles1D`, with the distance scaled so that a leg ends on
+    its waypoint exactly when it counts as reached (the last ``acceptance_m`` is closed during
+    the hold)."""
 
     length_m: NDArray[np.float64]
     total_s: NDArray[np.float64]

@@ -5,12 +5,12 @@ import pytest
 
 from tests.validator.builders import make_site, waypoint_plan
 from tests.validator.mavlink.conftest import rtl_plan, url_of
-from validator.dynamics import make_profile
 from validator.flight import resolve_flight
 from validator.mavlink.driver import ARDUCOPTER_MODES, fly_mission, telemetry_track
 from validator.mavlink.link import Link, upload_to
 from validator.mavlink.vehicle import CopterMode
 from validator.mavlink.wire import mavlink
+from validator.motion.profile import make_profile
 from validator.replay import replay
 
 FAST = 50.0

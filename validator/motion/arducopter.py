@@ -1,0 +1,231 @@
+"""The ``arducopter`` profile: ArduCopter 4.x S-curve navigation with corner blending.
+
+Every leg is planned from rest to rest as a jerk-limited profile (WPNAV_JERK, WPNAV_ACCEL,
+speed = the DO_CHANGE_SPEED in force or WPNAV_SPEED, capped by ANGLE_MAX and the vehicle's top
+speed), so a leg shorter than about v²/A + v·A/J never reaches v. When a waypoint has no hold,
+the next leg starts while this one decelerates, as soon as the blended target stays within
+WPNAV_RADIUS of the waypoint, slower than both legs' speeds and within the corner acceleration
+(WPNAV_ACCEL_C, 0 = twice WPNAV_ACCEL): the two profiles add up, which rounds the corner on the
+inside of the turn and passes collinear waypoints without stopping. The waypoint counts as
+reached half-way through that overlap. Holds are truncated to whole seconds, as ArduCopter
+stores them. Speed is capped by the lean-limited top speed
+(:func:`~validator.motion.limits.top_speed_mps`: ANGLE_MAX or PSC_ANGLE_MAX against a drag
+fitted to the SITL quad, VEHICLE_DRAG, at the air density of ALT_AMSL). A takeoff from the
+ground climbs after the lift-off delay; a landing descends at WPNAV_SPEED_DN to LAND_ALT_LOW,
+then at LAND_SPEED, and ends when the land detector fires; every stop at a waypoint is counted
+STOP_LAG_S after the S-curve ends (all three fitted to ArduCopter 4.5.6 SITL flights,
+``../shared/data/arducopter-sitl-2``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from validator.flight import Flight
+from validator.motion.limits import (
+    GRAVITY_MPS2,
+    air_density_ratio,
+    lean_angle_max_deg,
+    top_speed_mps,
+)
+from validator.motion.path import (
+    FlownPath,
+    LegGeometry,
+    active_leg,
+    kinematic_limit,
+    leg_geometry,
+    superpose,
+    time_grid,
+)
+from validator.motion.profile import Profile
+from validator.motion.scurve import SEG_CRUISE, SEG_DECEL_START, Profiles1D, scurve_to_touchdown
+
+CORNER_SEARCH_STEP_S = 0.0025  # ArduCopter checks the corner condition at its 400 Hz loop rate
+# Arming to the start of the climb: the arming delay, motor spool-up and throttle slew until
+# the land detector lets go (TKOFF_SLEW_TIME); measured 3.1 s in every SITL flight (fitted with
+# the climb below so that NAV_TAKEOFF completes when it did, 18.2 s after arming from 30 m).
+LIFTOFF_DELAY_S = 3.1
+# Touchdown to "land complete": ArduCopter's land detector needs a second of low throttle and
+# no descent; measured 1.57 s in every SITL flight (disarm follows 0.5 s later).
+LAND_DETECT_S = 1.57
+# A stop at a waypoint comes later than the S-curve's own end: ArduCopter slows the S-curve's
+# clock while the vehicle lags its target (AC_WPNav's track scaler). Measured 0.3-1.2 s per
+# horizontal rest-to-rest leg in the SITL flights, median 0.6 s.
+STOP_LAG_S = 0.6
+
+
+def arducopter_lean_max_deg(profile: Profile) -> float:
+    """The lean limit (degrees) of an ``arducopter`` profile."""
+    return lean_angle_max_deg(float(profile.params["ANGLE_MAX"]),
+                              float(profile.params["PSC_ANGLE_MAX"]))
+
+
+def arducopter_accel_mps2(profile: Profile) -> float:
+    """The horizontal acceleration (m/s²) an ``arducopter`` profile's legs use: WPNAV_ACCEL,
+    capped by what its lean limit allows (g·tan θ)."""
+    lean = math.radians(arducopter_lean_max_deg(profile))
+    return min(profile.si("WPNAV_ACCEL"), GRAVITY_MPS2 * math.tan(lean))
+
+
+def arducopter_top_speed_mps(profile: Profile) -> float:
+    """The fastest an ``arducopter`` profile's vehicle flies (m/s), whatever WPNAV_SPEED says:
+    its lean-limited top speed (:func:`top_speed_mps` at the profile's air density), capped by
+    VEHICLE_SPEED_MAX."""
+    v = top_speed_mps(arducopter_lean_max_deg(profile), profile.si("VEHICLE_DRAG"),
+                      air_density_ratio(profile.si("ALT_AMSL")))
+    return min(v, profile.si("VEHICLE_SPEED_MAX"))
+
+
+def _ardu_limits(
+    flight: Flight, profile: Profile, geom: LegGeometry
+) -> tuple[Profiles1D, NDArray[np.float64]]:
+    """Every leg's S-curve (rest to rest; a landing ends at LAND_SPEED below LAND_ALT_LOW), and
+    each leg's speed limit along its track (m/s)."""
+    legs = flight.legs
+    a_xy = arducopter_accel_mps2(profile)
+    v_cap = arducopter_top_speed_mps(profile)
+    wpnav = profile.si("WPNAV_SPEED")
+    cmd = np.array(
+        [wpnav if leg.kind == "rtl" or leg.speed_mps is None else leg.speed_mps for leg in legs],
+        dtype=float,
+    )
+    unit = geom.unit
+    speed = kinematic_limit(unit, np.minimum(cmd, v_cap), profile.si("WPNAV_SPEED_UP"),
+                            profile.si("WPNAV_SPEED_DN"))
+    a_z = profile.si("WPNAV_ACCEL_Z")
+    accel = kinematic_limit(unit, np.full(len(legs), a_xy), a_z, a_z)
+    vertical = np.hypot(unit[:, 0], unit[:, 1]) < 1e-9
+    jerk = np.where(vertical, profile.si("PSC_JERK_Z"), profile.si("WPNAV_JERK"))
+    # ArduCopter lands at WPNAV_SPEED_DN (never slower than LAND_SPEED) down to LAND_ALT_LOW,
+    # then at LAND_SPEED until the ground stops it
+    landing = np.array([leg.kind == "land" for leg in legs]) & vertical
+    land_speed = profile.si("LAND_SPEED")
+    speed = np.where(landing, np.maximum(speed, land_speed), speed)
+    prof = scurve_to_touchdown(geom.length_m, speed, accel, jerk, jerk_ramp_s(profile, jerk),
+                               np.where(landing, land_speed, 0.0),
+                               np.where(landing, profile.si("LAND_ALT_LOW"), 0.0))
+    return prof, speed
+
+
+def jerk_ramp_s(profile: Profile, jerk_mps3: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Time (s) ArduCopter takes to ramp the jerk from 0 to its limit.
+
+    A multicopter accelerates by leaning, so jerk cannot change instantly: ArduCopter limits
+    snap to half of min(J·π/(2·ATC_INPUT_TC), ATC_ACCEL_R_MAX·g), i.e. a ramp of
+    max(2·ATC_INPUT_TC, J·π/(ATC_ACCEL_R_MAX·g)) seconds.
+    """
+    tc = max(profile.si("ATC_INPUT_TC"), 0.1)
+    by_rate = jerk_mps3 * math.pi / (profile.si("ATC_ACCEL_R_MAX") * GRAVITY_MPS2)
+    return np.asarray(np.maximum(2.0 * tc, by_rate), dtype=float)
+
+
+def corner_overlaps_s(
+    geom: LegGeometry,
+    prof: Profiles1D,
+    corners: NDArray[np.int64],
+    speed_max_mps: NDArray[np.float64],
+    radius_m: float,
+    corner_accel_mps2: float,
+) -> NDArray[np.float64]:
+    """How long (s) leg ``i+1`` overlaps the end of leg ``i``, for each ``i`` in ``corners``.
+
+    ArduCopter's corner rule: the next leg may start once leg ``i`` decelerates and has no more
+    time left than the next leg's acceleration phase; it starts at the first moment the blended
+    target at mid-overlap lies within ``radius_m`` of the waypoint, is slower than both legs'
+    speed limits ``speed_max_mps`` (per leg) and has a horizontal acceleration below
+    ``corner_accel_mps2``. 0 when that moment never comes (the leg ends, then the next starts).
+    Searched on a coarse grid, then refined to :data:`CORNER_SEARCH_STEP_S`.
+    """
+    i = np.asarray(corners, dtype=np.int64)
+    out = np.zeros(i.size)
+    if i.size == 0:
+        return out
+    T = prof.total_s[i]
+    tau_max = np.minimum(T - prof.boundary_time_s(SEG_DECEL_START)[i],
+                         prof.boundary_time_s(SEG_CRUISE)[i + 1])
+    L = geom.length_m
+    live = (tau_max > 0) & (L[i] > 0) & (L[i + 1] > 0)
+    u1, u2 = geom.unit[i], geom.unit[i + 1]
+    vmax = np.minimum(speed_max_mps[i], speed_max_mps[i + 1])
+
+    def passes(tau: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """tau (c, K): does the corner rule hold with that much time left on leg i?"""
+        c, k = tau.shape
+        leg = np.repeat(i, k)
+        half = (tau / 2.0).ravel()
+        p1, v1, a1 = (x.reshape(c, k, 1) for x in prof.state(leg, np.repeat(T, k) - half))
+        p2, v2, a2 = (x.reshape(c, k, 1) for x in prof.state(leg + 1, half))
+        a, b = u1[:, None, :], u2[:, None, :]
+        pos = -(L[i][:, None, None] - p1) * a + p2 * b
+        vel = v1 * a + v2 * b
+        acc = a1 * a + a2 * b
+        return np.asarray(
+            (np.linalg.norm(pos, axis=2) < radius_m)
+            & (np.linalg.norm(vel, axis=2) < vmax[:, None])
+            & (np.hypot(acc[..., 0], acc[..., 1]) < corner_accel_mps2)
+        )
+
+    coarse_n = 128
+    frac = 1.0 - np.arange(coarse_n) / coarse_n  # from tau_max down, scanning forward in time
+    tau = tau_max[:, None] * frac[None, :]
+    ok = passes(tau) & live[:, None]
+    first = np.argmax(ok, axis=1)
+    found = ok[np.arange(i.size), first]
+    # refine between the last failing coarse point and the first passing one
+    hi = np.where(first > 0, tau[np.arange(i.size), np.maximum(first - 1, 0)], tau_max)
+    lo = tau[np.arange(i.size), first]
+    fine_n = int(np.ceil(np.max(np.where(found, hi - lo, 0.0), initial=0.0)
+                         / CORNER_SEARCH_STEP_S)) + 1
+    fine = hi[:, None] - (hi - lo)[:, None] * np.linspace(0.0, 1.0, max(fine_n, 2))[None, :]
+    fine[:, 0] = np.where(first > 0, fine[:, 1], fine[:, 0])  # hi itself failed (or is tau_max)
+    ok_f = passes(fine) & found[:, None]
+    first_f = np.argmax(ok_f, axis=1)
+    got = ok_f[np.arange(i.size), first_f]
+    out = np.where(got, fine[np.arange(i.size), first_f], np.where(found, lo, 0.0))
+    return np.asarray(out, dtype=float)
+
+
+def fly(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
+    """Fly ``flight`` with an ``arducopter`` profile, sampled every ``dt_s`` seconds."""
+    legs = flight.legs
+    geom = leg_geometry(legs)
+    prof, speed = _ardu_limits(flight, profile, geom)
+    total = prof.total_s
+    radius = profile.si("WPNAV_RADIUS")
+    corner_acc = profile.si("WPNAV_ACCEL_C") or 2.0 * profile.si("WPNAV_ACCEL")
+    # ArduCopter stores hold times as whole seconds (uint16 param1)
+    hold = np.array([math.floor(leg.hold_s + 1e-9) for leg in legs], dtype=float)
+    hold += np.array([profile.si("RTL_LOIT_TIME") if leg.kind == "rtl" else 0.0 for leg in legs])
+    n = len(legs)
+    start = np.zeros(n)
+    reached = np.zeros(n)
+    done = np.zeros(n)
+    blend = np.array([leg.pass_through for leg in legs[:-1]] + [False])
+    corners = np.flatnonzero(blend)
+    overlap = np.zeros(n)
+    overlap[corners] = corner_overlaps_s(geom, prof, corners, speed, radius, corner_acc)
+    # on the ground the climb waits for spool-up and lift-off; a landing ends when the land
+    # detector has seen the touchdown
+    liftoff = np.array([LIFTOFF_DELAY_S if leg.kind == "takeoff" and leg.start_alt_m <= 0
+                        else 0.0 for leg in legs])
+    hold += np.array([LAND_DETECT_S if leg.kind == "land" else 0.0 for leg in legs])
+    stop_lag = np.where((geom.length_m > 0) & (np.hypot(geom.unit[:, 0], geom.unit[:, 1]) > 0.5),
+                        STOP_LAG_S, 0.0)
+    start[0] = liftoff[0]
+    for i in range(n):
+        end = start[i] + total[i]
+        if blend[i]:
+            tau = overlap[i]
+            start[i + 1] = end - tau
+            reached[i] = done[i] = end - tau / 2.0
+        else:
+            reached[i] = end + stop_lag[i]
+            done[i] = reached[i] + hold[i]
+            if i + 1 < n:
+                start[i + 1] = done[i] + liftoff[i + 1]
+    t = time_grid(float(done[-1]), dt_s)
+    pos, vel = superpose(geom, prof, start, t)
+    return FlownPath(t, pos, vel, active_leg(done, t), start, reached, done)

@@ -1,0 +1,223 @@
+"""The ``px4`` profile: PX4 v1.15 mission following, a rounded path flown by PX4's own rules.
+
+Its rules are ported in :mod:`validator.motion.px4`: toward each waypoint the fastest speed from
+which it can still arrive, with PX4's conservative 2·A/J reaction delay (MPC_ACC_HOR,
+MPC_JERK_AUTO), smoothed by its jerk-limited velocity smoother; corners rounded by an arc
+inside NAV_ACC_RAD at PX4's corner speed (MPC_XY_TRAJ_P); a waypoint with a hold stops the
+vehicle, and the hold starts when the vehicle is within NAV_ACC_RAD (NAV_MC_ALT_RAD
+vertically). The vehicle follows that trajectory through PX4's position and velocity loops
+against a linear drag (VEHICLE_LIN_DRAG, SIH's quad by default) within MPC_TILTMAX_AIR, which
+also sets its top speed. Takeoff climbs after PX4_LIFTOFF_DELAY_S; a landing descends at
+MPC_Z_V_AUTO_DN, slowing to MPC_LAND_SPEED between MPC_LAND_ALT1 and MPC_LAND_ALT2, and ends
+PX4_LAND_DETECT_S after touchdown. Holds keep fractional seconds. Checked on PX4 v1.15.4 SIH
+flights of our plans (``tests/data/px4-sih``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from validator.flight import Flight
+from validator.motion import px4
+from validator.motion.limits import GRAVITY_MPS2
+from validator.motion.path import FlownPath, active_leg, leg_geometry, time_grid
+from validator.motion.profile import Profile
+
+# PX4 v1.15 SIH (quad x), measured on flights of our plans: arming to the start of the climb
+# (spool-up and the MPC_TKO_RAMP_T takeoff ramp), and touchdown to disarm (land detector, then
+# COM_DISARM_LAND).
+PX4_LIFTOFF_DELAY_S = 3.0
+PX4_LAND_DETECT_S = 2.5
+# PX4 counts a stop waypoint reached this long after the straight-line model does: closing in,
+# the vehicle also converges on the planned line (PositionSmoothing's L1 crossing point),
+# which slows its last metre. Median over the stops of the SIH flights in tests/data/px4-sih.
+PX4_ARRIVAL_LAG_S = 0.9
+
+
+def _runs(flight: Flight) -> list[list[int]]:
+    """Legs grouped into runs the vehicle flies without stopping."""
+    runs: list[list[int]] = [[]]
+    for k, leg in enumerate(flight.legs):
+        runs[-1].append(k)
+        if not leg.pass_through:
+            runs.append([])
+    return [r for r in runs if r]
+
+
+@dataclass(frozen=True)
+class _RunPath:
+    """One run's path: arc-length samples ``s_m`` and ``points_m`` (3-D), the speed cap on
+    the corners' arcs (``cap_mps``, inf on straights), each waypoint's arc length (mid-corner;
+    the run's end last) and the speed PX4 flies through it (0 at the end)."""
+
+    s_m: NDArray[np.float64]
+    points_m: NDArray[np.float64]
+    cap_mps: NDArray[np.float64]
+    waypoint_s_m: NDArray[np.float64]
+    through_mps: NDArray[np.float64]
+
+
+def _run_path(
+    start_m: NDArray[np.float64], ends_m: NDArray[np.float64], cruise_mps: NDArray[np.float64],
+    profile: Profile, ds_m: float = 0.05,
+) -> _RunPath:
+    """The path of a run from ``start_m`` through the legs' end points ``ends_m`` (k, 3):
+    corners rounded by an arc tangent to both legs at NAV_ACC_RAD (or half a leg) from the
+    waypoint, flown at :func:`~validator.motion.px4.corner_speed_mps` at most."""
+    acc_rad = profile.si("NAV_ACC_RAD")
+    accel, jerk = profile.si("MPC_ACC_HOR"), profile.si("MPC_JERK_AUTO")
+    pts = np.vstack([start_m[None, :], ends_m])
+    delta = np.diff(pts, axis=0)
+    length = np.linalg.norm(delta, axis=1)
+    unit = np.divide(delta, length[:, None], out=np.zeros_like(delta), where=length[:, None] > 0)
+    k = len(ends_m)
+    d_out = np.zeros(k)
+    radius = np.full(k, np.inf)
+    through = np.zeros(k)
+    for j in range(k - 1):
+        if length[j] <= 0 or length[j + 1] <= 0:
+            continue
+        theta = math.acos(float(np.clip(np.dot(unit[j], unit[j + 1]), -1.0, 1.0)))
+        exit_mps = px4.max_speed_from_distance(float(length[j + 1]), 0.0, accel, jerk)
+        through[j] = min(px4.corner_speed_mps(theta, accel, acc_rad, profile.si("MPC_XY_TRAJ_P")),
+                         exit_mps, cruise_mps[j], cruise_mps[j + 1])
+        if theta < 1e-3:
+            continue  # straight on: no corner
+        if theta > math.pi - 1e-3:
+            radius[j] = 0.0  # reversal: stop at the waypoint
+            through[j] = 0.0
+            continue
+        d_out[j] = min(acc_rad, length[j] / 2.0, length[j + 1] / 2.0)
+        radius[j] = d_out[j] / math.tan(theta / 2.0)
+    s_parts, p_parts, c_parts = [], [], []
+    wp_s = np.zeros(k)
+    s0 = 0.0
+    for j in range(k):
+        d_in = d_out[j - 1] if j > 0 else 0.0
+        straight = max(length[j] - d_in - d_out[j], 0.0)
+        m = max(int(math.ceil(straight / ds_m)), 1)
+        f = np.linspace(0.0, straight, m + 1)
+        begin = pts[j] + unit[j] * d_in
+        s_parts.append(s0 + f)
+        p_parts.append(begin + np.outer(f, unit[j]))
+        c_parts.append(np.full(f.size, np.inf))
+        s0 += straight
+        wp_s[j] = s0
+        if j + 1 < k and d_out[j] > 0 and radius[j] > 0:
+            r = radius[j]
+            theta = 2.0 * math.atan2(d_out[j], r)
+            u1, u2 = unit[j], unit[j + 1]
+            normal = u2 - np.dot(u1, u2) * u1
+            normal /= np.linalg.norm(normal)
+            centre = begin + u1 * straight + normal * r
+            m = max(int(math.ceil(r * theta / ds_m)), 2)
+            phi = np.linspace(0.0, theta, m + 1)[1:-1]
+            s_parts.append(s0 + phi * r)
+            p_parts.append(centre - np.outer(np.cos(phi), normal) * r
+                           + np.outer(np.sin(phi), u1) * r)
+            c_parts.append(np.full(phi.size, through[j]))
+            wp_s[j] = s0 + r * theta / 2.0
+            s0 += r * theta
+    s = np.concatenate(s_parts)
+    xyz = np.concatenate(p_parts)
+    cap = np.concatenate(c_parts)
+    keep = np.concatenate([[True], np.diff(s) > 1e-9])  # drop repeated joints
+    return _RunPath(s[keep], xyz[keep], cap[keep], wp_s, through)
+
+
+def fly(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
+    """Fly ``flight`` with a ``px4`` profile, sampled every ``dt_s`` seconds."""
+    legs = flight.legs
+    n = len(legs)
+    geom = leg_geometry(legs)
+    vcap = min(profile.si("MPC_XY_VEL_MAX"), profile.si("VEHICLE_SPEED_MAX"))
+    cruise = np.minimum([leg.speed_mps or profile.si("MPC_XY_CRUISE") for leg in legs], vcap)
+    jerk = profile.si("MPC_JERK_AUTO")
+    start, reached, done = np.zeros(n), np.zeros(n), np.zeros(n)
+    t_parts, p_parts = [], []
+    clock = 0.0
+    here = geom.start[0].copy()
+    for run in _runs(flight):
+        ends = geom.start[run] + geom.delta[run]
+        first = legs[run[0]]
+        # a climb or descent in place (the vehicle may still be closing in on its last
+        # waypoint horizontally, as PX4 does while it lands)
+        vertical = len(run) == 1 and (legs[run[0]].kind in ("takeoff", "land")
+                                      or float(np.hypot(*geom.delta[run[0], :2])) < 1e-6)
+        if first.kind == "takeoff" and first.start_alt_m <= 0:
+            clock += PX4_LIFTOFF_DELAY_S
+        if vertical:
+            climb = ends[-1, 2] >= here[2]
+            path = _run_path(here, ends, np.full(len(run), np.inf), profile)
+            accel = profile.si("MPC_ACC_UP_MAX" if climb else "MPC_ACC_DOWN_MAX")
+            limit = profile.si("MPC_Z_V_AUTO_UP" if climb else "MPC_Z_V_AUTO_DN")
+            landing = legs[run[-1]].kind == "land"
+            schedule = _land_schedule(profile, float(here[2])) if landing else None
+            flown = px4.fly_run(path.waypoint_s_m, [0.0], [limit], accel, jerk,
+                                0.0 if landing else profile.si("NAV_MC_ALT_RAD"),
+                                PX4_LAND_DETECT_S if landing else legs[run[-1]].hold_s,
+                                speed_profile=schedule)
+        else:
+            path = _run_path(here, ends, cruise[run], profile)
+            flown = px4.fly_run(path.waypoint_s_m, path.through_mps, cruise[run],
+                                profile.si("MPC_ACC_HOR"), jerk, profile.si("NAV_ACC_RAD"),
+                                legs[run[-1]].hold_s, cap_s_m=path.s_m, cap_mps=path.cap_mps,
+                                tracking=_tracking(profile), arrival_lag_s=PX4_ARRIVAL_LAG_S)
+        t_run = flown.t_s + clock
+        xyz = np.stack([np.interp(flown.s_m, path.s_m, path.points_m[:, c]) for c in range(3)],
+                       axis=1)
+        t_parts.append(t_run)
+        p_parts.append(xyz)
+        for j, k in enumerate(run):
+            start[k] = clock if j == 0 else reached[run[j - 1]]
+            reached[k] = done[k] = clock + flown.reached_s[j]
+        done[run[-1]] = clock + flown.end_s
+        clock = done[run[-1]]
+        here = xyz[-1]
+    t_abs = np.concatenate(t_parts)
+    xyz_all = np.concatenate(p_parts)
+    t = time_grid(float(done[-1]), dt_s)
+    pos = np.stack([np.interp(t, t_abs, xyz_all[:, c]) for c in range(3)], axis=1)
+    vel = np.gradient(pos, t, axis=0) if t.size > 1 else np.zeros_like(pos)
+    return FlownPath(t, pos, vel, active_leg(done, t), start, reached, done)
+
+
+def px4_top_speed_mps(profile: Profile) -> float:
+    """The fastest a ``px4`` profile's vehicle flies (m/s): where its drag (VEHICLE_LIN_DRAG)
+    uses up the tilt limit (g·tan MPC_TILTMAX_AIR), capped by MPC_XY_VEL_MAX and
+    VEHICLE_SPEED_MAX."""
+    drag = profile.si("VEHICLE_LIN_DRAG")
+    tilt = math.radians(profile.si("MPC_TILTMAX_AIR"))
+    top = GRAVITY_MPS2 * math.tan(tilt) / drag if drag > 0 else math.inf
+    return min(top, profile.si("MPC_XY_VEL_MAX"), profile.si("VEHICLE_SPEED_MAX"))
+
+
+def px4_rest_to_rest(profile: Profile, lengths_m: NDArray[np.float64],
+                     speed_mps: float) -> px4.SampledLegs:
+    """Straight horizontal legs flown alone from rest to a hold by a ``px4`` profile at
+    ``speed_mps`` (capped by :func:`px4_top_speed_mps`); see
+    :func:`validator.motion.px4.rest_to_rest`."""
+    return px4.rest_to_rest(lengths_m, min(speed_mps, px4_top_speed_mps(profile)),
+                            profile.si("MPC_ACC_HOR"), profile.si("MPC_JERK_AUTO"),
+                            profile.si("NAV_ACC_RAD"), _tracking(profile),
+                            PX4_ARRIVAL_LAG_S)
+
+
+def _tracking(profile: Profile) -> px4.Tracking:
+    return px4.Tracking(profile.si("MPC_XY_P"), profile.si("MPC_XY_VEL_P_ACC"),
+                        profile.si("MPC_XY_VEL_I_ACC"), profile.si("MPC_TILTMAX_AIR"),
+                        profile.si("VEHICLE_LIN_DRAG"), profile.si("MPC_XY_ERR_MAX"))
+
+
+def _land_schedule(profile: Profile, alt_m: float) -> tuple[NDArray[np.float64],
+                                                                  NDArray[np.float64]]:
+    """PX4's landing descent speed against the height still to go (m): MPC_Z_V_AUTO_DN down
+    to MPC_LAND_ALT1, blending to MPC_LAND_SPEED at MPC_LAND_ALT2 and below."""
+    alt1, alt2 = profile.si("MPC_LAND_ALT1"), profile.si("MPC_LAND_ALT2")
+    fast, slow = profile.si("MPC_Z_V_AUTO_DN"), profile.si("MPC_LAND_SPEED")
+    h = np.array([0.0, alt2, max(alt1, alt2 + 1e-3), max(alt_m, alt1) + 1.0])
+    return h, np.array([slow, slow, fast, fast])

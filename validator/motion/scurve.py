@@ -1,0 +1,219 @@
+"""Motion along one straight leg in 1-D: jerk-limited S-curves and constant-speed moves."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+SEG_CRUISE = 7  # S-curves: segments 0-6 accelerate, 7 cruises, 8-14 decelerate, 15 end run
+SEG_DECEL_START = 8
+
+
+@dataclass(frozen=True)
+class Profiles1D:
+    """Piecewise-polynomial motion along ``n`` straight legs (1-D, metres along each leg).
+
+    ``dur_s``, ``jerk0`` and ``snap`` are (n, S): per segment its duration (s), the jerk at its
+    start (m/s³) and its constant snap (m/s⁴). ``v0_mps`` (n,) is the speed at the start (0 for
+    rest-to-rest). Boundary states (position, speed, acceleration) are precomputed. Before time
+    0 and after the last segment the leg is at rest (position 0, resp. ``length_m``).
+    """
+
+    length_m: NDArray[np.float64]
+    v0_mps: NDArray[np.float64]
+    dur_s: NDArray[np.float64]
+    jerk0: NDArray[np.float64]
+    snap: NDArray[np.float64]
+
+    def __post_init__(self) -> None:
+        n, segs = self.dur_s.shape
+        t, p, v, a = (np.zeros((n, segs + 1)) for _ in range(4))
+        v[:, 0] = self.v0_mps
+        for k in range(segs):
+            d, j, s = self.dur_s[:, k], self.jerk0[:, k], self.snap[:, k]
+            t[:, k + 1] = t[:, k] + d
+            p[:, k + 1] = p[:, k] + v[:, k] * d + a[:, k] * d**2 / 2 + j * d**3 / 6 + s * d**4 / 24
+            v[:, k + 1] = v[:, k] + a[:, k] * d + j * d**2 / 2 + s * d**3 / 6
+            a[:, k + 1] = a[:, k] + j * d + s * d**2 / 2
+        object.__setattr__(self, "_bounds", (t, p, v, a))
+
+    @property
+    def total_s(self) -> NDArray[np.float64]:
+        """Duration of each leg's motion (s)."""
+        return np.asarray(self._bounds[0][:, -1])  # type: ignore[attr-defined]
+
+    def boundary_time_s(self, k: int) -> NDArray[np.float64]:
+        """Time (s) at which segment ``k`` starts (k = S: the end)."""
+        return np.asarray(self._bounds[0][:, k])  # type: ignore[attr-defined]
+
+    def peak_speed_mps(self) -> NDArray[np.float64]:
+        return np.asarray(np.max(self._bounds[2], axis=1))  # type: ignore[attr-defined]
+
+    def state(
+        self, leg: NDArray[np.int64], tau_s: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Position (m), speed (m/s), acceleration (m/s²) of legs ``leg`` at local times
+        ``tau_s``."""
+        t, p, v, a = self._bounds  # type: ignore[attr-defined]
+        leg = np.asarray(leg, dtype=np.int64)
+        tau = np.asarray(tau_s, dtype=float)
+        bt = t[leg]
+        segs = self.dur_s.shape[1]
+        k = np.clip(np.sum(tau[:, None] >= bt[:, 1:], axis=1), 0, segs - 1)
+        d = np.clip(tau - bt[np.arange(leg.size), k], 0.0, None)
+        p0, v0, a0 = p[leg, k], v[leg, k], a[leg, k]
+        j0, s = self.jerk0[leg, k], self.snap[leg, k]
+        pos = p0 + v0 * d + a0 * d**2 / 2 + j0 * d**3 / 6 + s * d**4 / 24
+        vel = v0 + a0 * d + j0 * d**2 / 2 + s * d**3 / 6
+        acc = a0 + j0 * d + s * d**2 / 2
+        done = tau >= bt[:, -1]
+        before = tau <= 0.0
+        pos = np.where(done, self.length_m[leg], np.where(before, 0.0, pos))
+        vel = np.where(done | (before & (self.v0_mps[leg] == 0)), 0.0, vel)
+        acc = np.where(done | before, 0.0, acc)
+        return pos, vel, acc
+
+
+def _accel_phase(
+    v: NDArray[np.float64], A: NDArray[np.float64], J: NDArray[np.float64], tj: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Jerk (m/s³), jerk-hold t2, accel-hold t4 and duration (s) of a rest-to-``v`` phase.
+
+    The jerk ramps over ``tj`` to ±J, holds t2, ramps back; the acceleration holds its peak t4.
+    Peak acceleration J·(tj + t2) ≤ A; speed gained = peak·(2·tj + t2 + t4).
+    """
+    jm = np.minimum(J, np.divide(A, tj, out=np.full_like(A, np.inf), where=tj > 0))
+    t2_full = np.maximum(A / jm - tj, 0.0)
+    v_full = A * (2.0 * tj + t2_full)  # least speed gain that reaches A
+    with np.errstate(invalid="ignore", divide="ignore"):
+        # below v_full: v = J·(tj + t2)·(2·tj + t2), solved for t2 >= 0
+        t2_part = (-3.0 * tj + np.sqrt(tj * tj + 4.0 * v / jm)) / 2.0
+    small = t2_part < 0  # too small even for full-height jerk ramps: lower the jerk
+    jm_small = np.divide(v, 2.0 * tj * tj, out=np.zeros_like(v), where=tj > 0)
+    full = v >= v_full
+    t2 = np.where(full, t2_full, np.where(small, 0.0, t2_part))
+    jm = np.where(~full & small, jm_small, jm)
+    peak = jm * (tj + t2)
+    t4 = np.where(full, np.divide(v, A, out=np.zeros_like(v), where=A > 0) - 2.0 * tj - t2, 0.0)
+    t4 = np.maximum(t4, 0.0)
+    dur = 4.0 * tj + 2.0 * t2 + t4
+    ok = v > 0
+    return (np.where(ok, jm, 0.0), np.where(ok, t2, 0.0), np.where(ok, t4, 0.0),
+            np.where(ok & (peak > 0), dur, 0.0))
+
+
+def scurve_peak_speed(
+    length_m: NDArray[np.float64] | float,
+    speed_mps: NDArray[np.float64] | float,
+    accel_mps2: NDArray[np.float64] | float,
+    jerk_mps3: NDArray[np.float64] | float,
+    jerk_ramp_s: NDArray[np.float64] | float = 0.0,
+) -> NDArray[np.float64]:
+    """Top speed (m/s) of a rest-to-rest move over ``length_m`` with these limits.
+
+    With instant jerk changes (``jerk_ramp_s`` = 0) accelerating from rest to v takes
+    v/A + A/J seconds and v²/(2A) + vA/(2J) metres when v ≥ A²/J, else 2·sqrt(v/J) s and
+    v·sqrt(v/J) m; so a move of length L reaches min(V, the v whose rest-to-v-to-rest distance
+    is L). With jerk ramps the same holds with the phase lengthened by ``jerk_ramp_s``.
+    """
+    L = np.atleast_1d(np.asarray(length_m, dtype=float))
+    shape = L.shape
+    V, A, J, tj = (np.broadcast_to(np.asarray(x, dtype=float), shape).astype(float)
+                   for x in (speed_mps, accel_mps2, jerk_mps3, jerk_ramp_s))
+
+    def distance(v: NDArray[np.float64]) -> NDArray[np.float64]:
+        return v * _accel_phase(v, A, J, tj)[3]  # rest -> v -> rest: v times one phase
+
+    reach = distance(V) <= L
+    lo, hi = np.zeros(shape), V.copy()
+    for _ in range(60):  # bisection: distance(v) is increasing in v
+        mid = (lo + hi) / 2.0
+        longer = distance(mid) > L
+        hi = np.where(longer, mid, hi)
+        lo = np.where(longer, lo, mid)
+    return np.asarray(np.where(reach, V, lo), dtype=float)
+
+
+def scurve_rest_to_rest(
+    length_m: NDArray[np.float64],
+    speed_mps: NDArray[np.float64],
+    accel_mps2: NDArray[np.float64],
+    jerk_mps3: NDArray[np.float64],
+    jerk_ramp_s: NDArray[np.float64] | float = 0.0,
+) -> Profiles1D:
+    """Jerk-limited profiles from rest over ``length_m`` back to rest.
+
+    Acceleration phase: jerk ramps up over ``jerk_ramp_s`` (constant snap), holds, ramps down,
+    acceleration holds, the mirror image brings it back to 0; then cruise; then the
+    deceleration phase mirrors the acceleration phase. With ``jerk_ramp_s`` = 0 this is the
+    classic seven-segment profile (jerk +J, accel A, jerk −J, cruise, ...) and a long move
+    lasts L/V + V/A + A/J; jerk ramps add ``jerk_ramp_s`` to that.
+    """
+    return scurve_to_touchdown(length_m, speed_mps, accel_mps2, jerk_mps3, jerk_ramp_s, 0.0, 0.0)
+
+
+def scurve_to_touchdown(
+    length_m: NDArray[np.float64],
+    speed_mps: NDArray[np.float64],
+    accel_mps2: NDArray[np.float64],
+    jerk_mps3: NDArray[np.float64],
+    jerk_ramp_s: NDArray[np.float64] | float,
+    end_speed_mps: NDArray[np.float64] | float,
+    end_run_m: NDArray[np.float64] | float,
+) -> Profiles1D:
+    """Jerk-limited moves from rest that end with ``end_run_m`` metres at ``end_speed_mps``.
+
+    ArduCopter's landing: the descent runs at ``speed_mps`` (at least the end speed), slows
+    jerk-limited to the end speed as it reaches the end run (LAND_ALT_LOW) and touches down at
+    that speed. With no end speed (0) this is :func:`scurve_rest_to_rest`. Same segments as
+    that (accelerate, cruise, decelerate) plus the end run.
+    """
+    L = np.maximum(np.asarray(length_m, dtype=float), 0.0)
+    shape = L.shape
+    V, A, J, tj, ve, run = (np.broadcast_to(np.asarray(x, dtype=float), shape).astype(float)
+                            for x in (speed_mps, accel_mps2, jerk_mps3, jerk_ramp_s,
+                                      end_speed_mps, end_run_m))
+    ramp_to_ve = ve * _accel_phase(ve, A, J, tj)[3] / 2.0
+    ve = np.where(L >= ramp_to_ve, ve, 0.0)  # too short to reach the end speed: stop instead
+    run = np.where(ve > 0, np.clip(run, 0.0, L - ramp_to_ve), 0.0)
+    V = np.maximum(V, ve)
+
+    def distance(v: NDArray[np.float64]) -> NDArray[np.float64]:
+        up = _accel_phase(v, A, J, tj)[3]
+        down = _accel_phase(v - ve, A, J, tj)[3]
+        return v * up / 2.0 + (v + ve) * down / 2.0 + run
+
+    lo, hi = ve.copy(), V.copy()
+    for _ in range(60):  # bisection: distance(v) is increasing in v
+        mid = (lo + hi) / 2.0
+        longer = distance(mid) > L
+        hi = np.where(longer, mid, hi)
+        lo = np.where(longer, lo, mid)
+    v = np.where(L <= 0, 0.0, np.where(distance(V) <= L, V, lo))
+    jm, t2, t4, up = _accel_phase(v, A, J, tj)
+    jd, t2d, t4d, down = _accel_phase(v - ve, A, J, tj)
+    cruise = L - v * up / 2.0 - (v + ve) * down / 2.0 - run
+    tc = np.divide(np.maximum(cruise, 0.0), v, out=np.zeros_like(v), where=v > 0)
+    t_run = np.divide(run, ve, out=np.zeros_like(ve), where=ve > 0)
+    tu = np.where(up > 0, tj, 0.0)  # no move, no jerk ramps: a zero-length leg takes no time
+    td = np.where(down > 0, tj, 0.0)
+    snap = np.divide(jm, tu, out=np.zeros_like(jm), where=tu > 0)
+    snap_d = np.divide(jd, td, out=np.zeros_like(jd), where=td > 0)
+    z = np.zeros_like(L)
+    up_segs = [(tu, z, snap), (t2, jm, z), (tu, jm, -snap)]
+    down_segs = [(tu, z, -snap), (t2, -jm, z), (tu, -jm, snap)]
+    brake = [(td, z, -snap_d), (t2d, -jd, z), (td, -jd, snap_d), (t4d, z, z),
+             (td, z, snap_d), (t2d, jd, z), (td, jd, -snap_d)]
+    segs = up_segs + [(t4, z, z)] + down_segs + [(tc, z, z)] + brake + [(t_run, z, z)]
+    dur, jerk0, snaps = (np.stack([seg[i] for seg in segs], axis=1) for i in range(3))
+    return Profiles1D(L, np.zeros_like(L), dur, jerk0, snaps)
+
+
+def constant_speed(length_m: NDArray[np.float64], speed_mps: NDArray[np.float64]) -> Profiles1D:
+    """Moves at a constant speed (instant start and stop): the ideal profile."""
+    L = np.maximum(np.asarray(length_m, dtype=float), 0.0)
+    v = np.asarray(speed_mps, dtype=float)
+    dur = np.where(L > 0, L / v, 0.0)[:, None]
+    return Profiles1D(L, np.where(L > 0, v, 0.0), dur, np.zeros_like(dur), np.zeros_like(dur))
