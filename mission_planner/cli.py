@@ -33,7 +33,7 @@ import sys
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any
 
 from mission_planner.autopilot_params import (
     AutopilotParams,
@@ -53,7 +53,7 @@ from mission_planner.mission import (
     mission_summary,
 )
 from mission_planner.optimize.retime import top_speed_mps
-from validator.errors import InputError
+from validator.errors import CommandParser, InputError, report_error
 from validator.fileio import write_all_atomic
 from validator.geojson_format import dumps_geojson, plan_geojson
 from validator.plan_format import dumps_plan
@@ -191,13 +191,8 @@ def speed_warning(site: Site, dynamics: str, autopilot: str = "ardupilot") -> st
             f"above the ground); {then}")
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> NoReturn:  # one line, exit 2, as every user error
-        self.exit(2, f"{self.prog}: error: {message}\n")
-
-
 def _parser() -> argparse.ArgumentParser:
-    p = _Parser(
+    p = CommandParser(
         prog="plan-mission",
         description="Optimise a site's UAV service cycle (trajectory, slot lengths, power, "
         "scheduling) avoiding no-fly zones, and export it as an autopilot mission.",
@@ -322,8 +317,7 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
                              autopilot_params=autopilot_params, flight=flight)
         write_outputs(files)
     except InputError as err:
-        print(f"plan-mission: error: {err}", file=sys.stderr)
-        return 2
+        return report_error("plan-mission", err)
     except KeyboardInterrupt:
         print("plan-mission: interrupted; nothing written", file=sys.stderr)
         return 130

@@ -26,7 +26,7 @@ import sys
 from collections.abc import Sequence
 
 from validator.autopilot.param_file import read_params
-from validator.errors import InputError
+from validator.errors import CommandParser, InputError, report_error
 from validator.fileio import write_atomic
 from validator.mavlink.cli import add_sitl_arguments, run_sitl, split_sitl_url
 from validator.motion.profile import PROFILES, parse_param_overrides
@@ -146,7 +146,7 @@ def build_parser() -> argparse.ArgumentParser:
     ``--sitl [URL]`` (fly the mission on a MAVLink vehicle and score its telemetry into
     ``Validation.sitl``) belongs to :mod:`validator.mavlink` and is added here by it.
     """
-    p = argparse.ArgumentParser(
+    p = CommandParser(
         prog="validate-mission",
         description="Prove a mission's continuous-path NFZ clearance: exact audit of every "
                     "straight leg and the geofence, and a time-domain replay of how a "
@@ -197,13 +197,8 @@ def validate_mission_main(argv: Sequence[str] | None = None) -> int:
                         (f"plan {args.plan}", f"vehicle {v.extra['sitl_flight']['vehicle']}"))
         if report_path:
             write_atomic(report_path, json.dumps(v.as_dict(), indent=1, allow_nan=False) + "\n")
-    except InputError as err:
-        print(f"validate-mission: {err}", file=sys.stderr)
-        return 2
-    except OSError as err:
-        print(f"validate-mission: {getattr(err, 'filename', '') or ''}: {err.strerror}",
-              file=sys.stderr)
-        return 2
+    except (InputError, OSError) as err:
+        return report_error("validate-mission", err)
     print(format_report(v))
     return v.exit_status
 

@@ -25,7 +25,7 @@ import sys
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
-from validator.errors import InputError
+from validator.errors import CommandParser, InputError
 from validator.mavlink import NETWORK_URL
 from validator.mavlink.sitl_process import BINARY_ENV, DEFAULTS_ENV, PX4_BINARY_ENV
 
@@ -102,7 +102,7 @@ def _link_args(p: argparse.ArgumentParser) -> None:
 
 
 def upload_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = CommandParser(
         prog="upload-mission",
         description="Upload a .plan's mission, geofence and rally points over MAVLink 2, then "
                     "download all three again and compare them item by item.",
@@ -168,7 +168,7 @@ def _audit_refusal(plan_path: str, site_path: str) -> str | None:
 
 
 def download_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = CommandParser(
         prog="download-mission",
         description="Download the mission, geofence and rally points a vehicle holds and write "
                     "them as a QGroundControl .plan (to audit with validate-mission).",
@@ -260,7 +260,7 @@ def is_loopback(host: str) -> bool:
 def sitl_parser() -> argparse.ArgumentParser:
     from validator.dynamics import PROFILES
 
-    p = argparse.ArgumentParser(
+    p = CommandParser(
         prog="sitl-vehicle",
         description="A simulated multicopter that speaks MAVLink 2 as ArduCopter does and flies "
                     "uploaded missions in AUTO with the validator's flight model. Runs until "
