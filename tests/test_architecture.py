@@ -19,7 +19,6 @@ NOT_YET_SPLIT = {
     "validator/dynamics.py": 1061,
     "validator/mavlink/vehicle.py": 889,
     "validator/mavlink/link.py": 721,
-    "validator/flight.py": 630,
     "validator/mavlink/driver.py": 553,
 }
 
