@@ -8,6 +8,7 @@ numbered from 0 as in the ``.plan`` file.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -82,6 +83,24 @@ class CycleSpan:
     end_leg: int
     cycles: int
     source: str
+
+    def window_s(
+        self,
+        start_s: NDArray[np.float64],
+        reached_s: NDArray[np.float64],
+        done_s: NDArray[np.float64],
+    ) -> tuple[float, float] | None:
+        """When the cycles start and end (s), from each leg's start, arrival and completion
+        times (a :class:`~validator.replay.Track`'s, or the ideal timing's); None when either
+        never happened or the span is empty."""
+        if self.start_at_arrival:
+            start = reached_s[self.start_leg]
+        else:
+            start = done_s[self.start_leg - 1] if self.start_leg > 0 else start_s[0]
+        end = done_s[self.end_leg]
+        if math.isnan(start) or math.isnan(end) or end <= start:
+            return None
+        return float(start), float(end)
 
 
 @dataclass(frozen=True)

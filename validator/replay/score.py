@@ -131,17 +131,9 @@ def track_clearances(
 
 
 def _cycle_window(flight: Flight, track: Track) -> tuple[float, float] | None:
-    c = flight.cycle
-    if c is None:
+    if flight.cycle is None:
         return None
-    if c.start_at_arrival:
-        start = track.leg_reached_s[c.start_leg]
-    else:
-        start = track.leg_done_s[c.start_leg - 1] if c.start_leg > 0 else track.leg_start_s[0]
-    end = track.leg_done_s[c.end_leg]
-    if math.isnan(start) or math.isnan(end) or end <= start:
-        return None
-    return float(start), float(end)
+    return flight.cycle.window_s(track.leg_start_s, track.leg_reached_s, track.leg_done_s)
 
 
 def _per_cycle(flight: Flight, track: Track, start: float, end: float) -> tuple[float, ...]:
