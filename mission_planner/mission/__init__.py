@@ -32,7 +32,8 @@ disagree (all set in :class:`MissionOptions`):
 - :mod:`.speeds`: leg speeds and holds as the autopilot takes them (speed limit, slow legs,
   stop lag, whole-second holds);
 - :mod:`.fence`: the geofence; :mod:`.build`: the items, in order, and :class:`Mission`;
-- :mod:`.gate`: the safety gate; :mod:`.readback`: the plan read back as the vehicle gets it;
+- :mod:`.gate`: the safety gate; :mod:`.readback`: the plan as the vehicle gets it, resolved by
+  the validator;
 - :mod:`.summary`: the mission part of the report.
 """
 
@@ -47,12 +48,7 @@ from mission_planner.mission.options import (
     check_options,
     fence_margin_for,
 )
-from mission_planner.mission.readback import (
-    NAV_POSITION_COMMANDS,
-    flown_legs,
-    nav_positions,
-    planned_cycle_s,
-)
+from mission_planner.mission.readback import as_received, flown_legs, planned_cycle_s
 from mission_planner.mission.speeds import (
     SPEED_EXCESS_ALLOWED,
     assign_speeds,
@@ -74,12 +70,12 @@ __all__ = [
     "CLEARANCE_TOLERANCE_M",
     "EXTRA_KEY",
     "Geofence",
-    "NAV_POSITION_COMMANDS",
     "OPERATING_AREAS",
     "SPEED_EXCESS_ALLOWED",
     "CycleStep",
     "Mission",
     "MissionOptions",
+    "as_received",
     "assign_speeds",
     "build_mission",
     "check_options",
@@ -88,7 +84,6 @@ __all__ = [
     "flown_legs",
     "merge_straight_steps",
     "mission_summary",
-    "nav_positions",
     "nudge_clear",
     "operating_area",
     "place_on_legs",

@@ -1,78 +1,65 @@
-"""The exported plan read back as the vehicle receives it: positions after int32 rounding, the
-legs it flies, one cycle's time at the commanded speeds."""
+"""The exported plan read back as the vehicle receives it (every coordinate after MAVLink's
+int32 1e-7° rounding) and interpreted by the validator's one resolver
+(:func:`validator.flight.resolve_flight`): the legs it flies, one cycle's time at the
+commanded speeds."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 from numpy.typing import NDArray
 
-from validator.geodesy import LocalFrame, round_e7
-from validator.plan_format import Cmd, Plan
-
-NAV_POSITION_COMMANDS = (Cmd.NAV_TAKEOFF, Cmd.NAV_WAYPOINT, Cmd.NAV_LAND)
-
-
-def nav_positions(plan: Plan, frame: LocalFrame, *, rounded: bool = True
-                  ) -> tuple[list[int], NDArray[np.float64]]:
-    """Item indices and local positions (m) of every positional mission item, in item order.
-
-    ``rounded`` first puts the coordinates through MAVLink's int32 1e-7° representation.
-    """
-    idx = [i for i, it in enumerate(plan.items) if it.command in NAV_POSITION_COMMANDS]
-    lat = np.array([plan.items[i].lat_deg for i in idx])
-    lon = np.array([plan.items[i].lon_deg for i in idx])
-    if rounded:
-        lat, lon = round_e7(lat), round_e7(lon)
-    return idx, frame.to_local(lat, lon).reshape(-1, 2)
+from validator.dynamics import ideal_leg_times, make_profile
+from validator.flight import resolve_flight
+from validator.geodesy import round_e7
+from validator.item_lists import GLOBAL_FRAMES
+from validator.plan_format import MissionItem, Plan
+from validator.site import Site
 
 
-def flown_legs(plan: Plan, frame: LocalFrame, cycle_items: tuple[int, int] | None = None, *,
-               rounded: bool = True) -> tuple[list[tuple[int, int]], NDArray[np.float64]]:
-    """Every straight leg the vehicle flies: consecutive positional items, plus, when the plan
-    repeats its cycle with DO_JUMP, the leg from the cycle's last waypoint back to its first
-    position. Returns (from item, to item) pairs and the legs as an (L, 2, 2) array in metres.
-    """
-    idx, xy = nav_positions(plan, frame, rounded=rounded)
-    pairs = list(zip(idx[:-1], idx[1:], strict=True))
-    legs = [np.array([xy[k], xy[k + 1]]) for k in range(len(idx) - 1)]
-    has_jump = any(it.command == Cmd.DO_JUMP for it in plan.items)
-    if cycle_items is not None and has_jump:
-        first, last = cycle_items
-        targets = [k for k, i in enumerate(idx) if i >= first]
-        if targets and last in idx:
-            k0, k1 = targets[0], idx.index(last)
-            pairs.append((last, idx[k0]))
-            legs.append(np.array([xy[k1], xy[k0]]))
-    return pairs, np.array(legs).reshape(-1, 2, 2)
+def _rounded(lat_deg: float, lon_deg: float) -> tuple[float, float]:
+    return float(round_e7(lat_deg)), float(round_e7(lon_deg))
 
 
-def planned_cycle_s(plan: Plan, frame: LocalFrame, cycle_items: tuple[int, int]) -> float:
+def as_received(plan: Plan) -> Plan:
+    """``plan`` with the coordinates a vehicle stores as int32 1e-7° (MISSION_ITEM_INT x/y in
+    a global frame: mission items, home, fence, rally and breach-return points) rounded so."""
+    items = []
+    for it in plan.items:
+        p = list(it.params)
+        if it.frame in GLOBAL_FRAMES and math.isfinite(p[4]) and math.isfinite(p[5]):
+            p[4], p[5] = _rounded(p[4], p[5])
+        items.append(MissionItem(it.command, p, it.frame, it.autocontinue))
+    home = _rounded(plan.home_lat_deg, plan.home_lon_deg)
+    circles = [dataclasses.replace(c, lat_deg=lat, lon_deg=lon) for c in plan.circles
+               for lat, lon in [_rounded(c.lat_deg, c.lon_deg)]]
+    polygons = [dataclasses.replace(g, vertices_deg=[_rounded(*v) for v in g.vertices_deg])
+                for g in plan.polygons]
+    rally = [(*_rounded(lat, lon), alt) for lat, lon, alt in plan.rally]
+    back = plan.breach_return
+    breach = None if back is None else (*_rounded(back[0], back[1]), back[2])
+    return dataclasses.replace(plan, items=items, home_lat_deg=home[0], home_lon_deg=home[1],
+                               circles=circles, polygons=polygons, rally=rally,
+                               breach_return=breach)
+
+
+def flown_legs(plan: Plan, site: Site, *, rounded: bool = True) -> NDArray[np.float64]:
+    """Every straight leg the vehicle flies over ``site``, jumps repeated, as an (L, 2, 2)
+    array of (start, end) points in metres; ``rounded``: the plan as the vehicle receives it."""
+    path = resolve_flight(as_received(plan) if rounded else plan, site).path_xy_m
+    return np.stack([path[:-1], path[1:]], axis=1)
+
+
+def planned_cycle_s(plan: Plan, site: Site) -> float:
     """Duration (s) of one service cycle at the plan's own speeds and holds, every leg at its
-    commanded speed throughout (an S-curve leg takes longer: see :func:`cycle_duration_s`).
-
-    Walks items ``first..last``: each positional item adds the leg from the previous position
-    at the speed in force (the last DO_CHANGE_SPEED before it) plus its hold (param1). The
-    cycle starts at the position before its first item (the end of the outbound transit).
-    """
-    first, last = cycle_items
-    speed = math.nan
-    pos: NDArray[np.float64] | None = None
-    for it in plan.items[:first]:
-        if it.command == Cmd.DO_CHANGE_SPEED:
-            speed = it.params[1]
-        elif it.command in NAV_POSITION_COMMANDS:
-            pos = frame.to_local(it.lat_deg, it.lon_deg)
-    total = 0.0
-    for it in plan.items[first:last + 1]:
-        if it.command == Cmd.DO_CHANGE_SPEED:
-            speed = it.params[1]
-        elif it.command in NAV_POSITION_COMMANDS:
-            here = frame.to_local(it.lat_deg, it.lon_deg)
-            length = float(np.hypot(*(here - pos))) if pos is not None else 0.0
-            if length > 0:
-                total += length / speed
-            total += it.params[0] if it.command == Cmd.NAV_WAYPOINT else 0.0
-            pos = here
-    return total
+    commanded speed throughout (the ``ideal`` profile's timing; an S-curve leg takes longer:
+    see :func:`~mission_planner.mission.summary.cycle_duration_s`): the resolved flight's
+    cycles (:class:`~validator.flight.CycleSpan`) over their number. NaN without a cycle."""
+    flight = resolve_flight(plan, site)
+    c = flight.cycle
+    if c is None:
+        return math.nan
+    window = c.window_s(*ideal_leg_times(flight, make_profile("ideal", site)))
+    return math.nan if window is None else (window[1] - window[0]) / c.cycles

@@ -48,7 +48,7 @@ def mission_summary(mission: Mission) -> dict[str, Any]:
     exp = (expanded_radius(site.planning_radius_m[None, :],
                            (site.max_speed_mps * sol.delta_s)[:, None])
            if site.num_nfzs else np.zeros((0, 0)))
-    _, legs = flown_legs(plan, site.frame, mission.cycle_items, rounded=True)
+    legs = flown_legs(plan, site)
     clearance = (segment_point_distance(legs[:, None, 0, :], legs[:, None, 1, :],
                                         site.nfz_xy_m[None]) - site.nfz_radius_m[None, :]
                  if site.num_nfzs and len(legs) else np.zeros((0, 0)))

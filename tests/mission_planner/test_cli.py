@@ -103,8 +103,7 @@ def test_planned_leg_times_sum_to_t_and_speeds_stay_within_v(small_run):
     site_path, out, _, _ = small_run
     site = load_site(site_path)
     plan = read_plan(out)
-    cycle = tuple(plan.extra["cycle_items"])
-    assert planned_cycle_s(plan, site.frame, cycle) == pytest.approx(site.period_s, abs=0.5)
+    assert planned_cycle_s(plan, site) == pytest.approx(site.period_s, abs=0.5)
     speeds = [it.params[1] for it in plan.items if it.command == Cmd.DO_CHANGE_SPEED]
     assert speeds and max(speeds) <= site.max_speed_mps
 
@@ -113,7 +112,7 @@ def test_geometry_reread_from_the_file_clears_every_nfz(small_run):
     site_path, out, _, _ = small_run
     site = load_site(site_path)
     plan = read_plan(out)
-    _, legs = flown_legs(plan, site.frame, tuple(plan.extra["cycle_items"]), rounded=True)
+    legs = flown_legs(plan, site)
     d = segment_point_distance(legs[:, None, 0], legs[:, None, 1], site.nfz_xy_m[None])
     assert np.all(d >= site.planning_radius_m - NUDGED_LEG_SLACK_M)
     assert audit(plan, site).ok
@@ -129,7 +128,7 @@ def test_home_behind_an_nfz_gets_a_bent_transit(tmp_path, capsys):
     assert summary["transit_out_waypoints"] >= 2 and summary["transit_return_waypoints"] >= 2
     plan = read_plan(out)
     first = plan.extra["cycle_items"][0]
-    _, legs = flown_legs(plan, site.frame, None, rounded=True)
+    legs = flown_legs(plan, site)
     d = segment_point_distance(legs[:, 0], legs[:, 1], site.nfz_xy_m[0])
     assert np.min(d) >= site.planning_radius_m[0] - NUDGED_LEG_SLACK_M
     # the straight line home -> q[0] would have crossed the zone

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from mission_planner.mission import (
     MissionOptions,
+    as_received,
     build_mission,
     cycle_duration_s,
     flown_legs,
@@ -33,6 +35,7 @@ from validator.dynamics import make_profile
 from validator.errors import InputError
 from validator.flight import resolve_flight
 from validator.geometry import min_leg_clearance, segment_point_distance
+from validator.item_lists import GLOBAL_FRAMES
 from validator.plan_format import EXTRA_KEY, Cmd, Frame, dumps_plan, loads_plan
 from validator.replay import replay, score_track
 
@@ -127,7 +130,7 @@ def test_planned_leg_times_sum_to_the_period(site, autopilot):
     delta = rng.uniform(0.5, 1.5, site.slots)
     delta *= site.period_s / delta.sum()
     m = build_mission(solution_for(site, q, delta), MissionOptions(autopilot=autopilot))
-    cycle = planned_cycle_s(_reread(m), site.frame, m.cycle_items)
+    cycle = planned_cycle_s(_reread(m), site)
     tol = 0.5 if autopilot == "ardupilot" else 1e-6  # whole-second holds on ArduPilot
     assert cycle == pytest.approx(site.period_s, abs=tol)
     assert mission_summary(m)["cycle_duration_s"] == pytest.approx(cycle)
@@ -182,7 +185,7 @@ def test_slow_leg_flies_at_min_speed_and_holds_the_rest(site):
     assert step.speed_mps == pytest.approx(0.2)
     assert step.hold_s == pytest.approx(1.0 - 0.1 / 0.2)
     assert min(it.params[1] for it in m.plan.items if it.command == Cmd.DO_CHANGE_SPEED) >= 0.2
-    assert planned_cycle_s(m.plan, site.frame, m.cycle_items) == pytest.approx(site.period_s)
+    assert planned_cycle_s(m.plan, site) == pytest.approx(site.period_s)
 
 
 def test_transit_bends_around_an_nfz_between_home_and_the_cycle():
@@ -217,7 +220,7 @@ def test_legs_short_of_the_buffer_by_solver_noise_are_nudged_clear_after_roundin
     m = build_mission(solution_for(site, q))
     assert not m.problems
     assert 0.004 < m.max_nudge_m < 0.03
-    _, legs = flown_legs(_reread(m), site.frame, m.cycle_items, rounded=True)
+    legs = flown_legs(_reread(m), site)
     d = segment_point_distance(legs[:, 0], legs[:, 1], c)
     assert np.min(d) >= r - NUDGED_LEG_SLACK_M
 
@@ -297,9 +300,32 @@ def test_extra_data_has_exactly_the_agreed_shape(site):
     assert EXTRA_KEY == "nfzMission"
 
 
+def test_the_plan_as_received_holds_int32_coordinates_and_nothing_else_changed(site):
+    plan = build_mission(circle_tour(site), MissionOptions(cycles=2)).plan
+    got = as_received(plan)
+
+    def on_grid(*deg):
+        return all(d * 1e7 == pytest.approx(round(d * 1e7), abs=1e-6) for d in deg)
+
+    moved = 0
+    for a, b in zip(plan.items, got.items, strict=True):
+        if a.frame in GLOBAL_FRAMES and math.isfinite(a.lat_deg):
+            assert on_grid(b.lat_deg, b.lon_deg)
+            assert np.allclose(b.params[4:6], a.params[4:6], rtol=0, atol=0.5e-7)
+            moved += b.params[4:6] != a.params[4:6]
+            b = replace(b, params=b.params[:4] + a.params[4:6] + b.params[6:])
+        np.testing.assert_array_equal(b.params, a.params)
+        assert (b.command, b.frame, b.autocontinue) == (a.command, a.frame, a.autocontinue)
+    assert moved > 0
+    assert on_grid(got.home_lat_deg, got.home_lon_deg)
+    assert all(on_grid(c.lat_deg, c.lon_deg) for c in got.circles)
+    assert all(on_grid(lat, lon) for lat, lon, _ in got.rally)
+    assert [c.radius_m for c in got.circles] == [c.radius_m for c in plan.circles]
+
+
 def test_geometry_reread_from_the_file_clears_every_nfz(site):
     m = build_mission(circle_tour(site), MissionOptions(cycles=2))
-    _, legs = flown_legs(_reread(m), site.frame, m.cycle_items, rounded=True)
+    legs = flown_legs(_reread(m), site)
     d = segment_point_distance(legs[:, None, 0], legs[:, None, 1], site.nfz_xy_m[None])
     assert np.all(d >= site.planning_radius_m - NUDGED_LEG_SLACK_M)
 
@@ -355,7 +381,7 @@ def test_straight_slots_at_one_speed_become_one_waypoint_per_side(square_site):
 
 def test_merged_legs_keep_the_cycle_time(square_site):
     m = build_mission(solution_for(square_site, subdivided(SQUARE, 3)))
-    cycle = planned_cycle_s(_reread(m), square_site.frame, m.cycle_items)
+    cycle = planned_cycle_s(_reread(m), square_site)
     assert cycle == pytest.approx(square_site.period_s, abs=1e-6)
 
 

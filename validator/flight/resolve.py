@@ -1,9 +1,7 @@
-"""A mission plan resolved into what the vehicle will do: legs, speeds, holds, jumps, RTL.
-
-:func:`resolve_flight` walks a :class:`~validator.plan_format.Plan`'s items the way ArduCopter
-executes them (PX4 agrees on everything used here) and returns a :class:`Flight`: the ordered
-straight :class:`Leg` s the vehicle flies, in the site's local east/north frame (metres),
-altitudes in metres above home.
+"""The one interpreter of a plan: :func:`resolve_flight` walks a
+:class:`~validator.plan_format.Plan`'s items the way ArduCopter executes them (PX4 agrees on
+everything used here) and returns the :class:`~validator.flight.model.Flight` the vehicle
+flies, in the site's local east/north frame (metres), altitudes in metres above home.
 
 Conventions:
 
@@ -18,31 +16,28 @@ Conventions:
 - A position of (0, 0) or NaN in an item means "where the vehicle is"; an altitude of 0 or NaN
   in a waypoint means "the current altitude" (ArduPilot's rule).
 
-What the resolution cannot model is reported as :class:`Finding` s: unsupported navigation
-commands (the vehicle's path is unknown, so clearance cannot be proven: ``violation``),
-unknown commands without a position (``warning``) and notes.
+What the resolution cannot model is reported as findings: unsupported navigation commands
+(the vehicle's path is unknown, so clearance cannot be proven: ``violation``), unknown
+commands without a position (``warning``) and notes.
 
-The planner's metadata (``Plan.extra``, see :data:`~validator.plan_format.EXTRA_KEY`) is read
-into a :class:`ServicePlan` by :func:`parse_service`; it and the mission's DO_JUMP structure
-decide which legs form the repeated service cycle (:class:`CycleSpan`).
+The planner's metadata (:mod:`validator.flight.service`), else the mission's DO_JUMP
+structure, decides which legs form the repeated service cycle.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass, field
-from typing import Any, Literal
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from validator.errors import InputError
-from validator.plan_format import Autopilot, Cmd, Frame, MissionItem, Plan
+from validator.flight.model import CycleSpan, Finding, Flight, Leg, LegKind, Severity
+from validator.flight.service import ServicePlan, parse_service
+from validator.plan_format import Cmd, Frame, MissionItem, Plan
 from validator.site import Site
-
-LegKind = Literal["takeoff", "waypoint", "loiter", "rtl", "land"]
-Severity = Literal["violation", "warning", "note"]
 
 MAX_LEGS = 200_000  # a resolved mission longer than this is a runaway loop, not a flight
 FOREVER_REPEATS = 1  # a DO_JUMP that repeats forever is resolved with this many repeats
@@ -90,211 +85,6 @@ UNSUPPORTED_NAV: dict[int, str] = {
     94: "NAV_PAYLOAD_PLACE",
     192: "DO_REPOSITION",
 }
-
-
-@dataclass(frozen=True)
-class Finding:
-    """Something the validator reports about a plan. ``item`` is a 0-based item index or None."""
-
-    severity: Severity
-    message: str
-    item: int | None = None
-
-    def as_dict(self) -> dict[str, Any]:
-        return {"severity": self.severity, "item": self.item, "message": self.message}
-
-
-@dataclass(frozen=True)
-class Leg:
-    """One straight leg the vehicle flies toward mission item ``item`` (its destination).
-
-    Positions are metres east/north of the site origin, altitudes metres above home.
-    ``first_item`` is the first item executed as part of this leg (e.g. the DO_CHANGE_SPEED
-    that precedes the waypoint), so items ``first_item..item`` belong to it. ``speed_mps`` is
-    the commanded horizontal speed in force (None: the autopilot's default). The vehicle stays
-    ``hold_s`` seconds at the destination. ``pass_through`` is True when the autopilot may
-    blend this leg into the next one (no hold, and the next leg is another waypoint leg).
-    """
-
-    item: int
-    first_item: int
-    kind: LegKind
-    start_xy_m: NDArray[np.float64]
-    end_xy_m: NDArray[np.float64]
-    start_alt_m: float
-    end_alt_m: float
-    speed_mps: float | None
-    hold_s: float = 0.0
-    loiter_radius_m: float = 0.0
-    pass_through: bool = False
-
-    @property
-    def length_m(self) -> float:
-        """Horizontal length (m)."""
-        return float(np.hypot(*(self.end_xy_m - self.start_xy_m)))
-
-    @property
-    def label(self) -> str:
-        return f"item {self.item} ({self.kind})"
-
-
-@dataclass(frozen=True)
-class ServicePlan:
-    """The planner's metadata carried in the plan under ``nfzMission`` (format 1).
-
-    Slot n (1..N) flies ``trajectory_m[n-1] -> trajectory_m[n]`` in ``delta_s[n-1]`` seconds,
-    serving ground node ``schedule[n-1]`` (an index into the site's GNs, -1 for none) at
-    ``power_w[n-1]``. ``cycle_items`` are 0-based item indices: the first item of the first
-    service cycle and the NAV_WAYPOINT closing the last one; ``cycles`` cycles in between.
-    """
-
-    site_name: str
-    scheme: str
-    trajectory_m: NDArray[np.float64]  # (N+1, 2)
-    delta_s: NDArray[np.float64]  # (N,)
-    power_w: NDArray[np.float64]  # (N,)
-    schedule: NDArray[np.int64]  # (N,), GN index or -1
-    cycle_items: tuple[int, int]
-    cycles: int
-
-    @property
-    def period_s(self) -> float:
-        return float(np.sum(self.delta_s))
-
-    @property
-    def slots(self) -> int:
-        return int(self.delta_s.size)
-
-
-@dataclass(frozen=True)
-class CycleSpan:
-    """Which legs form the service cycles, and how the cycle time is measured.
-
-    The cycles start when the vehicle reaches the destination of ``start_leg`` (its hold
-    counts; ``start_at_arrival``) or when ``start_leg`` begins, and end when ``end_leg``'s item
-    completes (after its hold). ``source`` says where the span came from: ``"metadata"``,
-    ``"jump"`` (a DO_JUMP loop) or ``"waypoints"`` (first to last waypoint after takeoff).
-    """
-
-    start_leg: int
-    start_at_arrival: bool
-    end_leg: int
-    cycles: int
-    source: str
-
-
-@dataclass(frozen=True)
-class Flight:
-    """A plan resolved into legs (see the module docstring for conventions)."""
-
-    legs: tuple[Leg, ...]
-    home_xy_m: NDArray[np.float64]
-    firmware_type: int
-    findings: tuple[Finding, ...]
-    cycle: CycleSpan | None
-    service: ServicePlan | None
-    fence_disabled_at: tuple[int, ...] = field(default=())
-
-    @property
-    def path_xy_m(self) -> NDArray[np.float64]:
-        """The flown polyline (len(legs)+1, 2): the start of the first leg, then every leg end."""
-        if not self.legs:
-            return self.home_xy_m.reshape(1, 2).copy()
-        pts = [self.legs[0].start_xy_m] + [leg.end_xy_m for leg in self.legs]
-        return np.asarray(pts, dtype=float)
-
-    @property
-    def is_ardupilot(self) -> bool:
-        return self.firmware_type == Autopilot.ARDUPILOTMEGA
-
-
-# --------------------------------------------------------------------------------------------
-# metadata
-
-_SERVICE_KEYS = {
-    "format", "site", "scheme", "trajectory_m", "delta_s", "power_w", "schedule", "cycle_items",
-    "cycles",
-}
-
-
-def _float_array(value: Any, where: str, shape_hint: str) -> NDArray[np.float64]:
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"{where}: expected {shape_hint}") from None
-    if not np.all(np.isfinite(arr)):
-        raise InputError(f"{where}: expected finite numbers")
-    return arr
-
-
-def parse_service(extra: Any, site: Site, source: str = "plan") -> ServicePlan | None:
-    """Validate the planner metadata of a plan (``Plan.extra``); None when absent.
-
-    Raises :class:`InputError` naming the field when it is present but malformed, or names
-    a ground node the site does not have.
-    """
-    if extra is None:
-        return None
-    where = f"{source}.nfzMission"
-    if not isinstance(extra, dict):
-        raise InputError(f"{where}: expected a JSON object")
-    unknown = sorted(set(extra) - _SERVICE_KEYS)
-    if unknown:
-        raise InputError(f"{where}.{unknown[0]}: unknown key")
-    missing = sorted(_SERVICE_KEYS - {"site", "scheme"} - set(extra))
-    if missing:
-        raise InputError(f"{where}.{missing[0]}: missing field")
-    if extra["format"] != 1:
-        raise InputError(f"{where}.format: expected 1, got {extra['format']!r}")
-    traj = _float_array(extra["trajectory_m"], f"{where}.trajectory_m", "[[x, y], ...]")
-    if traj.ndim != 2 or traj.shape[1] != 2 or traj.shape[0] < 2:
-        raise InputError(f"{where}.trajectory_m: expected N+1 >= 2 points [x, y]")
-    n = traj.shape[0] - 1
-    delta = _float_array(extra["delta_s"], f"{where}.delta_s", f"{n} numbers")
-    power = _float_array(extra["power_w"], f"{where}.power_w", f"{n} numbers")
-    for name, arr in (("delta_s", delta), ("power_w", power)):
-        if arr.shape != (n,):
-            raise InputError(f"{where}.{name}: expected {n} numbers (one per slot), got {arr.size}")
-    if np.any(delta <= 0):
-        raise InputError(f"{where}.delta_s[{int(np.argmax(delta <= 0))}]: must be > 0")
-    if np.any(power < 0):
-        raise InputError(f"{where}.power_w[{int(np.argmax(power < 0))}]: must be >= 0")
-    sched_raw = extra["schedule"]
-    if not isinstance(sched_raw, list) or len(sched_raw) != n:
-        raise InputError(f"{where}.schedule: expected {n} ground-node names or nulls")
-    index = {name: k for k, name in enumerate(site.gn_names)}
-    schedule = np.full(n, -1, dtype=np.int64)
-    for i, name in enumerate(sched_raw):
-        if name is None:
-            continue
-        if not isinstance(name, str) or name not in index:
-            raise InputError(f"{where}.schedule[{i}]: ground node {name!r} is not in the site")
-        schedule[i] = index[name]
-    ci = extra["cycle_items"]
-    if (
-        not isinstance(ci, list)
-        or len(ci) != 2
-        or not all(isinstance(v, int) and not isinstance(v, bool) for v in ci)
-        or not 0 <= ci[0] <= ci[1]
-    ):
-        raise InputError(f"{where}.cycle_items: expected [first, last] item indices, first <= last")
-    cycles = extra["cycles"]
-    if not isinstance(cycles, int) or isinstance(cycles, bool) or cycles < 1:
-        raise InputError(f"{where}.cycles: expected an integer >= 1")
-    return ServicePlan(
-        site_name=str(extra.get("site", "")),
-        scheme=str(extra.get("scheme", "")),
-        trajectory_m=traj,
-        delta_s=delta,
-        power_w=power,
-        schedule=schedule,
-        cycle_items=(int(ci[0]), int(ci[1])),
-        cycles=int(cycles),
-    )
-
-
-# --------------------------------------------------------------------------------------------
-# resolution
 
 
 def _command_name(command: int) -> str:

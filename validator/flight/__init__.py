@@ -1,0 +1,42 @@
+"""A mission plan resolved into what the vehicle will do: legs, speeds, holds, jumps, RTL.
+
+The one interpreter of a plan, shared by the audit, the replay, the exporter's safety gate and
+the simulated vehicle:
+
+- :mod:`.resolve`: :func:`resolve_flight` walks the items as ArduCopter executes them (the
+  conventions: item numbering, jumps, RTL, loiters, "where the vehicle is");
+- :mod:`.model`: what it returns, a :class:`Flight` of straight :class:`Leg` s with the
+  service cycle among them (:class:`CycleSpan`) and :class:`Finding` s;
+- :mod:`.service`: the planner's metadata a plan carries (:class:`ServicePlan`,
+  :func:`parse_service`).
+"""
+
+from validator.flight.model import CycleSpan, Finding, Flight, Leg, LegKind, Severity
+from validator.flight.resolve import (
+    DO_FENCE_ENABLE,
+    DO_SET_HOME,
+    FOREVER_REPEATS,
+    MAX_LEGS,
+    PASSIVE_COMMANDS,
+    UNSUPPORTED_NAV,
+    resolve_flight,
+)
+from validator.flight.service import ServicePlan, parse_service
+
+__all__ = [
+    "DO_FENCE_ENABLE",
+    "DO_SET_HOME",
+    "FOREVER_REPEATS",
+    "MAX_LEGS",
+    "PASSIVE_COMMANDS",
+    "UNSUPPORTED_NAV",
+    "CycleSpan",
+    "Finding",
+    "Flight",
+    "Leg",
+    "LegKind",
+    "ServicePlan",
+    "Severity",
+    "parse_service",
+    "resolve_flight",
+]

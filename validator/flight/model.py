@@ -1,0 +1,129 @@
+"""What a resolved plan is: the straight :class:`Leg` s the vehicle flies, the service cycle
+among them (:class:`CycleSpan`), what could not be resolved (:class:`Finding`), all in one
+:class:`Flight`.
+
+Positions are metres east/north of the site origin, altitudes metres above home; items are
+numbered from 0 as in the ``.plan`` file.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from validator.flight.service import ServicePlan
+from validator.plan_format import Autopilot
+
+LegKind = Literal["takeoff", "waypoint", "loiter", "rtl", "land"]
+Severity = Literal["violation", "warning", "note"]
+
+
+@dataclass(frozen=True)
+class Finding:
+    """Something the validator reports about a plan. ``item`` is a 0-based item index or None."""
+
+    severity: Severity
+    message: str
+    item: int | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"severity": self.severity, "item": self.item, "message": self.message}
+
+
+@dataclass(frozen=True)
+class Leg:
+    """One straight leg the vehicle flies toward mission item ``item`` (its destination).
+
+    Positions are metres east/north of the site origin, altitudes metres above home.
+    ``first_item`` is the first item executed as part of this leg (e.g. the DO_CHANGE_SPEED
+    that precedes the waypoint), so items ``first_item..item`` belong to it. ``speed_mps`` is
+    the commanded horizontal speed in force (None: the autopilot's default). The vehicle stays
+    ``hold_s`` seconds at the destination. ``pass_through`` is True when the autopilot may
+    blend this leg into the next one (no hold, and the next leg is another waypoint leg).
+    """
+
+    item: int
+    first_item: int
+    kind: LegKind
+    start_xy_m: NDArray[np.float64]
+    end_xy_m: NDArray[np.float64]
+    start_alt_m: float
+    end_alt_m: float
+    speed_mps: float | None
+    hold_s: float = 0.0
+    loiter_radius_m: float = 0.0
+    pass_through: bool = False
+
+    @property
+    def length_m(self) -> float:
+        """Horizontal length (m)."""
+        return float(np.hypot(*(self.end_xy_m - self.start_xy_m)))
+
+    @property
+    def label(self) -> str:
+        return f"item {self.item} ({self.kind})"
+
+
+@dataclass(frozen=True)
+class CycleSpan:
+    """Which legs form the service cycles, and how the cycle time is measured.
+
+    The cycles start when the vehicle reaches the destination of ``start_leg`` (its hold
+    counts; ``start_at_arrival``) or when ``start_leg`` begins, and end when ``end_leg``'s item
+    completes (after its hold). ``source`` says where the span came from: ``"metadata"``,
+    ``"jump"`` (a DO_JUMP loop) or ``"waypoints"`` (first to last waypoint after takeoff).
+    """
+
+    start_leg: int
+    start_at_arrival: bool
+    end_leg: int
+    cycles: int
+    source: str
+
+    def window_s(
+        self,
+        start_s: NDArray[np.float64],
+        reached_s: NDArray[np.float64],
+        done_s: NDArray[np.float64],
+    ) -> tuple[float, float] | None:
+        """When the cycles start and end (s), from each leg's start, arrival and completion
+        times (a :class:`~validator.replay.Track`'s, or the ideal timing's); None when either
+        never happened or the span is empty."""
+        if self.start_at_arrival:
+            start = reached_s[self.start_leg]
+        else:
+            start = done_s[self.start_leg - 1] if self.start_leg > 0 else start_s[0]
+        end = done_s[self.end_leg]
+        if math.isnan(start) or math.isnan(end) or end <= start:
+            return None
+        return float(start), float(end)
+
+
+@dataclass(frozen=True)
+class Flight:
+    """A plan resolved into legs (conventions: :mod:`validator.flight.resolve`)."""
+
+    legs: tuple[Leg, ...]
+    home_xy_m: NDArray[np.float64]
+    firmware_type: int
+    findings: tuple[Finding, ...]
+    cycle: CycleSpan | None
+    service: ServicePlan | None
+    fence_disabled_at: tuple[int, ...] = field(default=())
+
+    @property
+    def path_xy_m(self) -> NDArray[np.float64]:
+        """The flown polyline (len(legs)+1, 2): the start of the first leg, then every leg end."""
+        if not self.legs:
+            return self.home_xy_m.reshape(1, 2).copy()
+        pts = [self.legs[0].start_xy_m] + [leg.end_xy_m for leg in self.legs]
+        return np.asarray(pts, dtype=float)
+
+    @property
+    def is_ardupilot(self) -> bool:
+        return self.firmware_type == Autopilot.ARDUPILOTMEGA
+
