@@ -535,7 +535,7 @@ def builtin_vehicle(
     """Run the SITL vehicle at ``plan``'s home on a free loopback port for the duration of a
     ``with`` block; yields the connection string to reach it. Its flight model is
     ``profile`` with all its parameters, so it flies as the replay does."""
-    from validator.mavlink.vehicle import SitlVehicle, VehicleConfig
+    from validator.mavlink.sim import SitlVehicle, VehicleConfig
 
     config = VehicleConfig(
         home=(plan.home_lat_deg, plan.home_lon_deg, plan.home_alt_m),

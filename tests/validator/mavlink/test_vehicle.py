@@ -9,7 +9,7 @@ from validator.dynamics import make_profile
 from validator.flight import resolve_flight
 from validator.mavlink.driver import ARDUCOPTER_MODES, fly_mission, telemetry_track
 from validator.mavlink.link import Link, upload_to
-from validator.mavlink.vehicle import CopterMode
+from validator.mavlink.sim import CopterMode
 from validator.mavlink.wire import mavlink
 from validator.replay import replay
 
