@@ -17,7 +17,6 @@ MAX_MODULE_LINES = 500
 # shrink, and none may grow further than it is.
 NOT_YET_SPLIT = {
     "validator/dynamics.py": 1061,
-    "validator/mavlink/link.py": 721,
     "validator/replay.py": 684,
     "validator/flight.py": 630,
     "validator/mavlink/driver.py": 553,

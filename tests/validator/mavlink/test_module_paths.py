@@ -20,6 +20,14 @@ MOVED = {
         "validator.mavlink.sim.radio": ["LossyWriter"],
         "validator.mavlink.sim.vehicle": ["MISSION_CURRENT_PERIOD_S", "SitlVehicle"],
     },
+    "validator.mavlink.link": {
+        "validator.mavlink.connection": ["DEFAULT_RETRY_S", "DEFAULT_TIMEOUT_S",
+                                         "GCS_COMPONENT_ID", "GCS_SYSTEM_ID", "LinkError",
+                                         "VehicleInfo", "command_name", "open_connection"],
+        "validator.mavlink.mission_protocol": ["BOOT_PATIENCE_S", "RESENDS_BEFORE_RESTART",
+                                               "RESTART_AFTER_S", "TRANSFER_ATTEMPTS"],
+        "validator.mavlink.param_protocol": ["ParamValue"],
+    },
 }
 
 
