@@ -21,9 +21,10 @@ import numpy as np
 
 from validator.dynamics import make_profile
 from validator.flight import resolve_flight
-from validator.mavlink.driver import builtin_vehicle, fly_mission, telemetry_track
+from validator.mavlink.driver import builtin_vehicle, fly_mission
 from validator.mavlink.link import Link, LinkError, upload_plan, upload_to
 from validator.mavlink.sim import SitlVehicle, VehicleConfig
+from validator.mavlink.telemetry import telemetry_track
 from validator.plan_format import Cmd, FenceCircle, Frame, MissionItem, Plan
 from validator.replay import replay
 from validator.site import parse_site

@@ -19,7 +19,6 @@ NOT_YET_SPLIT = {
     "validator/dynamics.py": 1061,
     "validator/replay.py": 684,
     "validator/flight.py": 630,
-    "validator/mavlink/driver.py": 553,
 }
 
 

@@ -28,6 +28,11 @@ MOVED = {
                                                "RESTART_AFTER_S", "TRANSFER_ATTEMPTS"],
         "validator.mavlink.param_protocol": ["ParamValue"],
     },
+    "validator.mavlink.driver": {
+        "validator.mavlink.modes": ["ARDUCOPTER_MODES", "PX4_MODES", "ModeNumbers", "mode_name",
+                                    "modes_for"],
+        "validator.mavlink.telemetry": ["Telemetry", "recorded_track", "telemetry_track"],
+    },
 }
 
 
