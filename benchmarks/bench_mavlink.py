@@ -20,9 +20,10 @@ import time
 import numpy as np
 
 from validator.flight import resolve_flight
-from validator.mavlink.driver import builtin_vehicle, fly_mission, telemetry_track
+from validator.mavlink.driver import builtin_vehicle, fly_mission
 from validator.mavlink.link import Link, LinkError, upload_plan, upload_to
-from validator.mavlink.vehicle import SitlVehicle, VehicleConfig
+from validator.mavlink.sim import SitlVehicle, VehicleConfig
+from validator.mavlink.telemetry import telemetry_track
 from validator.motion.profile import make_profile
 from validator.plan_format import Cmd, FenceCircle, Frame, MissionItem, Plan
 from validator.replay import replay

@@ -1,8 +1,14 @@
-"""MAVLink: the wire format of a plan (:mod:`~validator.mavlink.wire`), a ground station's
-mission and parameter protocols (:mod:`~validator.mavlink.link`, signed with
-:mod:`~validator.mavlink.signing`), a simulated ArduCopter
-(:mod:`~validator.mavlink.vehicle`, flying :mod:`~validator.mavlink.autoflight`), flying a plan
-on any vehicle (:mod:`~validator.mavlink.driver`) and the commands (:mod:`~validator.mavlink.cli`).
+"""MAVLink: plans on the wire, a ground station, a simulated vehicle, and flying a plan.
+
+The wire format of a plan (:mod:`~validator.mavlink.wire`, :mod:`~validator.mavlink.storage`);
+a ground station's connection (:mod:`~validator.mavlink.connection`), mission and parameter
+protocols (:mod:`~validator.mavlink.mission_protocol`, :mod:`~validator.mavlink.param_protocol`)
+and their use (:mod:`~validator.mavlink.link`), signed with :mod:`~validator.mavlink.signing`;
+a simulated ArduCopter (:mod:`validator.mavlink.sim`, flying
+:mod:`~validator.mavlink.autoflight`); flying a plan on any vehicle
+(:mod:`~validator.mavlink.driver`, :mod:`~validator.mavlink.modes`,
+:mod:`~validator.mavlink.telemetry`); real SITL binaries (:mod:`~validator.mavlink.sitl_process`)
+and the commands (:mod:`~validator.mavlink.cli`).
 """
 
 import re

@@ -10,7 +10,7 @@
 Exit status: 0 success, 1 a plan the validator rejects (upload refused), 2 bad input or a
 failed link (one line on stderr; no output file). Each command is a thin wrapper over a
 documented function: :func:`validator.mavlink.link.upload_plan`,
-:func:`~validator.mavlink.link.download_plan`, :class:`validator.mavlink.vehicle.SitlVehicle`,
+:func:`~validator.mavlink.link.download_plan`, :class:`validator.mavlink.sim.SitlVehicle`,
 :func:`validator.mavlink.driver.fly_and_score`. pymavlink and MAVSDK are imported only when a
 command needs them, so ``validate-mission`` without ``--sitl`` starts as fast as before.
 """
@@ -292,7 +292,7 @@ def sitl_vehicle_main(argv: Sequence[str] | None = None) -> int:
     args = sitl_parser().parse_args(_glue_home(list(sys.argv[1:] if argv is None else argv)))
     try:
         from validator.dynamics import parse_param_overrides
-        from validator.mavlink.vehicle import SitlVehicle, VehicleConfig
+        from validator.mavlink.sim import SitlVehicle, VehicleConfig
 
         if not 0.0 <= args.loss < 1.0:
             raise InputError(f"--loss: must be in [0, 1), got {args.loss}")

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from tests.validator.builders import jump, make_site, nav, plan_of, speed
-from validator.mavlink.vehicle import SitlVehicle, VehicleConfig
+from validator.mavlink.sim import SitlVehicle, VehicleConfig
 from validator.mavlink.wire import WireItem, mavlink, mavutil
 from validator.plan_format import Cmd, FencePolygon, Frame, MissionItem, Plan
 from validator.site import Site

@@ -6,9 +6,11 @@ import pytest
 from tests.validator.builders import make_site, waypoint_plan
 from tests.validator.mavlink.conftest import rtl_plan, url_of
 from validator.flight import resolve_flight
-from validator.mavlink.driver import ARDUCOPTER_MODES, fly_mission, telemetry_track
+from validator.mavlink.driver import fly_mission
 from validator.mavlink.link import Link, upload_to
-from validator.mavlink.vehicle import CopterMode
+from validator.mavlink.modes import ARDUCOPTER_MODES
+from validator.mavlink.sim import CopterMode
+from validator.mavlink.telemetry import telemetry_track
 from validator.mavlink.wire import mavlink
 from validator.motion.profile import make_profile
 from validator.replay import replay

@@ -1,0 +1,204 @@
+"""The MAVLink 2 mission protocol from the ground station's side: upload or download one
+mission, fence or rally list.
+
+An upload is MISSION_COUNT -> MISSION_REQUEST_INT -> MISSION_ITEM_INT ... -> MISSION_ACK, the
+vehicle asking for each item; a download the reverse, the ground station asking. A rejected
+transfer (MISSION_ACK with an error) fails at once with the MAV_MISSION_RESULT name; lost or
+duplicated packets restart the transfer, a few times at most.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import time
+from typing import Any
+
+from validator.mavlink.connection import Connection, LinkError
+from validator.mavlink.wire import MissionType, WireItem, mavlink, mission_result_name
+
+TRANSFER_ATTEMPTS = 5  # whole-transfer restarts when the vehicle loses its place
+RESENDS_BEFORE_RESTART = 4  # of the last item, waiting for the final ACK
+# Silence mid-upload after which the vehicle has given up re-requesting and MISSION_COUNT
+# starts the transfer again (MAVSDK gives up after 5 requests 0.5 s apart, ArduPilot later).
+RESTART_AFTER_S = 3.0
+# A booting ArduPilot answers MISSION_COUNT with NO_SPACE until its mission storage is set up
+# ("Only 0 items are supported"): keep asking this long before calling the refusal final.
+BOOT_PATIENCE_S = 60.0
+_ROOM = re.compile(r"Only (\d+) items are supported")
+
+_MISSION_REQUESTS = ("MISSION_REQUEST_INT", "MISSION_REQUEST")
+# Results after which starting the transfer again can succeed (lost or duplicated packets).
+_RESTARTABLE = {
+    mavlink.MAV_MISSION_INVALID_SEQUENCE,
+    mavlink.MAV_MISSION_OPERATION_CANCELLED,
+}
+
+
+def _mission_room(link: Connection) -> int | None:
+    """How many mission items the vehicle last said it has room for (ArduPilot says so in a
+    STATUSTEXT with its NO_SPACE refusal), or None if it never said."""
+    for text in reversed(link.statustexts):
+        m = _ROOM.search(text)
+        if m:
+            return int(m.group(1))
+    return None
+
+
+def upload_list(link: Connection, items: tuple[WireItem, ...],
+                mission_type: MissionType) -> bool:
+    """Upload one list. Returns True once the vehicle ACKs it as accepted, False when every
+    item was requested and sent but the final ACK never came (the caller's read-back then
+    decides). Raises :class:`LinkError` on a NACK or when the vehicle falls silent.
+
+    The vehicle drives the transfer and re-requests what it misses; we only repeat
+    MISSION_COUNT until the first request, and the last item until the ACK. (Repeating
+    items mid-transfer would keep resetting the vehicle's own re-request timer, which is also
+    why this loop does not use :meth:`Connection.exchange`, which sends on every wake-up.)
+    """
+    label = mission_type.label
+    count = len(items)
+    ts, tc = link.target
+    last_progress = time.monotonic()
+    first_refusal: float | None = None  # of a NO_SPACE a booting vehicle may take back
+    attempt = 0
+    while attempt < TRANSFER_ATTEMPTS:
+        attempt += 1
+        link.mav.mission_count_send(ts, tc, count, int(mission_type))
+        last_send = time.monotonic()
+        last_sent: int | None = None
+        final_resends = 0
+        highest = -1
+        while True:
+            now = time.monotonic()
+            if now - last_progress > link.timeout_s:
+                where = (f"after item {highest} of {count}" if highest >= 0
+                         else "to MISSION_COUNT")
+                raise LinkError(f"{label} upload: vehicle stopped answering {where} "
+                                f"(no reply for {link.timeout_s:g} s); upload incomplete")
+            if last_sent is not None and highest < count - 1 and (
+                now - last_progress > RESTART_AFTER_S
+            ):
+                break  # the vehicle gave up re-requesting (MAVSDK: after 5): start again
+            if now - last_send >= link.retry_s:
+                if last_sent is None:
+                    link.mav.mission_count_send(ts, tc, count, int(mission_type))
+                elif highest == count - 1:
+                    if final_resends >= RESENDS_BEFORE_RESTART:
+                        return False
+                    items[count - 1].send(link.mav, ts, tc)
+                    final_resends += 1
+                last_send = now
+            msg = link.recv(
+                (*_MISSION_REQUESTS, "MISSION_ACK"),
+                min(last_send + link.retry_s, last_progress + link.timeout_s),
+                lambda m: getattr(m, "mission_type", 0) == int(mission_type),
+            )
+            if msg is None:
+                continue
+            if msg.get_type() == "MISSION_ACK":
+                if msg.type == mavlink.MAV_MISSION_ACCEPTED:
+                    if highest == count - 1:
+                        return True
+                    continue  # a stale ACK from an earlier attempt
+                name = mission_result_name(msg.type)
+                if msg.type in _RESTARTABLE:
+                    last_progress = time.monotonic()
+                    break  # start the transfer again
+                if msg.type == mavlink.MAV_MISSION_NO_SPACE and last_sent is None:
+                    # ArduPilot says its room in a STATUSTEXT that may follow the ACK
+                    link.recv((), time.monotonic() + 1.0)
+                    room = _mission_room(link)
+                    if room:
+                        raise LinkError(f"{label} upload: vehicle rejected it with {name}: "
+                                        f"it has room for {room} items, the plan needs "
+                                        f"{count}")
+                    if first_refusal is None:
+                        first_refusal = time.monotonic()
+                    patience = BOOT_PATIENCE_S if room == 0 else link.timeout_s
+                    if time.monotonic() - first_refusal < patience:
+                        last_progress = time.monotonic()  # booting: ask again
+                        attempt -= 1
+                        break
+                at = f" at item {last_sent}" if last_sent is not None else ""
+                raise LinkError(f"{label} upload: vehicle rejected it with {name}{at}")
+            seq = int(msg.seq)
+            if seq >= count:
+                continue
+            items[seq].send(link.mav, ts, tc)
+            last_sent, highest = seq, max(highest, seq)
+            last_progress = last_send = time.monotonic()
+    raise LinkError(f"{label} upload: gave up after {TRANSFER_ATTEMPTS} attempts; "
+                    "the link loses too many packets")
+
+
+def _is_answer(m: Any, mission_type: int, seq: int) -> bool:
+    """Whether ``m`` answers a download of ``mission_type``; an item only when it is ``seq``."""
+    if getattr(m, "mission_type", 0) != mission_type:
+        return False
+    return bool(m.get_type() != "MISSION_ITEM_INT" or int(m.seq) == seq)
+
+
+def download_list(link: Connection, mission_type: MissionType) -> tuple[WireItem, ...]:
+    """Download one list from the vehicle (we drive: one request per item, repeated after
+    ``retry_s``; after ``RESTART_AFTER_S`` of silence the vehicle has given up on the transfer
+    and MISSION_REQUEST_LIST opens it again)."""
+    label = mission_type.label
+    ts, tc = link.target
+    mtype = int(mission_type)
+    count: int | None = None
+    out: list[WireItem] = []
+    last_open = -math.inf  # of the last reopening MISSION_REQUEST_LIST
+    opened = False  # a MISSION_REQUEST_LIST re-sent mid-download awaits its answer
+    best = 0  # most items any attempt got
+    fruitless = 0  # attempts in a row that got no further than ``best``
+
+    def request() -> None:
+        nonlocal last_open, opened, best, fruitless
+        now = time.monotonic()
+        if count is not None and now - max(answers.since, last_open) > RESTART_AFTER_S:
+            # Each reopen starts again at item 0: go on while attempts get further.
+            fruitless = fruitless + 1 if len(out) <= best else 0
+            best = max(best, len(out))
+            if fruitless >= TRANSFER_ATTEMPTS:
+                raise LinkError(f"{label} download: gave up after {TRANSFER_ATTEMPTS} "
+                                "attempts without progress; the link loses too many packets")
+            opened = True
+            last_open = now
+            link.mav.mission_request_list_send(ts, tc, mtype)
+        elif count is None:
+            link.mav.mission_request_list_send(ts, tc, mtype)
+        if count is not None:
+            link.mav.mission_request_int_send(ts, tc, len(out), mtype)
+
+    answers = link.exchange(request, ("MISSION_COUNT", "MISSION_ITEM_INT", "MISSION_ACK"),
+                            lambda m: _is_answer(m, mtype, len(out)))
+    for msg in answers:
+        if msg is None:
+            pass  # silence: the request goes again
+        elif msg.get_type() == "MISSION_ACK":
+            if opened and msg.type in _RESTARTABLE:
+                out.clear()  # the vehicle wants the transfer from the start
+            elif msg.type != mavlink.MAV_MISSION_ACCEPTED:  # (accepted: a late ACK to another)
+                raise LinkError(f"{label} download: vehicle refused it with "
+                                f"{mission_result_name(msg.type)}")
+        elif msg.get_type() == "MISSION_COUNT":
+            if count is not None and int(msg.count) != count:
+                raise LinkError(f"{label} download: the list changed during the download "
+                                f"({count} then {msg.count} items)")
+            if count is None:
+                answers.progress()
+            elif opened:
+                out.clear()  # a reopened transfer starts at item 0 (MAVSDK insists)
+            count = int(msg.count)
+            opened = False
+        else:
+            out.append(WireItem.from_msg(msg))
+            answers.progress()
+        if count is not None and len(out) >= count:
+            break
+    else:
+        what = "MISSION_REQUEST_LIST" if count is None else f"item {len(out)} of {count}"
+        raise LinkError(f"{label} download: no answer to {what} within {link.timeout_s:g} s")
+    link.mav.mission_ack_send(ts, tc, mavlink.MAV_MISSION_ACCEPTED, mtype)
+    return tuple(out)

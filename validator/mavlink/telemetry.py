@@ -1,0 +1,212 @@
+"""What a vehicle reports while it flies, recorded: the :class:`Recorder` the driver runs and
+the :class:`Telemetry` it yields, as a track to score or a track file to keep.
+
+Times are vehicle seconds (``time_boot_ms``), so a sped-up SITL vehicle's track is in its own
+simulated time; altitudes metres above home.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from validator.flight import Flight
+from validator.geodesy import from_int_e7
+from validator.mavlink.connection import Connection, LinkError
+from validator.mavlink.modes import mode_name
+from validator.mavlink.wire import mavlink
+from validator.replay import Track, track_from_geodetic
+from validator.site import Site
+from validator.track_file import RecordedTrack
+
+
+@dataclass
+class Telemetry:
+    """What the vehicle reported, one row per GLOBAL_POSITION_INT.
+
+    ``t_s`` vehicle seconds since boot; ``lat_deg``/``lon_deg``; ``rel_alt_m`` above home;
+    ``vel_mps`` (n, 3) north, east, down; ``mission_seq`` the vehicle's current mission item
+    (its own numbering: ArduPilot counts home as 0; from MISSION_CURRENT, the timing signal);
+    ``armed``; ``fence_breach``. ``reached`` lists (t_s, seq) of MISSION_ITEM_REACHED, a hint
+    only (ArduCopter sends one per loop, so an item followed by a DO command or the final LAND
+    is never reported); ``mode_changes`` (t_s, mode name) each time the vehicle left the
+    mission mode on its own (a fence breach action, a failsafe); ``messages`` (t_s, text) what
+    the vehicle said (STATUSTEXT); ``takeoff_start_s`` and ``mission_start_s`` when
+    NAV_TAKEOFF and MISSION_START were asked for; ``end_reason`` why recording stopped.
+    """
+
+    t_s: NDArray[np.float64]
+    lat_deg: NDArray[np.float64]
+    lon_deg: NDArray[np.float64]
+    rel_alt_m: NDArray[np.float64]
+    vel_mps: NDArray[np.float64]
+    mission_seq: NDArray[np.int64]
+    armed: NDArray[np.bool_]
+    fence_breach: NDArray[np.bool_]
+    reached: list[tuple[float, int]] = field(default_factory=list)
+    mode_changes: list[tuple[float, str]] = field(default_factory=list)
+    messages: list[tuple[float, str]] = field(default_factory=list)
+    mission_start_s: float = math.nan
+    takeoff_start_s: float = math.nan
+    end_reason: str = ""
+
+    @property
+    def samples(self) -> int:
+        return int(self.t_s.size)
+
+    @property
+    def flight_start_s(self) -> float:
+        """The vehicle time a recorded track's clock starts at: the takeoff request, else the
+        mission start, else 0 (the replay's clock starts at the takeoff)."""
+        if math.isfinite(self.takeoff_start_s):
+            return self.takeoff_start_s
+        return self.mission_start_s if math.isfinite(self.mission_start_s) else 0.0
+
+
+class Recorder:
+    """Accumulates telemetry rows while the driver waits for things: it listens to every
+    message the link reads, whatever the driver is waiting for."""
+
+    def __init__(self, link: Connection) -> None:
+        self.link = link
+        self.rows: list[tuple[Any, ...]] = []
+        self.seq = -1
+        self.armed = False
+        self.custom_mode: int | None = None
+        self.breach = False
+        self.mission_state = 0
+        self.reached: list[tuple[float, int]] = []
+        self.mission_mode: int | None = None  # set once the mission runs: leaving it is news
+        self.mode_changes: list[tuple[float, str]] = []
+        self.messages: list[tuple[float, str]] = []
+        self.prearm_ok = False
+        self.sys_status_seen = False
+        self.landed_state = mavlink.MAV_LANDED_STATE_UNDEFINED
+        self.airborne = False  # the vehicle said it was in the air (EXTENDED_SYS_STATE)
+        self.t_s = math.nan
+        self.home_amsl_m = math.nan
+        self.last_heard = time.monotonic()
+        link.listeners.append(self.take)
+
+    def pump(self, until: float, stop: Callable[[], bool]) -> bool:
+        """Record until ``stop()`` holds (True) or ``until`` (monotonic) passes (False);
+        :class:`LinkError` when the vehicle stays silent for the link's timeout."""
+        while True:
+            if stop():
+                return True
+            now = time.monotonic()
+            if now >= until:
+                return False
+            if now - self.last_heard > self.link.timeout_s:
+                raise LinkError(f"the vehicle stopped reporting for {self.link.timeout_s:g} s "
+                                "during the flight")
+            self.link.recv((), min(until, now + 0.05))  # messages reach take() as listener
+
+    def pump_vehicle_time(self, limit_s: float, stop: Callable[[], bool],
+                          since_s: float | None = None) -> bool:
+        """Record until ``stop()`` or until ``limit_s`` vehicle seconds have passed (since
+        ``since_s``, or now)."""
+        t0 = self.t_s if since_s is None else since_s
+
+        def done() -> bool:
+            if stop():
+                return True
+            return math.isfinite(t0) and math.isfinite(self.t_s) and self.t_s - t0 >= limit_s
+
+        self.pump(math.inf, done)
+        return bool(stop())
+
+    def take(self, m: Any) -> None:
+        """Fold one pymavlink message into the state (fields are its attributes); the link
+        calls this for every message it reads from the vehicle."""
+        self.last_heard = time.monotonic()
+        kind = m.get_type()
+        if kind == "GLOBAL_POSITION_INT":
+            self.t_s = m.time_boot_ms / 1000.0
+            self.home_amsl_m = (m.alt - m.relative_alt) / 1000.0
+            self.rows.append((self.t_s, float(from_int_e7(m.lat)), float(from_int_e7(m.lon)),
+                              m.relative_alt / 1000.0,
+                              m.vx / 100.0, m.vy / 100.0, m.vz / 100.0,
+                              self.seq, self.armed, self.breach))
+        elif kind == "HEARTBEAT":
+            self.armed = bool(m.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+            mode = int(m.custom_mode)
+            if (self.mission_mode is not None and mode != self.custom_mode
+                    and mode != self.mission_mode and self.armed):
+                self.mode_changes.append((self.t_s, mode_name(self.link, mode)))
+            self.custom_mode = mode
+        elif kind == "SYS_STATUS":
+            self.sys_status_seen = True
+            self.prearm_ok = bool(m.onboard_control_sensors_health
+                                  & mavlink.MAV_SYS_STATUS_PREARM_CHECK)
+        elif kind == "MISSION_CURRENT":
+            self.seq = int(m.seq)
+            self.mission_state = int(getattr(m, "mission_state", 0))
+        elif kind == "MISSION_ITEM_REACHED":
+            self.reached.append((self.t_s, int(m.seq)))
+        elif kind == "FENCE_STATUS":
+            self.breach = bool(m.breach_status)
+        elif kind == "STATUSTEXT":
+            self.messages.append((self.t_s, str(m.text)))
+        elif kind == "EXTENDED_SYS_STATE":
+            self.landed_state = int(m.landed_state)
+            if self.landed_state in (mavlink.MAV_LANDED_STATE_IN_AIR,
+                                     mavlink.MAV_LANDED_STATE_TAKEOFF):
+                self.airborne = True
+
+    def telemetry(self, takeoff_start_s: float, mission_start_s: float,
+                  end_reason: str) -> Telemetry:
+        rows = self.rows or [(math.nan,) * 7 + (-1, False, False)]
+        cols = list(zip(*rows, strict=True))
+        return Telemetry(
+            t_s=np.asarray(cols[0], dtype=float),
+            lat_deg=np.asarray(cols[1], dtype=float),
+            lon_deg=np.asarray(cols[2], dtype=float),
+            rel_alt_m=np.asarray(cols[3], dtype=float),
+            vel_mps=np.column_stack([cols[4], cols[5], cols[6]]).astype(float),
+            mission_seq=np.asarray(cols[7], dtype=np.int64),
+            armed=np.asarray(cols[8], dtype=bool),
+            fence_breach=np.asarray(cols[9], dtype=bool),
+            reached=list(self.reached),
+            mode_changes=list(self.mode_changes),
+            messages=list(self.messages),
+            mission_start_s=mission_start_s,
+            takeoff_start_s=takeoff_start_s,
+            end_reason=end_reason,
+        )
+
+
+def telemetry_track(telemetry: Telemetry, flight: Flight, site: Site, *, ardupilot: bool,
+                    source: str) -> Track:
+    """The recorded flight from NAV_TAKEOFF on as a :class:`Track` aligned with ``flight``,
+    its clock starting at the takeoff like the replay's. The climb flown in GUIDED before
+    MISSION_START counts as the mission's takeoff item when the mission starts with one;
+    ArduPilot's seq numbers become plan item indices."""
+    t0 = telemetry.flight_start_s
+    keep = telemetry.t_s >= t0
+    t = telemetry.t_s[keep]
+    seq = telemetry.mission_seq[keep] - (1 if ardupilot else 0)
+    if flight.legs and flight.legs[0].kind == "takeoff":
+        # until the vehicle reports an item past the takeoff, it is flying the takeoff
+        past = np.flatnonzero(seq > flight.legs[0].item)
+        seq[: past[0] if past.size else seq.size] = flight.legs[0].item
+    return track_from_geodetic(
+        flight, site, t - t0, telemetry.lat_deg[keep], telemetry.lon_deg[keep], seq,
+        alt_m=telemetry.rel_alt_m[keep], source=source,
+    )
+
+
+def recorded_track(telemetry: Telemetry, *, ardupilot: bool) -> RecordedTrack:
+    """The telemetry as a :class:`~validator.track_file.RecordedTrack`: times from the start
+    of the takeoff (as :func:`telemetry_track`), mission items as ``.plan`` indices."""
+    seq = telemetry.mission_seq - (1 if ardupilot else 0)
+    return RecordedTrack(telemetry.t_s - telemetry.flight_start_s, telemetry.lat_deg,
+                         telemetry.lon_deg, telemetry.rel_alt_m, telemetry.vel_mps,
+                         np.where(telemetry.mission_seq < 0, -1, seq).astype(np.int64),
+                         telemetry.armed, telemetry.fence_breach)
