@@ -53,7 +53,7 @@ from mission_planner.mission import (
     mission_summary,
 )
 from mission_planner.optimize.retime import top_speed_mps
-from validator.errors import CommandParser, InputError, report_error
+from validator.errors import CommandParser, InputError, UserError, report_error
 from validator.fileio import write_all_atomic
 from validator.geojson_format import dumps_geojson, plan_geojson
 from validator.plan_format import dumps_plan
@@ -316,7 +316,7 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
                              geojson=args.geojson, plot=args.plot, params=param_file,
                              autopilot_params=autopilot_params, flight=flight)
         write_outputs(files)
-    except InputError as err:
+    except UserError as err:
         return report_error("plan-mission", err)
     except KeyboardInterrupt:
         print("plan-mission: interrupted; nothing written", file=sys.stderr)

@@ -54,3 +54,11 @@ def test_a_command_line_mistake_is_one_line_exit_2(prog: str, main: Main, capsys
     assert exit_.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(f"{prog}: ")
+
+
+def test_a_failed_link_is_a_user_error_but_not_bad_input() -> None:
+    from validator.errors import UserError
+    from validator.mavlink.connection import LinkError
+
+    assert issubclass(LinkError, UserError) and not issubclass(LinkError, InputError)
+    assert issubclass(InputError, UserError)

@@ -26,7 +26,7 @@ import sys
 from collections.abc import Sequence
 
 from validator.autopilot.param_file import read_params
-from validator.errors import CommandParser, InputError, report_error
+from validator.errors import CommandParser, InputError, UserError, report_error
 from validator.fileio import write_atomic
 from validator.mavlink.cli import add_sitl_arguments, run_sitl, split_sitl_url
 from validator.motion.profile import PROFILES, parse_param_overrides
@@ -197,7 +197,7 @@ def validate_mission_main(argv: Sequence[str] | None = None) -> int:
                         (f"plan {args.plan}", f"vehicle {v.extra['sitl_flight']['vehicle']}"))
         if report_path:
             write_atomic(report_path, json.dumps(v.as_dict(), indent=1, allow_nan=False) + "\n")
-    except (InputError, OSError) as err:
+    except (UserError, OSError) as err:
         return report_error("validate-mission", err)
     print(format_report(v))
     return v.exit_status

@@ -1,21 +1,27 @@
-"""The one exception type for mistakes a user can make in their inputs, and how every command
-reports one."""
+"""The exceptions for what a user can put right (bad input, a failed link), and how every
+command reports one."""
 
 import argparse
 import sys
 from typing import NoReturn
 
 
-class InputError(ValueError):
-    """Bad user input: a site file, a plan file, a command-line value or a dead link.
+class UserError(Exception):
+    """A failure the user can act on: bad input (:class:`InputError`) or a failed link
+    (:class:`validator.mavlink.connection.LinkError`).
 
-    The message is one line that names the file, field or item at fault. Command-line entry
-    points print it and exit with status 2. Control characters and line breaks a hostile file
-    put into a key or value are shown escaped, so the message stays one line by construction.
+    The message is one line that names the file, field, item or vehicle at fault.
+    Command-line entry points print it (:func:`report_error`) and exit with status 2. Control
+    characters and line breaks a hostile file put into a key or value are shown escaped, so
+    the message stays one line by construction.
     """
 
     def __init__(self, message: object = "") -> None:
         super().__init__(_one_line(str(message)))
+
+
+class InputError(UserError, ValueError):
+    """Bad user input: a site file, a plan file, a parameter file or a command-line value."""
 
 
 def _one_line(text: str) -> str:
@@ -27,7 +33,7 @@ def _one_line(text: str) -> str:
 def report_error(prog: str, err: BaseException) -> int:
     """Print ``err`` as every command does (one line on stderr: ``PROG: MESSAGE``; a failed
     file operation names the file) and return exit status 2."""
-    if isinstance(err, OSError) and not isinstance(err, InputError):
+    if isinstance(err, OSError) and not isinstance(err, UserError):
         name = getattr(err, "filename", None)
         text = f"{name}: {err.strerror or err}" if name else str(err.strerror or err)
     else:

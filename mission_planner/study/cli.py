@@ -17,7 +17,7 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
 
-from validator.errors import InputError, report_error
+from validator.errors import InputError, UserError, report_error
 
 T = TypeVar("T")
 STUDY_EXTRA = ("tqdm", "dask", "distributed")
@@ -147,7 +147,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         args = build_parser().parse_args(argv)
         return _fig3(args) if args.command == "fig3" else _fig4(args)
-    except InputError as err:
+    except UserError as err:
         return report_error("nfz-study", err)
     except ModuleNotFoundError as err:
         if err.name not in STUDY_EXTRA:

@@ -25,7 +25,7 @@ import sys
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
-from validator.errors import CommandParser, InputError
+from validator.errors import CommandParser, InputError, UserError, report_error
 from validator.mavlink import NETWORK_URL
 from validator.mavlink.sitl_process import BINARY_ENV, DEFAULTS_ENV, PX4_BINARY_ENV
 
@@ -40,11 +40,6 @@ DEFAULT_PX4_SPEEDUP = 4.0
 # Profile parameters that are the model's, not an autopilot's: never sent with PARAM_SET.
 MODEL_ONLY_PARAMS = frozenset({"VEHICLE_SPEED_MAX", "SPEED", "SPEED_UP", "SPEED_DN",
                                "VEHICLE_DRAG", "ALT_AMSL"})
-
-
-def _fail(prog: str, err: Exception) -> int:
-    print(f"{prog}: {err}", file=sys.stderr)
-    return 2
 
 
 def _positive(text: str) -> float:
@@ -144,8 +139,8 @@ def upload_mission_main(argv: Sequence[str] | None = None) -> int:
         report = upload_plan(plan, args.connect, timeout_s=args.timeout, sysid=args.sysid,
                              params=params, require_fence=not args.allow_fence_off,
                              signing_key=key)
-    except InputError as err:
-        return _fail("upload-mission", err)
+    except UserError as err:
+        return report_error("upload-mission", err)
     print(report.summary())
     return 0
 
@@ -189,10 +184,10 @@ def download_mission_main(argv: Sequence[str] | None = None) -> int:
         plan = download_plan(args.connect, timeout_s=args.timeout, sysid=args.sysid,
                              signing_key=_signing_key(args))
         write_plan(plan, args.output)
-    except InputError as err:
-        return _fail("download-mission", err)
+    except UserError as err:
+        return report_error("download-mission", err)
     except OSError as err:
-        return _fail("download-mission", InputError(f"{args.output}: {err.strerror}"))
+        return report_error("download-mission", InputError(f"{args.output}: {err.strerror}"))
     print(f"wrote {args.output}: {len(plan.items)} mission items, {len(plan.circles)} fence "
           f"circle(s), {len(plan.polygons)} polygon(s), {len(plan.rally)} rally point(s)")
     return 0
@@ -311,8 +306,8 @@ def sitl_vehicle_main(argv: Sequence[str] | None = None) -> int:
             vehicle = SitlVehicle(url, config)
         except (OSError, ValueError) as err:
             raise InputError(f"--listen {url}: cannot listen ({err})") from None
-    except InputError as err:
-        return _fail("sitl-vehicle", err)
+    except UserError as err:
+        return report_error("sitl-vehicle", err)
     host, port = vehicle.address
     if not is_loopback(host):
         print(f"sitl-vehicle: listening on {host}, not loopback: any machine that reaches "

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Self
 
-from validator.errors import InputError
+from validator.errors import InputError, UserError
 from validator.mavlink import NETWORK_URL
 from validator.mavlink.signing import RefusedTraffic, carries_signature, sign_and_verify
 from validator.mavlink.wire import mavlink, mavutil
@@ -28,10 +28,11 @@ DEFAULT_TIMEOUT_S = 10.0
 DEFAULT_RETRY_S = 0.5
 
 
-class LinkError(InputError):
+class LinkError(UserError):
     """The link or the vehicle failed: no heartbeat, silence, a NACK, a read-back mismatch.
 
-    A subclass of :class:`InputError` so commands report it on one line with exit status 2.
+    Not bad input, but something the user can act on: commands report it like one, on one line
+    with exit status 2 (:class:`~validator.errors.UserError`).
     """
 
 
