@@ -40,14 +40,11 @@ import math
 from dataclasses import dataclass, field
 
 from mission_planner.mission import Mission
+from mission_planner.mission.options import waypoint_radius_m
 from mission_planner.optimize.retime import top_speed_mps
 from validator.autopilot.fence import FENCE_RULES
 from validator.autopilot.param_file import MAV_PARAM_TYPE_INT32, format_params
 from validator.plan_format import Cmd
-from validator.site import Site
-
-ARDUPILOT_DEFAULT_RADIUS_M = 2.0  # WPNAV_RADIUS default (200 cm): no reason to cut wider
-ARDUPILOT_MIN_RADIUS_M = 0.05  # WPNAV_RADIUS minimum (5 cm), AC_WPNav enforces it
 
 # name -> (unit, documented minimum, documented maximum)
 ARDUPILOT_PARAMS: dict[str, tuple[str, float, float]] = {
@@ -92,20 +89,6 @@ class AutopilotParams:
             "units": {n: self.unit(n) for n in self.values},
             "notes": list(self.notes),
         }
-
-
-def waypoint_radius_m(site: Site, fence_margin_m: float) -> float:
-    """Waypoint (acceptance) radius (m) for a site: buffer − fence margin, within [0.05, 2].
-
-    Autopilots round a corner inside this radius, and the rounded track leaves the planned
-    legs by up to about the radius (measured in ArduCopter SITL and in the replay), on the
-    inside of the turn. The planned legs keep the full safety buffer from each NFZ and the
-    exclusion fence sits ``fence_margin_m`` outside the NFZ, so a radius of at most the slack
-    between them keeps rounded corners off the fence. Never above ArduCopter's default 2 m
-    (wider corners save little time) nor below its 5 cm minimum.
-    """
-    slack = site.buffer_m - fence_margin_m
-    return float(min(ARDUPILOT_DEFAULT_RADIUS_M, max(ARDUPILOT_MIN_RADIUS_M, slack)))
 
 
 def fastest_leg_mps(mission: Mission) -> float:

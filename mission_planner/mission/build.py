@@ -16,6 +16,7 @@ from mission_planner.mission.options import (
     AUTOPILOTS,
     MissionOptions,
     check_options,
+    corner_margin_m,
     fence_margin_for,
 )
 from mission_planner.mission.speeds import assign_speeds, stop_lags, whole_second_holds
@@ -113,16 +114,19 @@ def _service_cycle(solution: Solution, opt: MissionOptions) -> _Cycle:
     steps = service_steps(q, delta, opt.stationary_tol_m)
     timed_speed = cruise_speed_mps(site, timing_of(solution.notes)[0])
     radii = site.planning_radius_m
+    # legs clear the buffered zones by the export margin, and by the part of the autopilot's
+    # minimum waypoint radius the buffer cannot absorb (corners are cut inside it)
+    target_m = opt.export_margin_m + corner_margin_m(site, fence_margin_for(site, opt))
     per_slot = len(steps)
     if opt.merge_legs:
         steps = merge_straight_steps(
             steps, q, angle_deg=opt.merge_angle_deg, speed_rel=opt.merge_speed_rel,
             offset_m=opt.merge_offset_m, min_speed_mps=opt.min_speed_mps,
-            nfz_xy_m=site.nfz_xy_m, nfz_radius_m=radii, clearance_target_m=opt.export_margin_m,
+            nfz_xy_m=site.nfz_xy_m, nfz_radius_m=radii, clearance_target_m=target_m,
             scurve=lambda lengths: scurve_legs(site, lengths, timed_speed, solution.notes),
             scurve_speed_mps=timed_speed)
     cyc_idx = [0] + [s.index for s in steps if s.index not in (0, len(q) - 1)]
-    pts, moved = nudge_clear(q[cyc_idx], site.nfz_xy_m, radii, target_margin_m=opt.export_margin_m,
+    pts, moved = nudge_clear(q[cyc_idx], site.nfz_xy_m, radii, target_margin_m=target_m,
                              max_nudge_m=opt.max_nudge_m, closed=True)
     planned_q = q.copy()
     q[cyc_idx] = pts

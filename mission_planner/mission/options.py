@@ -82,3 +82,29 @@ def check_options(site: Site, options: MissionOptions) -> None:
 def fence_margin_for(site: Site, options: MissionOptions) -> float:
     """The fence margin (m) outside each NFZ radius: the option, else half the buffer."""
     return site.buffer_m / 2.0 if options.fence_margin_m is None else float(options.fence_margin_m)
+
+
+ARDUPILOT_DEFAULT_RADIUS_M = 2.0  # WPNAV_RADIUS default (200 cm): no reason to cut wider
+ARDUPILOT_MIN_RADIUS_M = 0.05  # WPNAV_RADIUS minimum (5 cm), AC_WPNav enforces it
+
+
+def waypoint_radius_m(site: Site, fence_margin_m: float) -> float:
+    """Waypoint (acceptance) radius (m) for a site: buffer − fence margin, within [0.05, 2].
+
+    Autopilots round a corner inside this radius, and the rounded track leaves the planned
+    legs by up to about the radius (measured in ArduCopter SITL and in the replay), on the
+    inside of the turn. The planned legs keep the full safety buffer from each NFZ and the
+    exclusion fence sits ``fence_margin_m`` outside the NFZ, so a radius of at most the slack
+    between them keeps rounded corners off the fence. Never above ArduCopter's default 2 m
+    (wider corners save little time) nor below its 5 cm minimum.
+    """
+    slack = site.buffer_m - fence_margin_m
+    return float(min(ARDUPILOT_DEFAULT_RADIUS_M, max(ARDUPILOT_MIN_RADIUS_M, slack)))
+
+
+def corner_margin_m(site: Site, fence_margin_m: float) -> float:
+    """How far (m) legs must clear the buffered zones so that corners cut inside the waypoint
+    radius (:func:`waypoint_radius_m`) stay outside the fence: nothing while the radius fits in
+    the buffer's slack, else the part of the autopilot's minimum radius that does not (a site
+    without a buffer still has 5 cm corners)."""
+    return max(0.0, waypoint_radius_m(site, fence_margin_m) - (site.buffer_m - fence_margin_m))

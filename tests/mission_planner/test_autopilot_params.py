@@ -15,6 +15,7 @@ from mission_planner.autopilot_params import (
 )
 from mission_planner.mission import MissionOptions, build_mission
 from mission_planner.optimize.retime import top_speed_mps
+from mission_planner.study.sites import random_site
 from tests.mission_planner.solutions import make_site, solution_for, subdivided
 from validator.autopilot.fence import FENCE_RULES
 from validator.autopilot.param_file import parse_params
@@ -118,3 +119,28 @@ def test_ardupilot_file_is_name_value_lines_px4_file_is_qgc_format():
         # MAV_PARAM_TYPE as PX4 declares it: GF_ACTION is an INT32 enum, the rest REAL32
         assert (sysid, compid, ptype) == ("1", "1", "6" if name == "GF_ACTION" else "9")
         assert math.isfinite(float(value))
+
+
+@pytest.mark.parametrize("buffer_m, margin_m, extra_m", [
+    (2.0, 1.0, 0.0),  # the radius (1 m) fits in the buffer's slack
+    (0.0, 0.0, 0.05),  # no buffer: ArduCopter's 5 cm minimum radius must come off the legs
+    (0.06, 0.03, 0.02),
+])
+def test_legs_make_room_for_the_corners_the_buffer_cannot(buffer_m, margin_m, extra_m):
+    from mission_planner.mission.options import corner_margin_m
+
+    site = random_site(1, slots=8, buffer_m=buffer_m)
+    assert corner_margin_m(site, margin_m) == pytest.approx(extra_m)
+
+
+def test_a_site_without_a_buffer_still_keeps_its_cut_corners_out_of_the_zones():
+    # bench_safety's random-8: with no buffer the 5 cm waypoint radius cut a corner 2.4 cm
+    # into NFZ2 in the replay of a written plan
+    from mission_planner.cli import plan_and_build
+    from mission_planner.flight_report import replay_mission
+
+    site = random_site(8, buffer_m=0.0)
+    mission = plan_and_build(site, dynamics="vehicle")
+    assert not mission.problems
+    check = replay_mission(mission)
+    assert min(check.clearance_by_nfz_m.values()) > 0.0
