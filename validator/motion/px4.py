@@ -198,14 +198,13 @@ def fly_run(
     cap_val = cap_mps.tolist() if cap_mps is not None else None
     ci = 0
     done_at = math.inf
-    x = v = integral = 0.0  # the vehicle (with tracking)
+    x = v = integral = 0.0  # the vehicle: on the trajectory, or following it with tracking
     a_tilt = 9.80665 * math.tan(math.radians(tracking.tilt_max_deg)) if tracking else 0.0
     while t < done_at and t < 1e5:
-        here = x if tracking else vs.x
-        while j < last and ends[j] - here <= acceptance_m:
+        while j < last and ends[j] - x <= acceptance_m:
             reached[j] = t
             j += 1
-        if j == last and math.isnan(reached[last]) and ends[last] - here <= acceptance_m:
+        if j == last and math.isnan(reached[last]) and ends[last] - x <= acceptance_m:
             reached[last] = t + arrival_lag_s
             done_at = reached[last] + hold_s
         togo = ends[j] - vs.x
@@ -236,11 +235,12 @@ def fly_run(
                 integral += tracking.vel_i * e_v * dt_s
             v += (acc - tracking.drag_per_s * v) * dt_s
             x += v * dt_s
+        else:
+            x, v = vs.x, vs.v
         t += dt_s
         ts.append(t)
-        ss.append(x if tracking else vs.x)
-        settled = (ends[last] - (x if tracking else vs.x) <= STOPPED_M
-                   and abs(v if tracking else vs.v) < STOPPED_MPS)
+        ss.append(x)
+        settled = ends[last] - x <= STOPPED_M and abs(v) < STOPPED_MPS
         if settled and not math.isnan(reached[last]) and t >= reached[last]:
             break  # at rest on the waypoint: the rest of the hold changes nothing
     end = max(t, done_at) if math.isfinite(done_at) else t
