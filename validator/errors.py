@@ -33,7 +33,7 @@ def _one_line(text: str) -> str:
 def report_error(prog: str, err: BaseException) -> int:
     """Print ``err`` as every command does (one line on stderr: ``PROG: MESSAGE``; a failed
     file operation names the file) and return exit status 2."""
-    if isinstance(err, OSError) and not isinstance(err, UserError):
+    if isinstance(err, OSError):
         name = getattr(err, "filename", None)
         text = f"{name}: {err.strerror or err}" if name else str(err.strerror or err)
     else:
