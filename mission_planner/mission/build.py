@@ -16,8 +16,8 @@ from mission_planner.mission.options import (
     AUTOPILOTS,
     MissionOptions,
     check_options,
-    corner_margin_m,
     fence_margin_for,
+    leg_margin_m,
 )
 from mission_planner.mission.speeds import assign_speeds, stop_lags, whole_second_holds
 from mission_planner.mission.steps import (
@@ -114,9 +114,7 @@ def _service_cycle(solution: Solution, opt: MissionOptions) -> _Cycle:
     steps = service_steps(q, delta, opt.stationary_tol_m)
     timed_speed = cruise_speed_mps(site, timing_of(solution.notes)[0])
     radii = site.planning_radius_m
-    # legs clear the buffered zones by the export margin, and by the part of the autopilot's
-    # minimum waypoint radius the buffer cannot absorb (corners are cut inside it)
-    target_m = opt.export_margin_m + corner_margin_m(site, fence_margin_for(site, opt))
+    target_m = leg_margin_m(site, opt)
     per_slot = len(steps)
     if opt.merge_legs:
         steps = merge_straight_steps(

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mission_planner.mission.options import MissionOptions, corner_margin_m, fence_margin_for
+from mission_planner.mission.options import MissionOptions, leg_margin_m
 from mission_planner.transit import shortest_safe_path
 from validator.geometry import segment_point_closest_fraction, segment_point_distance
 from validator.site import Site
@@ -76,8 +76,7 @@ def safe_transits(site: Site, home: NDArray[np.float64], start: NDArray[np.float
     ends = np.array([home, start, end])
 
     def radii_for(pair: NDArray[np.float64]) -> NDArray[np.float64]:
-        r = (site.planning_radius_m + opt.export_margin_m
-             + corner_margin_m(site, fence_margin_for(site, opt)))
+        r = site.planning_radius_m + leg_margin_m(site, opt)
         if centres.size == 0:
             return r
         d = np.min(np.linalg.norm(pair[:, None, :] - centres[None, :, :], axis=2), axis=0)

@@ -102,6 +102,12 @@ def waypoint_radius_m(site: Site, fence_margin_m: float) -> float:
     return float(min(ARDUPILOT_DEFAULT_RADIUS_M, max(ARDUPILOT_MIN_RADIUS_M, slack)))
 
 
+def leg_margin_m(site: Site, options: MissionOptions) -> float:
+    """How far (m) exported legs clear every buffered zone: the export margin, plus the part
+    of the minimum waypoint radius the buffer cannot absorb (:func:`corner_margin_m`)."""
+    return options.export_margin_m + corner_margin_m(site, fence_margin_for(site, options))
+
+
 def corner_margin_m(site: Site, fence_margin_m: float) -> float:
     """How far (m) legs must clear the buffered zones so that corners cut inside the waypoint
     radius (:func:`waypoint_radius_m`) stay outside the fence: nothing while the radius fits in
