@@ -131,12 +131,14 @@ def test_a_breach_holds_the_vehicle_short_of_crossing_the_zone(tmp_path):
     flight = report["sitl_flight"]
     assert [c["mode"] for c in flight["mode_changes"]][:1] == ["LOITER"]
     assert any("Geofence" in m["text"] for m in flight["messages"])
-    # it stopped inside MID (8-14 m in, by where PX4 caught the breach) but never deeper than
-    # the leg itself goes, and holds there (the flight is cut at the time limit), not on the
-    # far side
-    planned = min(z["clearance_m"] for z in report["audit"]["nfz"])
-    flown = min(z["clearance_m"] for z in report["sitl"]["nfz"])
-    assert flown > planned - 1.0
+    # It held within its braking distance of where it came in, so short of the far side: the
+    # leg's chord through MID is about 61 m, PX4 brakes from 8.5 m/s in 15-20 m. How deep it
+    # went depends on when PX4 caught the breach (8-16 m in; up to 4 s late under CI load), and
+    # PX4 may then move its loiter point back to the fence edge, so depth is not the test.
     rec = read_track(track)
-    xy = load_site(site).frame.to_local(rec.lat_deg[-1:], rec.lon_deg[-1:])[0]
-    assert np.hypot(xy[0] - 120.0, xy[1]) < 40.0 + 5.0
+    xy = load_site(site).frame.to_local(rec.lat_deg, rec.lon_deg)
+    inside = np.flatnonzero(np.hypot(xy[:, 0] - 120.0, xy[:, 1]) < 40.0)
+    assert inside.size, "the track never entered MID: the breach was not flown"
+    entry, last = xy[inside[0]], xy[-1]
+    assert np.hypot(last[0] - 120.0, last[1]) < 40.0 + 2.0  # in MID or at its fence edge
+    assert np.hypot(*(last - entry)) < 30.0
