@@ -11,7 +11,10 @@ A site file is YAML of this shape (see ``samples/paper-default.yaml``)::
       - {name: GN1, x: 60.0, y: 340.0}            # metres east/north of origin ...
       - {name: GN2, lat: 37.5590, lon: 127.0001}  # ... or WGS84 degrees
     no_fly_zones:
-      - {name: NFZ1, x: 150.0, y: 200.0, radius: 30.0}
+      - {name: NFZ1, x: 150.0, y: 200.0, radius: 30.0}   # a circle ...
+      - name: CTR                                      # ... or a polygon (x/y or lat/lon)
+        polygon: [{x: 0, y: 0}, {x: 120, y: 0}, {x: 120, y: 40}, {x: 0, y: 40}]
+    airspace: zones.geojson   # optional: more zones (validator.airspace), relative to this file
     safety: {buffer_m: 2.0}
 
 :func:`load_site` validates it with pydantic and resolves it into a :class:`Site` in SI units
@@ -29,12 +32,21 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import shapely
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from validator.airspace import AirspaceZone, load_airspace
 from validator.errors import InputError
 from validator.geodesy import LocalFrame
-from validator.input_files import MAX_SITE_BYTES, check_tree, parse_yaml, read_text
+from validator.input_files import (
+    MAX_SITE_BYTES,
+    check_tree,
+    parse_yaml,
+    read_text,
+    resolve_referenced_path,
+)
+from validator.zones import MAX_VERTICES, PolygonZone, point_clearance_m, polygon_zone
 
 DEFAULT_BUFFER_M = 2.0
 DEFAULT_MAX_ACCEL_MPS2 = 2.5  # ArduCopter WPNAV_ACCEL default
@@ -63,6 +75,20 @@ class OriginModel(_Strict):
     alt: float = Field(default=0.0, ge=-MAX_ALT_M, le=MAX_ALT_M)
 
 
+def _check_one_way(x: float | None, y: float | None, lat: float | None,
+                   lon: float | None) -> None:
+    local = x is not None or y is not None
+    geo = lat is not None or lon is not None
+    if local and geo:
+        raise ValueError("give the position either as x/y or as lat/lon, not both")
+    if local and (x is None or y is None):
+        raise ValueError("give both x and y")
+    if geo and (lat is None or lon is None):
+        raise ValueError("give both lat and lon")
+    if not (local or geo):
+        raise ValueError("give the position as x/y or as lat/lon")
+
+
 class PointModel(_Strict):
     """A point given either as local metres (x, y) or as WGS84 degrees (lat, lon)."""
 
@@ -73,16 +99,7 @@ class PointModel(_Strict):
 
     @model_validator(mode="after")
     def _one_way(self) -> PointModel:
-        local = self.x is not None or self.y is not None
-        geo = self.lat is not None or self.lon is not None
-        if local and geo:
-            raise ValueError("give the position either as x/y or as lat/lon, not both")
-        if local and (self.x is None or self.y is None):
-            raise ValueError("give both x and y")
-        if geo and (self.lat is None or self.lon is None):
-            raise ValueError("give both lat and lon")
-        if not (local or geo):
-            raise ValueError("give the position as x/y or as lat/lon")
+        _check_one_way(self.x, self.y, self.lat, self.lon)
         return self
 
 
@@ -90,9 +107,30 @@ class GroundNodeModel(PointModel):
     name: str = Field(min_length=1)
 
 
-class NoFlyZoneModel(PointModel):
+class NoFlyZoneModel(_Strict):
+    """A circle (centre as a point, and a radius) or a polygon (its vertices as points)."""
+
     name: str = Field(min_length=1)
-    radius: float = Field(gt=0, le=MAX_DISTANCE_M, description="m")
+    x: float | None = Field(default=None, ge=-MAX_DISTANCE_M, le=MAX_DISTANCE_M)
+    y: float | None = Field(default=None, ge=-MAX_DISTANCE_M, le=MAX_DISTANCE_M)
+    lat: float | None = Field(default=None, ge=-90, le=90)
+    lon: float | None = Field(default=None, ge=-180, le=180)
+    radius: float | None = Field(default=None, gt=0, le=MAX_DISTANCE_M, description="m")
+    polygon: list[PointModel] | None = Field(default=None, max_length=MAX_VERTICES)
+
+    @model_validator(mode="after")
+    def _circle_or_polygon(self) -> NoFlyZoneModel:
+        if self.polygon is not None:
+            if any(v is not None for v in (self.x, self.y, self.lat, self.lon, self.radius)):
+                raise ValueError("a polygon zone takes no x/y/lat/lon/radius: give either a "
+                                 "circle or a polygon")
+            if len(self.polygon) < 3:
+                raise ValueError(f"a polygon needs at least 3 vertices, got {len(self.polygon)}")
+            return self
+        if self.radius is None:
+            raise ValueError("give a circle (x/y or lat/lon, and radius) or a polygon")
+        _check_one_way(self.x, self.y, self.lat, self.lon)
+        return self
 
 
 class UavModel(_Strict):
@@ -134,6 +172,8 @@ class SiteModel(_Strict):
     radio: RadioModel
     ground_nodes: list[GroundNodeModel] = Field(min_length=1, max_length=MAX_NODES)
     no_fly_zones: list[NoFlyZoneModel] = Field(default_factory=list, max_length=MAX_NODES)
+    airspace: str | None = Field(default=None, min_length=1,
+                                 description="GeoJSON file of more zones, beside the site file")
     safety: SafetyModel = Field(default_factory=SafetyModel)
 
 
@@ -141,8 +181,9 @@ class SiteModel(_Strict):
 class Site:
     """A validated site in SI units, positions in metres east/north of the origin.
 
-    Arrays: ``gn_xy_m`` is (K, 2), ``nfz_xy_m`` is (M, 2), ``nfz_radius_m`` is (M,).
-    ``nfz_radius_m`` are the zones as published; planning adds ``buffer_m`` to each.
+    Arrays: ``gn_xy_m`` is (K, 2), ``nfz_xy_m`` is (M, 2), ``nfz_radius_m`` is (M,): the M
+    circle zones. ``polygon_zones`` are the polygon zones, in file order after the circles (the
+    site file's, then the airspace file's). Zones are as published; planning adds ``buffer_m``.
     """
 
     name: str
@@ -164,6 +205,7 @@ class Site:
     nfz_xy_m: NDArray[np.float64]
     nfz_radius_m: NDArray[np.float64]
     buffer_m: float = DEFAULT_BUFFER_M
+    polygon_zones: tuple[PolygonZone, ...] = ()
 
     @property
     def num_gns(self) -> int:
@@ -171,7 +213,13 @@ class Site:
 
     @property
     def num_nfzs(self) -> int:
+        """The number of circle zones."""
         return len(self.nfz_names)
+
+    @property
+    def zone_names(self) -> tuple[str, ...]:
+        """Every zone's name: the circles, then the polygons."""
+        return self.nfz_names + tuple(z.name for z in self.polygon_zones)
 
     @property
     def planning_radius_m(self) -> NDArray[np.float64]:
@@ -245,10 +293,94 @@ def _check_home_clear(site: Site, field: str) -> None:
                 f"{field}: home lies inside {site.nfz_names[m]} plus its {site.buffer_m:g} m "
                 f"safety buffer ({d[m]:.1f} m from its centre)"
             )
+    for zone in site.polygon_zones:
+        c = float(point_clearance_m(zone, site.home_xy_m))
+        if c < site.buffer_m:
+            where = f"{-c:.1f} m inside it" if c < 0 else f"{c:.1f} m from it"
+            raise InputError(f"{field}: home lies inside {zone.name} plus its "
+                             f"{site.buffer_m:g} m safety buffer ({where})")
 
 
-def parse_site(data: Any, source: str = "site") -> Site:
-    """Validate a site given as a parsed YAML mapping and resolve it into a :class:`Site`."""
+@dataclass(frozen=True)
+class _Zone:
+    """A zone being read, with where it was written (for error messages)."""
+
+    where: str
+    name: str
+    centre_m: NDArray[np.float64] | None = None  # a circle ...
+    radius_m: float = 0.0
+    polygon: PolygonZone | None = None  # ... or a polygon
+
+    @property
+    def shape(self) -> shapely.Geometry:
+        if self.polygon is not None:
+            return self.polygon.shape
+        assert self.centre_m is not None
+        return shapely.Point(self.centre_m).buffer(self.radius_m, quad_segs=64)
+
+
+def _site_zones(model: SiteModel, frame: LocalFrame, source: str,
+                base_file: str | Path | None) -> list[_Zone]:
+    zones = []
+    for i, z in enumerate(model.no_fly_zones):
+        where = f"{source}: no_fly_zones[{i}] ({z.name})"
+        if z.polygon is not None:
+            verts = [_resolve(frame, v) for v in z.polygon]
+            zones.append(_Zone(where, z.name, polygon=polygon_zone(z.name, verts,
+                                                                   f"{where}.polygon")))
+        else:
+            zones.append(_Zone(where, z.name, _resolve(frame, z), float(z.radius or 0.0)))
+    if model.airspace is not None:
+        if base_file is None:
+            raise InputError(f"{source}: airspace: only a site file read from disk may name an "
+                             "airspace file (it is found relative to the site file)")
+        path = resolve_referenced_path(base_file, model.airspace, field="airspace")
+        zones += [_airspace_zone(a, frame) for a in load_airspace(path)]
+    return zones
+
+
+def _airspace_zone(a: AirspaceZone, frame: LocalFrame) -> _Zone:
+    if a.radius_m is not None:
+        return _Zone(a.where, a.name, frame.to_local(*a.lat_lon_deg[0]), a.radius_m)
+    lat, lon = a.lat_lon_deg[:, 0], a.lat_lon_deg[:, 1]
+    return _Zone(a.where, a.name, polygon=polygon_zone(a.name, frame.to_local(lat, lon), a.where))
+
+
+def _check_zones(zones: list[_Zone], model: SiteModel, gn_xy: NDArray[np.float64],
+                 source: str) -> None:
+    """Names unique, no two zones overlapping (touching is allowed), no ground node inside."""
+    seen: dict[str, str] = {}
+    for z in zones:
+        if z.name in seen:
+            raise InputError(f"{z.where}: duplicate zone name (also {seen[z.name]})")
+        seen[z.name] = z.where
+    shapes = [z.shape for z in zones]
+    for j, zj in enumerate(zones):
+        for i in range(j):
+            zi = zones[i]
+            if zi.polygon is None and zj.polygon is None:
+                assert zi.centre_m is not None and zj.centre_m is not None
+                overlap = bool(np.linalg.norm(zi.centre_m - zj.centre_m) < zi.radius_m
+                               + zj.radius_m)
+            else:
+                overlap = bool(shapely.intersection(shapes[i], shapes[j]).area > 0.0)
+            if overlap:
+                raise InputError(f"{zj.where}: overlaps {zi.name}")
+    for k, g in enumerate(model.ground_nodes):
+        for z in zones:
+            if z.polygon is not None:
+                inside = float(point_clearance_m(z.polygon, gn_xy[k])) < 0.0
+            else:
+                assert z.centre_m is not None
+                inside = bool(np.linalg.norm(gn_xy[k] - z.centre_m) < z.radius_m)
+            if inside:
+                raise InputError(f"{source}: ground_nodes[{k}] ({g.name}): lies inside {z.name}")
+
+
+def parse_site(data: Any, source: str = "site", *, base_file: str | Path | None = None) -> Site:
+    """Validate a site given as a parsed YAML mapping and resolve it into a :class:`Site`.
+
+    ``base_file`` is the site file, from whose folder an ``airspace:`` file is read."""
     if not isinstance(data, dict):
         raise InputError(f"{source}: expected a mapping at the top level")
     check_tree(data, source)
@@ -256,37 +388,23 @@ def parse_site(data: Any, source: str = "site") -> Site:
         model = SiteModel.model_validate(data)
     except ValidationError as err:
         raise InputError(f"{source}: {_first_error(err, data)}") from None
-    return site_from_model(model, source)
+    return site_from_model(model, source, base_file=base_file)
 
 
-def site_from_model(model: SiteModel, source: str = "site") -> Site:
+def site_from_model(model: SiteModel, source: str = "site", *,
+                    base_file: str | Path | None = None) -> Site:
     """Resolve a validated :class:`SiteModel`; checks relations between items."""
     frame = LocalFrame(model.origin.lat, model.origin.lon, model.origin.alt)
     gn_xy = np.array([_resolve(frame, g) for g in model.ground_nodes], dtype=float)
-    nfz_xy = np.array([_resolve(frame, z) for z in model.no_fly_zones], dtype=float).reshape(-1, 2)
-    radius = np.array([z.radius for z in model.no_fly_zones], dtype=float)
     home = _resolve(frame, model.home) if model.home else np.zeros(2)
-
-    for field, names in (
-        ("ground_nodes", [g.name for g in model.ground_nodes]),
-        ("no_fly_zones", [z.name for z in model.no_fly_zones]),
-    ):
-        seen: set[str] = set()
-        for i, name in enumerate(names):
-            if name in seen:
-                raise InputError(f"{source}: {field}[{i}] ({name}): duplicate name")
-            seen.add(name)
-    for i in range(len(radius)):
-        for j in range(i + 1, len(radius)):
-            if np.linalg.norm(nfz_xy[i] - nfz_xy[j]) < radius[i] + radius[j]:
-                zi, zj = model.no_fly_zones[i].name, model.no_fly_zones[j].name
-                raise InputError(
-                    f"{source}: no_fly_zones[{j}] ({zj}): overlaps no_fly_zones[{i}] ({zi})"
-                )
-    for k, g in enumerate(model.ground_nodes):
-        for m, z in enumerate(model.no_fly_zones):
-            if np.linalg.norm(gn_xy[k] - nfz_xy[m]) < radius[m]:
-                raise InputError(f"{source}: ground_nodes[{k}] ({g.name}): lies inside {z.name}")
+    seen: set[str] = set()
+    for i, g in enumerate(model.ground_nodes):
+        if g.name in seen:
+            raise InputError(f"{source}: ground_nodes[{i}] ({g.name}): duplicate name")
+        seen.add(g.name)
+    zones = _site_zones(model, frame, source, base_file)
+    _check_zones(zones, model, gn_xy, source)
+    circles = [z for z in zones if z.polygon is None]
     site = Site(
         name=model.name,
         frame=frame,
@@ -303,10 +421,11 @@ def site_from_model(model: SiteModel, source: str = "site") -> Site:
         noise_w=dbm_to_w(model.radio.noise_dbm),
         gn_names=tuple(g.name for g in model.ground_nodes),
         gn_xy_m=gn_xy,
-        nfz_names=tuple(z.name for z in model.no_fly_zones),
-        nfz_xy_m=nfz_xy,
-        nfz_radius_m=radius,
+        nfz_names=tuple(z.name for z in circles),
+        nfz_xy_m=np.array([z.centre_m for z in circles], dtype=float).reshape(-1, 2),
+        nfz_radius_m=np.array([z.radius_m for z in circles], dtype=float),
         buffer_m=model.safety.buffer_m,
+        polygon_zones=tuple(z.polygon for z in zones if z.polygon is not None),
     )
     _check_home_clear(site, f"{source}: home")
     return site
@@ -315,12 +434,12 @@ def site_from_model(model: SiteModel, source: str = "site") -> Site:
 def load_site(path: str | Path) -> Site:
     """Read, validate and resolve a site YAML file (limits: :mod:`validator.input_files`)."""
     path = Path(path)
-    return loads_site(read_text(path, "site", MAX_SITE_BYTES), str(path))
+    return loads_site(read_text(path, "site", MAX_SITE_BYTES), str(path), base_file=path)
 
 
-def loads_site(text: str, source: str = "site") -> Site:
-    """Parse, validate and resolve site YAML text."""
-    return parse_site(parse_yaml(text, source), source)
+def loads_site(text: str, source: str = "site", *, base_file: str | Path | None = None) -> Site:
+    """Parse, validate and resolve site YAML text (``base_file``: see :func:`parse_site`)."""
+    return parse_site(parse_yaml(text, source), source, base_file=base_file)
 
 
 def site_to_dict(site: Site) -> dict[str, Any]:
@@ -358,6 +477,10 @@ def site_to_dict(site: Site) -> dict[str, Any]:
         "no_fly_zones": [
             {"name": n, "x": float(x), "y": float(y), "radius": float(r)}
             for n, (x, y), r in zip(site.nfz_names, site.nfz_xy_m, site.nfz_radius_m, strict=True)
+        ] + [
+            {"name": z.name, "polygon": [{"x": float(x), "y": float(y)} for x, y in
+                                         z.vertices_xy_m]}
+            for z in site.polygon_zones
         ],
         "safety": {"buffer_m": site.buffer_m},
     }

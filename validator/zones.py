@@ -1,0 +1,170 @@
+"""Polygon no-fly zones: their shape, convex parts, clearances of points and legs, fence outline.
+
+A circle zone is a centre and a radius (``Site.nfz_xy_m``, ``Site.nfz_radius_m``); a polygon
+zone is a :class:`PolygonZone`: a simple polygon without holes, vertices in metres east/north
+of the site origin, counter-clockwise. Clearances are signed like the circles'
+(``validator.geometry``): the distance outside the zone, negative for the depth inside it.
+
+The planner keeps a straight leg outside a polygon through its convex parts: a leg lies outside a
+convex part (plus a buffer b) when both its end points lie beyond one supporting line of the part
+pushed out by b (:func:`support_m`). A non-convex zone is cut into convex parts whose union is the
+zone (:func:`convex_parts`), so the same linear test covers it part by part.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+import shapely
+from numpy.typing import ArrayLike, NDArray
+from shapely.geometry.polygon import orient
+
+from validator.errors import InputError
+
+MAX_VERTICES = 1_000  # per zone: published airspace polygons hold tens to hundreds
+# Depth sampling along a leg that enters a polygon: the sign of a clearance is exact (shapely),
+# the depth of a violation is measured to within half this step.
+DEPTH_STEP_M = 0.05
+# A fence outline may stand off a zone corner by at most this many times its margin: a mitred
+# corner beyond it is bevelled, still containing the zone plus margin (see fence_outline_m).
+FENCE_MITRE_LIMIT = 2.0
+
+
+@dataclass(frozen=True, eq=False)
+class PolygonZone:
+    """A polygon no-fly zone as published (the planner adds the site's buffer).
+
+    ``vertices_xy_m`` is (P, 2), counter-clockwise, without repeating the first vertex;
+    ``parts`` are convex (Q, 2) counter-clockwise polygons whose union is the zone.
+    """
+
+    name: str
+    vertices_xy_m: NDArray[np.float64]
+    parts: tuple[NDArray[np.float64], ...] = field(repr=False)
+
+    @cached_property
+    def shape(self) -> shapely.Polygon:
+        return shapely.Polygon(self.vertices_xy_m)
+
+    @property
+    def is_convex(self) -> bool:
+        return len(self.parts) == 1
+
+    @property
+    def area_m2(self) -> float:
+        return float(self.shape.area)
+
+
+def polygon_zone(name: str, vertices_xy_m: ArrayLike, where: str) -> PolygonZone:
+    """A validated :class:`PolygonZone`; :class:`InputError` at ``where`` when the vertices do
+    not make a simple polygon of at least 3 corners (repeated and closing vertices are dropped,
+    any orientation is accepted)."""
+    v = np.asarray(vertices_xy_m, dtype=float).reshape(-1, 2)
+    if len(v) > MAX_VERTICES:
+        raise InputError(f"{where}: {len(v)} vertices; at most {MAX_VERTICES} are supported")
+    keep = np.ones(len(v), dtype=bool)
+    keep[1:] = np.any(v[1:] != v[:-1], axis=1)
+    v = v[keep]
+    if len(v) > 1 and np.all(v[-1] == v[0]):
+        v = v[:-1]
+    if len(v) < 3:
+        raise InputError(f"{where}: a polygon needs at least 3 distinct vertices, got {len(v)}")
+    poly = shapely.Polygon(v)
+    if not poly.is_valid or poly.area <= 0.0:
+        reason = shapely.is_valid_reason(poly)
+        what = "has no area" if poly.area <= 0.0 else "intersects itself"
+        raise InputError(f"{where}: the polygon {what} ({reason}); give its vertices in order "
+                         "round the boundary")
+    poly = orient(poly, 1.0)
+    verts = np.asarray(poly.exterior.coords, dtype=float)[:-1]
+    return PolygonZone(name, verts, convex_parts(verts))
+
+
+def convex_parts(vertices_xy_m: ArrayLike) -> tuple[NDArray[np.float64], ...]:
+    """Convex counter-clockwise polygons whose union is the simple polygon ``vertices_xy_m``.
+
+    A convex polygon is its own part. Otherwise its constrained Delaunay triangles are merged
+    greedily while a union stays convex (Hertel and Mehlhorn: at most four times the fewest parts),
+    in a fixed order, so the parts are deterministic.
+    """
+    v = np.asarray(vertices_xy_m, dtype=float)
+    poly = orient(shapely.Polygon(v), 1.0)
+    if math.isclose(poly.convex_hull.area, poly.area, rel_tol=1e-12, abs_tol=1e-9):
+        return (np.asarray(poly.exterior.coords, dtype=float)[:-1],)
+    parts = [orient(t, 1.0) for t in shapely.constrained_delaunay_triangles(poly).geoms]
+    merged = True
+    while merged:
+        merged = False
+        for i in range(len(parts)):
+            for j in range(i + 1, len(parts)):
+                shared = parts[i].boundary.intersection(parts[j].boundary)
+                if shared.length <= 0.0:
+                    continue
+                union = shapely.union(parts[i], parts[j])
+                if isinstance(union, shapely.Polygon) and math.isclose(
+                        union.convex_hull.area, union.area, rel_tol=1e-9, abs_tol=1e-9):
+                    parts[i] = orient(shapely.simplify(union, 0.0), 1.0)
+                    del parts[j]
+                    merged = True
+                    break
+            if merged:
+                break
+    return tuple(np.asarray(p.exterior.coords, dtype=float)[:-1] for p in parts)
+
+
+def support_m(part_xy_m: ArrayLike, direction: ArrayLike) -> NDArray[np.float64]:
+    """The support function max over the part's vertices of ``direction`` · v (m).
+
+    For a unit ``direction`` a, the line a·x = support_m(part, a) touches the convex part and
+    leaves it on the side a·x ≤ support; a leg whose end points both satisfy
+    a·x ≥ support + b lies, whole, at least b from the part. ``direction`` may be (..., 2).
+    """
+    part = np.asarray(part_xy_m, dtype=float)
+    d = np.asarray(direction, dtype=float)
+    return np.asarray(np.max(d @ part.T, axis=-1), dtype=float)
+
+
+def point_clearance_m(zone: PolygonZone, xy_m: ArrayLike) -> NDArray[np.float64]:
+    """Signed clearance (m) of points (..., 2) from the zone: distance outside, minus the depth
+    inside (the distance to its boundary)."""
+    xy = np.asarray(xy_m, dtype=float)
+    pts = shapely.points(xy.reshape(-1, 2))
+    outside = shapely.distance(zone.shape, pts)
+    inside = shapely.distance(zone.shape.exterior, pts)
+    d = np.where(outside > 0.0, outside, -inside)
+    return np.asarray(d.reshape(xy.shape[:-1]), dtype=float)
+
+
+def leg_clearance_m(zone: PolygonZone, a_m: ArrayLike, b_m: ArrayLike) -> float:
+    """Signed clearance (m) of the straight leg ``a``→``b`` from the zone: the exact distance when
+    it stays outside, else minus the deepest point's depth (to within DEPTH_STEP_M / 2)."""
+    a, b = np.asarray(a_m, dtype=float), np.asarray(b_m, dtype=float)
+    leg = shapely.LineString([a, b]) if np.any(a != b) else shapely.Point(a)
+    d = float(shapely.distance(zone.shape, leg))
+    if d > 0.0:
+        return d
+    n = max(2, int(math.ceil(float(np.linalg.norm(b - a)) / DEPTH_STEP_M)) + 1)
+    t = np.linspace(0.0, 1.0, n)[:, None]
+    return float(np.min(point_clearance_m(zone, a + t * (b - a))))
+
+
+def fence_outline_m(zone: PolygonZone, margin_m: float) -> NDArray[np.float64]:
+    """Vertices (P, 2), counter-clockwise, of a polygon holding every point within ``margin_m``
+    of the zone: the outline an exclusion fence needs.
+
+    Offsetting each vertex by the margin would cut inside the zone's rounded margin at every
+    corner. Mitred joins (each edge pushed out by the margin, neighbours extended to meet) contain
+    it; at acute corners the mitre point runs far out, so beyond FENCE_MITRE_LIMIT x margin the
+    corner is bevelled by a line at least the margin from the vertex, which still contains it.
+    """
+    if margin_m <= 0.0:
+        return zone.vertices_xy_m.copy()
+    out = zone.shape.buffer(margin_m, join_style="mitre", mitre_limit=FENCE_MITRE_LIMIT)
+    out = orient(out, 1.0)
+    # floating point may leave an edge a hair inside the margin: the containment is checked
+    if float(shapely.distance(out.exterior, zone.shape)) < margin_m * (1.0 - 1e-9):
+        raise AssertionError(f"fence outline of {zone.name} cuts its {margin_m} m margin")
+    return np.asarray(out.exterior.coords, dtype=float)[:-1]
