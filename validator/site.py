@@ -173,7 +173,7 @@ class SiteModel(_Strict):
     ground_nodes: list[GroundNodeModel] = Field(min_length=1, max_length=MAX_NODES)
     no_fly_zones: list[NoFlyZoneModel] = Field(default_factory=list, max_length=MAX_NODES)
     airspace: str | None = Field(default=None, min_length=1,
-                                 description="GeoJSON file of more zones, beside the site file")
+                                 description="GeoJSON file of more zones, beside the site")
     safety: SafetyModel = Field(default_factory=SafetyModel)
 
 
@@ -278,7 +278,7 @@ def _first_error(err: ValidationError, data: Any) -> str:
     return f"{where}: {msg}"
 
 
-def _resolve(frame: LocalFrame, p: PointModel) -> NDArray[np.float64]:
+def _resolve(frame: LocalFrame, p: PointModel | NoFlyZoneModel) -> NDArray[np.float64]:
     if p.x is not None and p.y is not None:
         return np.array([p.x, p.y], dtype=float)
     assert p.lat is not None and p.lon is not None
