@@ -62,3 +62,20 @@ def test_a_failed_link_is_a_user_error_but_not_bad_input() -> None:
 
     assert issubclass(LinkError, UserError) and not issubclass(LinkError, InputError)
     assert issubclass(InputError, UserError)
+
+
+def test_a_bad_airspace_file_is_one_line_naming_it_and_nothing_is_written(tmp_path,
+                                                                         capsys) -> None:
+    from pathlib import Path
+
+    sample = Path(__file__).parents[1] / "samples" / "paper-default.yaml"
+    site = tmp_path / "site.yaml"
+    site.write_text(sample.read_text() + "airspace: zones.geojson\n")
+    (tmp_path / "zones.geojson").write_text('{"type": "FeatureCollection", "features": [{"type": '
+                                            '"Feature", "properties": {"name": "R"}, "geometry":'
+                                            ' {"type": "LineString", "coordinates": []}}]}')
+    assert plan_mission_main([str(site), "-o", str(tmp_path / "m.plan")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"plan-mission: {tmp_path / 'zones.geojson'}: features[0] (R).geometry: a "
+                   "LineString cannot be a zone (Polygon, MultiPolygon, or Point with radius_m)"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["site.yaml", "zones.geojson"]

@@ -28,8 +28,9 @@ MAX_VERTICES = 1_000  # per zone: published airspace polygons hold tens to hundr
 # Depth sampling along a leg that enters a polygon: the sign of a clearance is exact (shapely),
 # the depth of a violation is measured to within half this step.
 DEPTH_STEP_M = 0.05
-# A fence outline may stand off a zone corner by at most this many times its margin: a mitred
-# corner beyond it is bevelled, still containing the zone plus margin (see fence_outline_m).
+# A fence outline's mitred corner may stand off its zone vertex at most this many times the
+# margin; beyond, it is bevelled there, still containing the zone plus margin (so no outline
+# vertex lies further than sqrt(1 + limit^2) margins from the zone; see fence_outline_m).
 FENCE_MITRE_LIMIT = 2.0
 
 
@@ -75,7 +76,8 @@ def polygon_zone(name: str, vertices_xy_m: ArrayLike, where: str) -> PolygonZone
     poly = shapely.Polygon(v)
     if not poly.is_valid or poly.area <= 0.0:
         reason = shapely.is_valid_reason(poly)
-        what = "has no area" if poly.area <= 0.0 else "intersects itself"
+        flat = np.linalg.matrix_rank(v - v[0], tol=1e-9) < 2
+        what = "has no area (its vertices lie on one line)" if flat else "intersects itself"
         raise InputError(f"{where}: the polygon {what} ({reason}); give its vertices in order "
                          "round the boundary")
     poly = orient(poly, 1.0)

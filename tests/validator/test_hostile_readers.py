@@ -327,3 +327,42 @@ def test_waypoints_mutations(data: st.DataObject) -> None:
               source="mutant.waypoints")
     except InputError as err:
         _assert_one_line(err, "mutant.waypoints")
+
+
+POLYGON_SITE = yaml.safe_load(SITE_TEXT) | {"no_fly_zones": [
+    {"name": "NFZ1", "x": 190.0, "y": 330.0, "radius": 30.0},
+    {"name": "CTR", "polygon": [{"x": 300, "y": -100}, {"x": 420, "y": -100}, {"x": 360, "y": -80},
+                                {"x": 420, "y": -60}, {"x": 300, "y": -60}]},
+    {"name": "TWR", "polygon": [{"lat": 37.5565, "lon": 127.0005},
+                                {"lat": 37.5565, "lon": 127.0015},
+                                {"lat": 37.557, "lon": 127.001}]}]}
+AIRSPACE = {"type": "FeatureCollection", "features": [
+    {"type": "Feature", "properties": {"name": "PRISON"}, "geometry": {
+        "type": "MultiPolygon", "coordinates": [[[[126.998, 37.556], [126.9985, 37.556],
+                                                  [126.998, 37.5565], [126.998, 37.556]]]]}},
+    {"type": "Feature", "properties": {"name": "MAST", "radius_m": 20}, "geometry": {
+        "type": "Point", "coordinates": [126.9985, 37.5605]}}]}
+
+
+@HYPO
+@given(st.data())
+def test_polygon_site_structure_mutations(data: st.DataObject) -> None:
+    _read_site(yaml.safe_dump(_mutate(POLYGON_SITE, data.draw), allow_unicode=True))
+
+
+@HYPO
+@given(st.data())
+def test_airspace_structure_mutations(tmp_path_factory: pytest.TempPathFactory,
+                                      data: st.DataObject) -> None:
+    folder = tmp_path_factory.mktemp("airspace")
+    (folder / "zones.geojson").write_text(json.dumps(_mutate(AIRSPACE, data.draw),
+                                                     allow_nan=True))
+    (folder / "site.yaml").write_text(yaml.safe_dump(yaml.safe_load(SITE_TEXT)
+                                                     | {"airspace": "zones.geojson"}))
+    try:
+        site = load_site(folder / "site.yaml")
+    except InputError as err:
+        assert "\n" not in str(err) and str(err).startswith(str(folder)), str(err)
+        return
+    for zone in site.polygon_zones:
+        assert np.all(np.isfinite(zone.vertices_xy_m)) and zone.area_m2 > 0

@@ -169,3 +169,92 @@ def test_local_frame_is_the_tangent_plane_at_the_origin_altitude() -> None:
     assert np.allclose(high.to_local(lat, lon), [360.0, 110.0], atol=1e-5)
     # A frame at sea level would put the same point ~3 cm further out at 584 m.
     assert np.linalg.norm(low.to_local(lat, lon) - [360.0, 110.0]) > 0.02
+
+
+CTR = [{"x": 300.0, "y": 150.0}, {"x": 420.0, "y": 150.0}, {"x": 420.0, "y": 190.0},
+       {"x": 300.0, "y": 190.0}]
+
+
+def _with_polygon(vertices: list[dict[str, float]] = CTR) -> dict[str, Any]:
+    data = _base()
+    data["no_fly_zones"].append({"name": "CTR", "polygon": copy.deepcopy(vertices)})
+    return data
+
+
+def test_a_polygon_zone_is_read_beside_the_circles() -> None:
+    site = parse_site(_with_polygon())
+    assert site.nfz_names == ("NFZ1",) and site.zone_names == ("NFZ1", "CTR")
+    (ctr,) = site.polygon_zones
+    assert ctr.area_m2 == pytest.approx(120.0 * 40.0) and ctr.is_convex
+
+
+def test_polygon_vertices_may_be_geodetic() -> None:
+    site = parse_site(_with_polygon([{"lat": 37.561, "lon": 127.001},
+                                     {"lat": 37.562, "lon": 127.001},
+                                     {"lat": 37.5615, "lon": 127.0025}]))
+    assert site.polygon_zones[0].vertices_xy_m[:, 0].min() == pytest.approx(176.7, abs=0.5)
+
+
+def test_a_polygon_site_round_trips_through_its_dict() -> None:
+    site = parse_site(_with_polygon())
+    again = parse_site(site_to_dict(site))
+    assert again.zone_names == site.zone_names
+    got, want = again.polygon_zones[0].vertices_xy_m, site.polygon_zones[0].vertices_xy_m
+    assert got == pytest.approx(want)
+
+
+@pytest.mark.parametrize("change, words", [
+    (lambda z: z.update(radius=5.0), "no_fly_zones[1] (CTR): a polygon zone takes no"),
+    (lambda z: z.update(polygon=z["polygon"][:2]), "at least 3 vertices"),
+    (lambda z: z.update(polygon=[z["polygon"][i] for i in (0, 2, 1, 3)]),
+     "no_fly_zones[1] (CTR).polygon: the polygon intersects itself"),
+    (lambda z: z["polygon"][0].update(lat=37.5), "not both"),
+])
+def test_bad_polygon_zones_name_the_zone(change, words) -> None:
+    data = _with_polygon()
+    change(data["no_fly_zones"][1])
+    _rejects(data, words)
+
+
+def test_a_zone_without_radius_or_polygon_says_what_it_needs() -> None:
+    data = _base()
+    del data["no_fly_zones"][0]["radius"]
+    _rejects(data, "no_fly_zones[0] (NFZ1)", "or a polygon")
+
+
+def test_rejects_a_polygon_overlapping_a_circle_or_a_polygon() -> None:
+    data = _with_polygon([{"x": 160.0, "y": 180.0}, {"x": 220.0, "y": 150.0},
+                          {"x": 220.0, "y": 250.0}])
+    _rejects(data, "no_fly_zones[1] (CTR): overlaps NFZ1")
+    data = _with_polygon()
+    data["no_fly_zones"].append({"name": "TWR", "polygon": [{"x": 410.0, "y": 180.0},
+                                                            {"x": 500.0, "y": 180.0},
+                                                            {"x": 500.0, "y": 250.0}]})
+    _rejects(data, "no_fly_zones[2] (TWR): overlaps CTR")
+
+
+def test_polygons_that_share_an_edge_do_not_overlap() -> None:
+    data = _with_polygon()
+    data["no_fly_zones"].append({"name": "TWR", "polygon": [{"x": 420.0, "y": 150.0},
+                                                            {"x": 480.0, "y": 150.0},
+                                                            {"x": 420.0, "y": 190.0}]})
+    assert parse_site(data).zone_names == ("NFZ1", "CTR", "TWR")
+
+
+def test_rejects_a_gn_inside_a_polygon_and_home_in_its_buffer() -> None:
+    data = _with_polygon()
+    data["ground_nodes"][1] = {"name": "GN2", "x": 350.0, "y": 170.0}
+    _rejects(data, "ground_nodes[1] (GN2)", "inside CTR")
+    data = _with_polygon()
+    data["home"] = {"x": 350.0, "y": 191.0}  # 1 m outside, inside the 2 m buffer
+    _rejects(data, "home lies inside CTR plus its 2 m safety buffer")
+
+
+def test_duplicate_zone_names_across_circles_and_polygons() -> None:
+    data = _with_polygon()
+    data["no_fly_zones"][1]["name"] = "NFZ1"
+    _rejects(data, "no_fly_zones[1] (NFZ1): duplicate")
+
+
+def test_an_airspace_key_needs_a_site_file_on_disk() -> None:
+    _rejects(_base() | {"airspace": "zones.geojson"}, "airspace", "site file read from disk")

@@ -1,0 +1,108 @@
+"""Polygon zones: validation, convex parts, signed clearances, the fence outline."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from validator.errors import InputError
+from validator.zones import (
+    convex_parts,
+    fence_outline_m,
+    leg_clearance_m,
+    point_clearance_m,
+    polygon_zone,
+    support_m,
+)
+
+SQUARE = [(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)]
+# a "U": non-convex, the notch between x = 4 and 6 from y = 4 up
+U = [(0, 0), (10, 0), (10, 10), (6, 10), (6, 4), (4, 4), (4, 10), (0, 10)]
+
+
+def test_vertices_are_oriented_counter_clockwise_without_the_closing_repeat():
+    z = polygon_zone("Z", SQUARE[::-1] + [SQUARE[-1]], "z")
+    assert len(z.vertices_xy_m) == 4
+    assert shapely.LinearRing(z.vertices_xy_m).is_ccw
+
+
+@pytest.mark.parametrize("verts, words", [
+    ([(0, 0), (1, 0)], "at least 3"),
+    ([(0, 0), (1, 0), (1, 0), (0, 0)], "at least 3"),
+    ([(0, 0), (10, 10), (10, 0), (0, 10)], "intersects itself"),
+    ([(0, 0), (1, 1), (2, 2)], "no area"),
+])
+def test_bad_polygons_are_refused_naming_the_field(verts, words):
+    with pytest.raises(InputError, match=words) as err:
+        polygon_zone("Z", verts, "site.yaml: no_fly_zones[1] (Z).polygon")
+    assert str(err.value).startswith("site.yaml: no_fly_zones[1] (Z).polygon: ")
+
+
+def test_a_convex_polygon_is_its_own_part():
+    assert len(polygon_zone("Z", SQUARE, "z").parts) == 1
+
+
+def test_convex_parts_of_a_non_convex_polygon_cover_it_exactly_and_are_convex():
+    z = polygon_zone("U", U, "z")
+    parts = [shapely.Polygon(p) for p in z.parts]
+    assert len(parts) >= 3  # the U cannot be cut into fewer
+    for p in parts:
+        assert p.convex_hull.area == pytest.approx(p.area)
+        assert shapely.LinearRing(p.exterior.coords).is_ccw
+    assert sum(p.area for p in parts) == pytest.approx(z.area_m2)
+    assert shapely.union_all(parts).symmetric_difference(z.shape).area == pytest.approx(0.0,
+                                                                                        abs=1e-9)
+
+
+def test_support_line_leaves_the_part_on_its_inner_side():
+    part = polygon_zone("Z", SQUARE, "z").parts[0]
+    assert float(support_m(part, [1.0, 0.0])) == 10.0
+    assert float(support_m(part, [-1.0, 0.0])) == 0.0
+    diag = np.array([1.0, 1.0]) / np.sqrt(2.0)
+    assert float(support_m(part, diag)) == pytest.approx(20.0 / np.sqrt(2.0))
+
+
+def test_point_clearance_is_distance_outside_and_minus_depth_inside():
+    z = polygon_zone("Z", SQUARE, "z")
+    got = point_clearance_m(z, [[13.0, 5.0], [5.0, 1.0], [13.0, 14.0]])
+    assert got == pytest.approx([3.0, -1.0, 5.0])
+
+
+def test_leg_clearance_is_exact_outside_and_the_depth_inside():
+    z = polygon_zone("U", U, "z")
+    # down the notch's middle: 1 m from both arms, never inside
+    assert leg_clearance_m(z, [5.0, 12.0], [5.0, 5.0]) == pytest.approx(1.0)
+    # across the left arm at y = 7: 2 m deep at its middle (x = 2, 2 m from x = 0 and x = 4)
+    assert leg_clearance_m(z, [-3.0, 7.0], [5.0, 7.0]) == pytest.approx(-2.0, abs=0.03)
+    # a leg that just touches a corner
+    assert leg_clearance_m(z, [10.0, 12.0], [12.0, 10.0]) == pytest.approx(np.sqrt(2.0))
+
+
+@pytest.mark.parametrize("margin_m", [0.5, 3.0, 25.0])
+@pytest.mark.parametrize("verts", [SQUARE, U, [(0, 0), (100, 0), (0, 3)]])
+def test_fence_outline_holds_every_point_within_the_margin(verts, margin_m):
+    z = polygon_zone("Z", verts, "z")
+    out = shapely.Polygon(fence_outline_m(z, margin_m))
+    assert out.contains(z.shape)
+    assert shapely.distance(out.exterior, z.shape) >= margin_m * (1 - 1e-9)
+    # no runaway spikes at acute corners: a mitre beyond FENCE_MITRE_LIMIT (2) margins is
+    # bevelled, so no vertex lies further than sqrt(1 + 2^2) margins from the zone
+    far = shapely.distance(z.shape, shapely.points(fence_outline_m(z, margin_m))).max()
+    assert far <= np.sqrt(5.0) * margin_m + 1e-6
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.floats(-50, 50), st.floats(-50, 50)), min_size=3, max_size=9))
+def test_convex_parts_cover_any_simple_polygon(points):
+    poly = shapely.Polygon(points)
+    if not poly.is_valid or poly.area <= 0.0:
+        with pytest.raises(InputError):
+            polygon_zone("Z", points, "z")
+        return
+    parts = [shapely.Polygon(p) for p in convex_parts(np.asarray(poly.exterior.coords)[:-1])]
+    assert sum(p.area for p in parts) == pytest.approx(poly.area, rel=1e-9)
+    for p in parts:
+        assert p.convex_hull.area == pytest.approx(p.area, rel=1e-9)
