@@ -76,9 +76,15 @@ def _signing_key_arg(p: argparse.ArgumentParser | argparse._ArgumentGroup, help:
 
 def _signing_key(args: argparse.Namespace) -> bytes | None:
     """The key of ``--signing-key FILE``, or None (:class:`InputError` for a bad file)."""
-    from validator.mavlink.signing import read_signing_key
+    from validator.mavlink.signing import key_file_exposure, read_signing_key
 
-    return read_signing_key(args.signing_key) if args.signing_key else None
+    if not args.signing_key:
+        return None
+    key = read_signing_key(args.signing_key)
+    warning = key_file_exposure(args.signing_key)
+    if warning is not None:
+        print(warning, file=sys.stderr)
+    return key
 
 
 def _link_args(p: argparse.ArgumentParser) -> None:

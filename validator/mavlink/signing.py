@@ -25,6 +25,8 @@ those by sender so that a link that hears no vehicle can say why.
 from __future__ import annotations
 
 import hashlib
+import os
+import stat
 import time
 from collections import Counter
 from pathlib import Path
@@ -66,6 +68,20 @@ def read_signing_key(path: str | Path) -> bytes:
     if problem is not None:
         raise InputError(f"{path}: signing key file {problem}")
     return key_from_passphrase(lines[0])
+
+
+def key_file_exposure(path: str | Path) -> str | None:
+    """A one-line warning when other users may read the key file ``path`` (as gpg warns; ssh
+    refuses such a key, but a signing passphrase in a shared lab folder is common and the user
+    must be told, not stopped mid-flight-test), else None. POSIX permission bits only."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return None  # read_signing_key reports the file itself
+    if os.name != "posix" or not mode & (stat.S_IRWXG | stat.S_IRWXO):
+        return None
+    return (f"warning: signing key file {path} is readable by other users (mode "
+            f"{stat.S_IMODE(mode):04o}): chmod 600 {path}")
 
 
 def carries_signature(msg: Any) -> bool:

@@ -19,6 +19,7 @@ from validator.mavlink.cli import download_mission_main, sitl_vehicle_main, uplo
 from validator.mavlink.signing import (
     RefusedTraffic,
     carries_signature,
+    key_file_exposure,
     read_signing_key,
     sign_and_verify,
 )
@@ -35,6 +36,7 @@ OTHER_KEY = hashlib.sha256(b"another-passphrase").digest()
 def key_file(tmp_path: Path) -> Path:
     path = tmp_path / "link.key"
     path.write_text(PASSPHRASE + "\n")
+    path.chmod(0o600)
     return path
 
 
@@ -80,6 +82,15 @@ def test_a_malformed_key_file_is_one_line_naming_it(tmp_path: Path, content: byt
     message = str(err.value)
     assert message.startswith(f"{path}: ") and problem in message
     assert "two" not in message and "words" not in message  # the passphrase is not shown
+
+
+@pytest.mark.parametrize("mode, warned", [(0o600, False), (0o400, False), (0o640, True),
+                                         (0o604, True)])
+def test_a_key_file_others_may_read_is_warned_of(key_file: Path, mode: int, warned: bool) -> None:
+    key_file.chmod(mode)
+    warning = key_file_exposure(key_file)
+    assert (warning is not None) == warned
+    assert warning is None or f"mode {mode:04o}" in warning
 
 
 def test_a_missing_key_file_is_named(tmp_path: Path) -> None:
@@ -178,14 +189,19 @@ def test_signed_upload_to_a_signing_vehicle_is_verified(plan, plan_file, key_fil
     url = url_of(vehicle)
     assert upload_mission_main([str(plan_file), "--connect", url, "--signing-key",
                                 str(key_file)]) == 0
-    assert capsys.readouterr().out.startswith("uploaded and verified 7 mission, 6 fence")
+    captured = capsys.readouterr()
+    assert captured.out.startswith("uploaded and verified 7 mission, 6 fence")
+    assert captured.err == ""  # a private key file: no warning
     assert len(vehicle.lists().mission) == 7
     signing = vehicle.conn.mav.signing
     assert signing.goodsig_count > 0 and signing.badsig_count == signing.reject_count == 0
     out = tmp_path / "held.plan"
+    key_file.chmod(0o644)  # readable by everyone: warned, not refused
     assert download_mission_main(["--connect", url, "--signing-key", str(key_file), "-o",
                                   str(out)]) == 0
     assert [it.command for it in read_plan(out).items] == [it.command for it in plan.items]
+    assert capsys.readouterr().err == (f"warning: signing key file {key_file} is readable by "
+                                       f"other users (mode 0644): chmod 600 {key_file}\n")
 
 
 def test_a_wrong_key_fails_cleanly_within_the_timeout(plan, plan_file, tmp_path, start_vehicle,
@@ -193,6 +209,7 @@ def test_a_wrong_key_fails_cleanly_within_the_timeout(plan, plan_file, tmp_path,
     vehicle = start_vehicle(plan, signing_key=KEY)
     wrong = tmp_path / "wrong.key"
     wrong.write_text("another-passphrase\n")
+    wrong.chmod(0o600)
     start = time.monotonic()
     status = upload_mission_main([str(plan_file), "--connect", url_of(vehicle), "--timeout", "2",
                                   "--signing-key", str(wrong)])
