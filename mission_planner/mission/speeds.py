@@ -1,5 +1,4 @@
-"""Leg speeds and holds as the autopilot takes them: the speed limit, slow legs, stop lags and
-whole-second holds.
+"""Leg speeds and holds as the autopilot takes them: speed limit, slow legs, stop lags.
 
 - **Speed limit.** A leg speed never exceeds the site's V: float excess is clipped (the leg
   then takes a hair longer than δ); an excess above 1 % is reported as a problem. S-curve legs

@@ -1,5 +1,4 @@
-"""A multicopter's own limits: speed, acceleration and jerk it is flown with, how far it may
-lean, and the top speed its drag then allows."""
+"""A multicopter's own limits: speed, acceleration, jerk, lean, and the top speed drag allows."""
 
 from __future__ import annotations
 
