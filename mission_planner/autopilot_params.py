@@ -88,6 +88,7 @@ def recommended_params(mission: Mission) -> AutopilotParams:
     autopilot = mission.options.autopilot
     speed = min(fastest_leg_mps(mission), top_speed_mps(site, autopilot))
     radius = waypoint_radius_m(site, mission.fence_margin_m)
+    table = param_table(autopilot)
     if autopilot == "px4":
         values = {
             "MPC_XY_CRUISE": round(_ceil(speed, 0.01), 2),
@@ -98,10 +99,10 @@ def recommended_params(mission: Mission) -> AutopilotParams:
         }
     else:
         values = {
-            "WPNAV_SPEED": _ceil(speed * 100.0, 1.0),
-            "WPNAV_ACCEL": round(site.max_accel_mps2 * 100.0, 6),
-            "WPNAV_JERK": site.max_jerk_mps3,
-            "WPNAV_RADIUS": round(radius * 100.0, 6),
+            "WPNAV_SPEED": _ceil(table["WPNAV_SPEED"].from_si(speed), 1.0),
+            "WPNAV_ACCEL": round(table["WPNAV_ACCEL"].from_si(site.max_accel_mps2), 6),
+            "WPNAV_JERK": table["WPNAV_JERK"].from_si(site.max_jerk_mps3),
+            "WPNAV_RADIUS": round(table["WPNAV_RADIUS"].from_si(radius), 6),
         }
     values.update(FENCE_RULES[autopilot].recommended)
     return AutopilotParams(autopilot, values, range_notes(autopilot, values))

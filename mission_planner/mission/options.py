@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from mission_planner.transit import DEFAULT_ARC_STEP_DEG
-from validator.autopilot.rules import STATIONARY_M, acceptance_radius_m
+from validator.autopilot.rules import ARDUPILOT_MIN_SPEED_MPS, STATIONARY_M, acceptance_radius_m
 from validator.errors import InputError
 from validator.plan_format import Autopilot
 from validator.site import Site
@@ -35,7 +35,7 @@ class MissionOptions:
     export_margin_m: float = 0.01
     max_nudge_m: float = 0.05
     stationary_tol_m: float = STATIONARY_M
-    min_speed_mps: float = 0.2
+    min_speed_mps: float = ARDUPILOT_MIN_SPEED_MPS
     speed_tol_mps: float = 1e-3
     arc_step_deg: float = DEFAULT_ARC_STEP_DEG
     merge_legs: bool = True

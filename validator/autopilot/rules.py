@@ -9,6 +9,9 @@
 - **Standing still.** A planned slot that moves less than :data:`STATIONARY_M` is a hover: the
   exporter merges it into a waypoint's hold, the flyable timing takes it for a hover point,
   the throughput reading of a track for a hold.
+- **Slowest speed.** ArduCopter ignores a DO_CHANGE_SPEED below
+  :data:`ARDUPILOT_MIN_SPEED_MPS` (WPNAV_SPEED's documented minimum); the exporter flies a
+  slower leg at that speed and holds for the rest of its slot.
 - **Corner radius.** Both autopilots cut a corner inside the acceptance radius (ArduCopter
   WPNAV_RADIUS, PX4 NAV_ACC_RAD; :data:`ACCEPTANCE_RADIUS_PARAM`). :func:`acceptance_radius_m`
   keeps a wanted radius between the autopilot's minimum and its default (wider corners save
@@ -29,6 +32,10 @@ from numpy.typing import ArrayLike, NDArray
 from validator.autopilot.tables import param_table
 
 STATIONARY_M = 0.05  # a planned slot that moves less than this (m) is a hover
+# ArduCopter ignores a DO_CHANGE_SPEED below WPNAV_SPEED's minimum (AC_WPNav's
+# WPNAV_WP_SPEED_MIN, 20 cm/s): a slower leg must be flown faster and wait at its end.
+_WPNAV_SPEED = param_table("ardupilot")["WPNAV_SPEED"]
+ARDUPILOT_MIN_SPEED_MPS = _WPNAV_SPEED.minimum * _WPNAV_SPEED.to_si
 ACCEPTANCE_RADIUS_PARAM = {"ardupilot": "WPNAV_RADIUS", "px4": "NAV_ACC_RAD"}
 
 

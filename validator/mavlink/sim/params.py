@@ -7,6 +7,7 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
+from validator.autopilot.ardupilot import PARAMS as ARDUPILOT_PARAMS
 from validator.errors import InputError
 from validator.mavlink.autoflight import vehicle_profile
 from validator.mavlink.sim.arducopter import BASE_PARAMS, INT16, REAL32
@@ -36,6 +37,10 @@ class ParamTable:
 
     def value(self, name: str) -> float:
         return float(self.values[name][0])
+
+    def si(self, name: str) -> float:
+        """An ArduCopter parameter's value in SI units (:mod:`validator.autopilot.ardupilot`)."""
+        return self.value(name) * ARDUPILOT_PARAMS[name].to_si
 
     def profile(self, changes: Mapping[str, float] | None = None) -> Profile:
         """The flight profile at the current values (with ``changes``); raises
