@@ -4,22 +4,22 @@ The paper's model knows only a top speed; an autopilot also limits acceleration 
 rounds corners inside its waypoint radius. :func:`recommended_params` turns a mission and its
 site into the parameters that make the vehicle fly the plan with the site's limits:
 
-ArduCopter 4.x (``AC_WPNav``; names, units and documented ranges from its parameter table)
+ArduCopter (names, units and documented ranges: :mod:`validator.autopilot.ardupilot`)
 
-- ``WPNAV_SPEED`` (cm/s, 20–2000): the fastest planned leg (the largest DO_CHANGE_SPEED in the
-  plan) or the vehicle's real top speed (:func:`mission_planner.optimize.retime.top_speed_mps`,
+- ``WPNAV_SPEED``: the fastest planned leg (the largest DO_CHANGE_SPEED in the plan) or the
+  vehicle's real top speed (:func:`mission_planner.optimize.retime.top_speed_mps`,
   lean-limited with drag), whichever is lower: the speed the vehicle will reach. Rounded up to
   a whole cm/s, so a leg without a speed change is never flown slower;
-- ``WPNAV_ACCEL`` (cm/s/s, 50–500): the site's ``uav.max_accel``;
-- ``WPNAV_JERK`` (m/s/s/s, 1–20): the site's ``uav.max_jerk``;
-- ``WPNAV_RADIUS`` (cm, 5–1000): :func:`waypoint_radius_m`.
+- ``WPNAV_ACCEL``: the site's ``uav.max_accel``; ``WPNAV_JERK``: its ``uav.max_jerk``;
+- ``WPNAV_RADIUS``: :func:`waypoint_radius_m`.
 
-PX4 (multicopter position control and navigator)
+PX4 (:mod:`validator.autopilot.px4`)
 
-- ``MPC_XY_CRUISE`` (m/s, 3–20) and ``MPC_XY_VEL_MAX`` (m/s, 0–20): the fastest planned leg or
-  the vehicle's top speed, whichever is lower (PX4 caps every mission speed at MPC_XY_VEL_MAX);
-- ``MPC_ACC_HOR`` (m/s², 2–15): ``uav.max_accel``; ``MPC_JERK_AUTO`` (m/s³, 1–80): ``uav.max_jerk``;
-- ``NAV_ACC_RAD`` (m, 0.05–200): :func:`waypoint_radius_m`.
+- ``MPC_XY_CRUISE`` and ``MPC_XY_VEL_MAX``: the fastest planned leg or the vehicle's top
+  speed, whichever is lower (PX4 caps every mission speed at MPC_XY_VEL_MAX), rounded up to
+  a whole cm/s;
+- ``MPC_ACC_HOR``: ``uav.max_accel``; ``MPC_JERK_AUTO``: ``uav.max_jerk``;
+- ``NAV_ACC_RAD``: :func:`waypoint_radius_m`.
 
 Both: the geofence switched on with a breach action that never flies straight across another
 zone (:mod:`validator.autopilot.fence`: ArduCopter FENCE_TYPE 4, FENCE_ACTION 5 SmartRTL or
@@ -43,29 +43,9 @@ from mission_planner.mission import Mission
 from mission_planner.mission.options import waypoint_radius_m
 from mission_planner.optimize.retime import top_speed_mps
 from validator.autopilot.fence import FENCE_RULES
-from validator.autopilot.param_file import MAV_PARAM_TYPE_INT32, format_params
+from validator.autopilot.param_file import format_params
+from validator.autopilot.tables import param_table, range_notes
 from validator.plan_format import Cmd
-
-# name -> (unit, documented minimum, documented maximum)
-ARDUPILOT_PARAMS: dict[str, tuple[str, float, float]] = {
-    "WPNAV_SPEED": ("cm/s", 20.0, 2000.0),
-    "WPNAV_ACCEL": ("cm/s/s", 50.0, 500.0),
-    "WPNAV_JERK": ("m/s/s/s", 1.0, 20.0),
-    "WPNAV_RADIUS": ("cm", 5.0, 1000.0),
-    "FENCE_TYPE": ("bitmask", 0.0, 15.0),
-    "FENCE_ACTION": ("enum", 0.0, 5.0),
-    "FENCE_ENABLE": ("boolean", 0.0, 1.0),
-}
-PX4_PARAMS: dict[str, tuple[str, float, float]] = {
-    "MPC_XY_CRUISE": ("m/s", 3.0, 20.0),
-    "MPC_XY_VEL_MAX": ("m/s", 0.0, 20.0),
-    "MPC_ACC_HOR": ("m/s/s", 2.0, 15.0),
-    "MPC_JERK_AUTO": ("m/s/s/s", 1.0, 80.0),
-    "NAV_ACC_RAD": ("m", 0.05, 200.0),
-    "GF_ACTION": ("enum", 0.0, 5.0),
-}
-PX4_INTEGER_PARAMS = {"GF_ACTION": MAV_PARAM_TYPE_INT32}  # the rest are REAL32
-PARAM_TABLES = {"ardupilot": ARDUPILOT_PARAMS, "px4": PX4_PARAMS}
 
 
 @dataclass(frozen=True)
@@ -80,7 +60,7 @@ class AutopilotParams:
     notes: tuple[str, ...] = field(default=())
 
     def unit(self, name: str) -> str:
-        return PARAM_TABLES[self.autopilot][name][0]
+        return param_table(self.autopilot)[name].unit
 
     def as_dict(self) -> dict[str, object]:
         return {
@@ -108,6 +88,7 @@ def recommended_params(mission: Mission) -> AutopilotParams:
     autopilot = mission.options.autopilot
     speed = min(fastest_leg_mps(mission), top_speed_mps(site, autopilot))
     radius = waypoint_radius_m(site, mission.fence_margin_m)
+    table = param_table(autopilot)
     if autopilot == "px4":
         values = {
             "MPC_XY_CRUISE": round(_ceil(speed, 0.01), 2),
@@ -118,20 +99,13 @@ def recommended_params(mission: Mission) -> AutopilotParams:
         }
     else:
         values = {
-            "WPNAV_SPEED": _ceil(speed * 100.0, 1.0),
-            "WPNAV_ACCEL": round(site.max_accel_mps2 * 100.0, 6),
-            "WPNAV_JERK": site.max_jerk_mps3,
-            "WPNAV_RADIUS": round(radius * 100.0, 6),
+            "WPNAV_SPEED": _ceil(table["WPNAV_SPEED"].from_si(speed), 1.0),
+            "WPNAV_ACCEL": round(table["WPNAV_ACCEL"].from_si(site.max_accel_mps2), 6),
+            "WPNAV_JERK": table["WPNAV_JERK"].from_si(site.max_jerk_mps3),
+            "WPNAV_RADIUS": round(table["WPNAV_RADIUS"].from_si(radius), 6),
         }
     values.update(FENCE_RULES[autopilot].recommended)
-    table = PARAM_TABLES[autopilot]
-    notes = tuple(
-        f"{name} {value:g} {table[name][0]} is outside the documented range "
-        f"{table[name][1]:g}-{table[name][2]:g}: check that the vehicle accepts it"
-        for name, value in values.items()
-        if not table[name][1] <= value <= table[name][2]
-    )
-    return AutopilotParams(autopilot, values, notes)
+    return AutopilotParams(autopilot, values, range_notes(autopilot, values))
 
 
 def dumps_params(params: AutopilotParams, title: str = "") -> str:
@@ -140,12 +114,12 @@ def dumps_params(params: AutopilotParams, title: str = "") -> str:
     comments = [title] if title else []
     comments.append(", ".join(f"{n} in {params.unit(n)}" for n in params.values))
     comments += [f"note: {note}" for note in params.notes]
-    return format_params(params.values, params.autopilot, comments, PX4_INTEGER_PARAMS)
+    table = param_table(params.autopilot)
+    types = {n: table[n].mav_type for n in params.values}
+    return format_params(params.values, params.autopilot, comments, types)
 
 
 __all__ = [
-    "ARDUPILOT_PARAMS",
-    "PX4_PARAMS",
     "AutopilotParams",
     "dumps_params",
     "fastest_leg_mps",

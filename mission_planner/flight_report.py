@@ -24,7 +24,8 @@ from typing import Any
 from mission_planner.autopilot_params import AutopilotParams, recommended_params
 from mission_planner.mission import Mission
 from validator.flight import resolve_flight
-from validator.motion.profile import Profile, flight_params, make_profile
+from validator.motion.limits import site_limits
+from validator.motion.profile import Profile, flown_params, make_profile
 from validator.replay import TrackReport, replay, score_track
 
 CYCLE_OVERRUN_WARN = 0.10  # warn when the flown cycle is off T by more than this fraction
@@ -130,8 +131,8 @@ def replay_mission(
         params = recommended_params(mission)
     values = dict(params.values if isinstance(params, AutopilotParams) else params)
     name = profile or PROFILE_FOR[mission.options.autopilot]
-    values = flight_params(name, site, values)
-    prof = make_profile(name, site, values)
+    values = flown_params(name, values)
+    prof = make_profile(name, site_limits(site), values)
     flight = resolve_flight(mission.plan, site, "mission")
     track = replay(flight, prof, dt_s=dt_s)
     report = score_track(track, flight, site, mission.plan)

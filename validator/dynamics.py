@@ -46,8 +46,10 @@ from validator.motion.ideal import ideal_leg_times
 from validator.motion.limits import (
     GRAVITY_MPS2,
     SITL_QUAD_DRAG_PER_M,
+    VehicleLimits,
     air_density_ratio,
     lean_angle_max_deg,
+    site_limits,
     top_speed_mps,
 )
 from validator.motion.path import FlownPath, LegGeometry, kinematic_limit, leg_geometry
@@ -58,6 +60,7 @@ from validator.motion.profile import (
     Profile,
     ProfileName,
     flight_params,
+    flown_params,
     make_profile,
     parse_param_overrides,
 )
@@ -82,12 +85,13 @@ __all__ = [
     "CORNER_SEARCH_STEP_S", "GRAVITY_MPS2", "LAND_DETECT_S", "LIFTOFF_DELAY_S", "PARAM_SPECS",
     "PROFILES", "PX4_ARRIVAL_LAG_S", "PX4_LAND_DETECT_S", "PX4_LIFTOFF_DELAY_S", "SEG_CRUISE",
     "SEG_DECEL_START", "SITL_QUAD_DRAG_PER_M", "STOP_LAG_S", "FlownPath", "LegGeometry",
-    "ParamSpec", "Profile", "ProfileName", "Profiles1D", "air_density_ratio",
+    "ParamSpec", "Profile", "ProfileName", "Profiles1D", "VehicleLimits", "air_density_ratio",
     "arducopter_accel_mps2", "arducopter_lean_max_deg", "arducopter_top_speed_mps",
-    "constant_speed", "corner_overlaps_s", "flight_params", "fly", "ideal_leg_times",
-    "jerk_ramp_s", "kinematic_limit", "lean_angle_max_deg", "leg_geometry", "make_profile",
-    "parse_param_overrides", "px4_rest_to_rest", "px4_top_speed_mps", "scurve_peak_speed",
-    "scurve_rest_to_rest", "scurve_to_touchdown", "top_speed_mps",
+    "constant_speed", "corner_overlaps_s", "flight_params", "flown_params", "fly",
+    "ideal_leg_times", "jerk_ramp_s", "kinematic_limit", "lean_angle_max_deg", "leg_geometry",
+    "make_profile", "parse_param_overrides", "px4_rest_to_rest", "px4_top_speed_mps",
+    "scurve_peak_speed", "scurve_rest_to_rest", "scurve_to_touchdown", "site_limits",
+    "top_speed_mps"
 ]
 
 

@@ -18,7 +18,8 @@ from validator.audit import AuditReport, audit
 from validator.autopilot.fence import FENCE_RULES
 from validator.errors import InputError
 from validator.flight import Finding, Flight, resolve_flight
-from validator.motion.profile import Profile, flight_params, make_profile
+from validator.motion.limits import site_limits
+from validator.motion.profile import Profile, flown_params, make_profile
 from validator.plan_format import Autopilot, Plan, read_plan
 from validator.replay import TrackReport, replay, score_track
 from validator.site import Site, load_site
@@ -135,8 +136,8 @@ def validate_mission(
                             for p in rules.problems(vehicle_params)]
     if replay_flight or profile is not None or params or vehicle_params:
         name = profile or default_profile_name(plan)
-        merged = {**flight_params(name, site, vehicle_params or {}), **(params or {})}
-        prof = make_profile(name, site, merged)
+        merged = {**flown_params(name, vehicle_params or {}), **(params or {})}
+        prof = make_profile(name, site_limits(site), merged)
         v.profile = prof
         if flight.legs:
             track = replay(flight, prof, dt_s=dt_s)

@@ -53,7 +53,6 @@ from mission_planner.mission.speeds import (
     SPEED_EXCESS_ALLOWED,
     assign_speeds,
     stop_lags,
-    whole_second_holds,
 )
 from mission_planner.mission.steps import (
     CycleStep,
@@ -63,6 +62,7 @@ from mission_planner.mission.steps import (
     service_steps,
 )
 from mission_planner.mission.summary import cycle_duration_s, mission_summary
+from validator.autopilot.rules import whole_second_holds
 from validator.plan_format import EXTRA_KEY
 
 __all__ = [

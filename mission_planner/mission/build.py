@@ -19,7 +19,7 @@ from mission_planner.mission.options import (
     fence_margin_for,
     leg_margin_m,
 )
-from mission_planner.mission.speeds import assign_speeds, stop_lags, whole_second_holds
+from mission_planner.mission.speeds import assign_speeds, stop_lags
 from mission_planner.mission.steps import (
     CycleStep,
     merge_straight_steps,
@@ -30,6 +30,7 @@ from mission_planner.mission.steps import (
 )
 from mission_planner.optimize.retime import cruise_speed_mps
 from mission_planner.optimize.solution import Solution
+from validator.autopilot.rules import programmed_holds_s
 from validator.plan_format import Cmd, Frame, MissionItem, Plan
 
 _NAN = math.nan
@@ -133,12 +134,9 @@ def _service_cycle(solution: Solution, opt: MissionOptions) -> _Cycle:
     inner = [n for s in steps for n in s.slots[:s.moving_slots - 1]]
     merge_offset = (float(np.max(np.hypot(*(q[inner] - planned_q[inner]).T))) if inner else 0.0)
     steps, problems = assign_speeds(steps, q, site.max_speed_mps, opt.min_speed_mps)
-    if opt.autopilot == "ardupilot":
-        if solution.notes.get("dynamics") == "vehicle":
-            steps = stop_lags(steps)
-        holds = whole_second_holds([s.hold_s - s.stop_lag_s for s in steps])
-    else:
-        holds = np.array([s.hold_s for s in steps])
+    if opt.autopilot == "ardupilot" and solution.notes.get("dynamics") == "vehicle":
+        steps = stop_lags(steps)
+    holds = programmed_holds_s([s.hold_s - s.stop_lag_s for s in steps], opt.autopilot)
     return _Cycle(q, steps, holds, moved, merge_offset, per_slot - len(steps), problems)
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from mission_planner.transit import DEFAULT_ARC_STEP_DEG
+from validator.autopilot.rules import ARDUPILOT_MIN_SPEED_MPS, STATIONARY_M, acceptance_radius_m
 from validator.errors import InputError
 from validator.plan_format import Autopilot
 from validator.site import Site
@@ -33,8 +34,8 @@ class MissionOptions:
     transit_speed_mps: float | None = None
     export_margin_m: float = 0.01
     max_nudge_m: float = 0.05
-    stationary_tol_m: float = 0.05
-    min_speed_mps: float = 0.2
+    stationary_tol_m: float = STATIONARY_M
+    min_speed_mps: float = ARDUPILOT_MIN_SPEED_MPS
     speed_tol_mps: float = 1e-3
     arc_step_deg: float = DEFAULT_ARC_STEP_DEG
     merge_legs: bool = True
@@ -84,10 +85,6 @@ def fence_margin_for(site: Site, options: MissionOptions) -> float:
     return site.buffer_m / 2.0 if options.fence_margin_m is None else float(options.fence_margin_m)
 
 
-ARDUPILOT_DEFAULT_RADIUS_M = 2.0  # WPNAV_RADIUS default (200 cm): no reason to cut wider
-ARDUPILOT_MIN_RADIUS_M = 0.05  # WPNAV_RADIUS minimum (5 cm), AC_WPNav enforces it
-
-
 def waypoint_radius_m(site: Site, fence_margin_m: float) -> float:
     """Waypoint (acceptance) radius (m) for a site: buffer − fence margin, within [0.05, 2].
 
@@ -95,11 +92,11 @@ def waypoint_radius_m(site: Site, fence_margin_m: float) -> float:
     legs by up to about the radius (measured in ArduCopter SITL and in the replay), on the
     inside of the turn. The planned legs keep the full safety buffer from each NFZ and the
     exclusion fence sits ``fence_margin_m`` outside the NFZ, so a radius of at most the slack
-    between them keeps rounded corners off the fence. Never above ArduCopter's default 2 m
-    (wider corners save little time) nor below its 5 cm minimum.
+    between them keeps rounded corners off the fence. Never above the autopilot's default 2 m
+    (wider corners save little time) nor below its 5 cm minimum
+    (:func:`validator.autopilot.rules.acceptance_radius_m`).
     """
-    slack = site.buffer_m - fence_margin_m
-    return float(min(ARDUPILOT_DEFAULT_RADIUS_M, max(ARDUPILOT_MIN_RADIUS_M, slack)))
+    return acceptance_radius_m(site.buffer_m - fence_margin_m)
 
 
 def leg_margin_m(site: Site, options: MissionOptions) -> float:

@@ -11,7 +11,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from validator.dynamics import ideal_leg_times, make_profile
+from validator.dynamics import ideal_leg_times, make_profile, site_limits
 from validator.flight import resolve_flight
 from validator.geodesy import round_e7
 from validator.item_lists import GLOBAL_FRAMES
@@ -61,5 +61,5 @@ def planned_cycle_s(plan: Plan, site: Site) -> float:
     c = flight.cycle
     if c is None:
         return math.nan
-    window = c.window_s(*ideal_leg_times(flight, make_profile("ideal", site)))
+    window = c.window_s(*ideal_leg_times(flight, make_profile("ideal", site_limits(site))))
     return math.nan if window is None else (window[1] - window[0]) / c.cycles

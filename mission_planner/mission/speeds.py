@@ -1,5 +1,4 @@
-"""Leg speeds and holds as the autopilot takes them: the speed limit, slow legs, stop lags and
-whole-second holds.
+"""Leg speeds and holds as the autopilot takes them: speed limit, slow legs, stop lags.
 
 - **Speed limit.** A leg speed never exceeds the site's V: float excess is clipped (the leg
   then takes a hair longer than δ); an excess above 1 % is reported as a problem. S-curve legs
@@ -14,10 +13,9 @@ whole-second holds.
   hover (:mod:`mission_planner.optimize.retime`), so on ArduPilot each stop's hold is written
   net of it (``CycleStep.stop_lag_s``) and the cycle still lasts T.
 - **Whole-second holds.** ArduCopter stores a waypoint hold as whole seconds (it truncates).
-  For ArduPilot holds are rounded by error diffusion along the cycle (each hold is the
-  rounded running sum minus the previous rounded running sum), so no hold is off by a second
-  or more and the cycle's total hold differs from the plan by less than half a second; the
-  summary reports the difference. PX4 keeps fractional holds.
+  The build writes holds as :func:`validator.autopilot.rules.programmed_holds_s` says (for
+  ArduPilot rounded by error diffusion along the cycle; PX4 keeps fractional holds); the
+  summary reports the difference.
 """
 
 from __future__ import annotations
@@ -25,7 +23,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from mission_planner.mission.steps import CycleStep
 from validator.dynamics import STOP_LAG_S
@@ -74,14 +72,3 @@ def stop_lags(steps: list[CycleStep]) -> list[CycleStep]:
     return [replace(s, stop_lag_s=STOP_LAG_S)
             if s.speed_mps is not None and s.leg_s > 0 and s.hold_s > STOP_LAG_S else s
             for s in steps]
-
-
-def whole_second_holds(holds_s: ArrayLike) -> NDArray[np.float64]:
-    """Holds (s) rounded to whole seconds by error diffusion along the sequence.
-
-    Hold k becomes round(Σ_{i≤k} h_i) − round(Σ_{i<k} h_i): never negative, zero where the
-    planned hold is zero, and the total stays within half a second of the planned total.
-    """
-    cum = np.cumsum(np.asarray(holds_s, dtype=float))
-    rounded = np.floor(cum + 0.5)
-    return np.diff(np.concatenate([[0.0], rounded]))

@@ -1,1 +1,1 @@
-"""What the validator knows about each autopilot: parameter files and geofence rules."""
+"""What we know of each autopilot: parameter tables, flight rules, geofence rules, param files."""

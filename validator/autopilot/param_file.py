@@ -13,11 +13,10 @@ import re
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
+from validator.autopilot.spec import MAV_PARAM_TYPE_REAL32
 from validator.errors import InputError
 from validator.input_files import read_text
 
-MAV_PARAM_TYPE_INT32 = 6
-MAV_PARAM_TYPE_REAL32 = 9
 _PARAM_NAME = re.compile(r"^[A-Za-z0-9_]{1,16}$")
 
 

@@ -22,7 +22,8 @@ from numpy.typing import NDArray
 
 from validator.flight import Leg, resolve_flight
 from validator.geodesy import LocalFrame
-from validator.motion.profile import PARAM_SPECS, Profile, make_profile
+from validator.motion.limits import VehicleLimits
+from validator.motion.profile import Profile, flown_params, make_profile
 from validator.plan_format import Cmd, Plan
 from validator.replay import replay
 from validator.site import DEFAULT_MAX_ACCEL_MPS2, DEFAULT_MAX_JERK_MPS3, Site
@@ -30,14 +31,11 @@ from validator.site import DEFAULT_MAX_ACCEL_MPS2, DEFAULT_MAX_JERK_MPS3, Site
 TAKEOFF_DONE_M = 0.5  # a takeoff item is complete at once within this of its altitude
 
 
-def vehicle_site(
-    frame: LocalFrame,
-    max_speed_mps: float,
-    max_accel_mps2: float = DEFAULT_MAX_ACCEL_MPS2,
-    max_jerk_mps3: float = DEFAULT_MAX_JERK_MPS3,
-) -> Site:
-    """A site holding only what flying needs: the vehicle's home frame and its limits (no
-    ground nodes or zones; the vehicle knows nothing of the plan's site)."""
+def vehicle_site(frame: LocalFrame, max_speed_mps: float) -> Site:
+    """A site holding only what resolving the vehicle's mission needs (:func:`resolve_flight`:
+    the home frame, and the speed of legs without DO_CHANGE_SPEED): no ground nodes or zones,
+    as the vehicle knows nothing of the plan's site. The flight model takes the vehicle's
+    limits instead (:class:`~validator.motion.limits.VehicleLimits`)."""
     return Site(
         name="sitl-vehicle",
         frame=frame,
@@ -46,8 +44,8 @@ def vehicle_site(
         max_speed_mps=max_speed_mps,
         period_s=1.0,
         slots=1,
-        max_accel_mps2=max_accel_mps2,
-        max_jerk_mps3=max_jerk_mps3,
+        max_accel_mps2=DEFAULT_MAX_ACCEL_MPS2,
+        max_jerk_mps3=DEFAULT_MAX_JERK_MPS3,
         p_avg_w=1.0,
         p_peak_w=1.0,
         beta0=1.0,
@@ -61,10 +59,10 @@ def vehicle_site(
     )
 
 
-def vehicle_profile(name: str, site: Site, params: Mapping[str, float]) -> Profile:
-    """Profile ``name`` with every parameter of ``params`` it knows (autopilot units)."""
-    known = PARAM_SPECS.get(name, {})
-    return make_profile(name, site, {k: v for k, v in params.items() if k in known})
+def vehicle_profile(name: str, limits: VehicleLimits, params: Mapping[str, float]) -> Profile:
+    """Profile ``name`` for a vehicle with ``limits``, with every parameter of ``params`` it
+    knows (autopilot units)."""
+    return make_profile(name, limits, flown_params(name, params))
 
 
 @dataclass(frozen=True)

@@ -407,7 +407,7 @@ def run_sitl(v: Validation, args: argparse.Namespace,
 
     ``vehicle_params`` (a parameter file's values and the autopilot's own ``--param``
     overrides) are set on the vehicle before the flight."""
-    from validator.dynamics import make_profile, parse_param_overrides
+    from validator.dynamics import make_profile, parse_param_overrides, site_limits
     from validator.mavlink.driver import builtin_vehicle, default_time_limit_s, fly_and_score
     from validator.mavlink.sitl_process import (
         autopilot_sitl,
@@ -424,7 +424,8 @@ def run_sitl(v: Validation, args: argparse.Namespace,
                          "itself run on loopback, unsigned)")
     overrides = parse_param_overrides(getattr(args, "param", None))
     profile = v.profile or make_profile(getattr(args, "profile", None)
-                                        or default_profile_name(v.plan), v.site, overrides)
+                                        or default_profile_name(v.plan), site_limits(v.site),
+                                        overrides)
     limit = args.sitl_time_limit or default_time_limit_s(v.flight, profile)
     if not v.flight.legs:
         raise InputError(f"{v.plan_path}: nothing to fly (no navigation items)")

@@ -8,9 +8,10 @@ WPNAV_RADIUS of the waypoint, slower than both legs' speeds and within the corne
 (WPNAV_ACCEL_C, 0 = twice WPNAV_ACCEL): the two profiles add up, which rounds the corner on the
 inside of the turn and passes collinear waypoints without stopping. The waypoint counts as
 reached half-way through that overlap. Holds are truncated to whole seconds, as ArduCopter
-stores them. Speed is capped by the lean-limited top speed
-(:func:`~validator.motion.limits.top_speed_mps`: ANGLE_MAX or PSC_ANGLE_MAX against a drag
-fitted to the SITL quad, VEHICLE_DRAG, at the air density of ALT_AMSL). A takeoff from the
+stores them (:func:`validator.autopilot.rules.stored_hold_s`). Speed is capped by the
+lean-limited top speed (:func:`~validator.motion.limits.top_speed_mps`: ANGLE_MAX or
+PSC_ANGLE_MAX against a drag fitted to the SITL quad, VEHICLE_DRAG, at the air density of
+ALT_AMSL). A takeoff from the
 ground climbs after the lift-off delay; a landing descends at WPNAV_SPEED_DN to LAND_ALT_LOW,
 then at LAND_SPEED, and ends when the land detector fires; every stop at a waypoint is counted
 STOP_LAG_S after the S-curve ends (all three fitted to ArduCopter 4.5.6 SITL flights,
@@ -20,10 +21,12 @@ STOP_LAG_S after the S-curve ends (all three fitted to ArduCopter 4.5.6 SITL fli
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
+from validator.autopilot.rules import stored_hold_s
 from validator.flight import Flight
 from validator.motion.limits import (
     GRAVITY_MPS2,
@@ -79,26 +82,45 @@ def arducopter_top_speed_mps(profile: Profile) -> float:
     return min(v, profile.si("VEHICLE_SPEED_MAX"))
 
 
+@dataclass(frozen=True)
+class ScurveLimits:
+    """What ArduCopter's horizontal S-curves are planned with: the speed of a leg without
+    DO_CHANGE_SPEED (WPNAV_SPEED, m/s), the fastest any leg flies (the lean- and drag-limited
+    top speed, m/s), the acceleration (WPNAV_ACCEL capped by the lean angle, m/s²) and the
+    jerk (WPNAV_JERK, m/s³)."""
+
+    default_speed_mps: float
+    top_speed_mps: float
+    accel_mps2: float
+    jerk_mps3: float
+
+
+def scurve_limits(profile: Profile) -> ScurveLimits:
+    """The horizontal S-curve limits of an ``arducopter`` profile (the one derivation the
+    replay and the planner's flyable timing share)."""
+    return ScurveLimits(profile.si("WPNAV_SPEED"), arducopter_top_speed_mps(profile),
+                        arducopter_accel_mps2(profile), profile.si("WPNAV_JERK"))
+
+
 def _ardu_limits(
     flight: Flight, profile: Profile, geom: LegGeometry
 ) -> tuple[Profiles1D, NDArray[np.float64]]:
     """Every leg's S-curve (rest to rest; a landing ends at LAND_SPEED below LAND_ALT_LOW), and
     each leg's speed limit along its track (m/s)."""
     legs = flight.legs
-    a_xy = arducopter_accel_mps2(profile)
-    v_cap = arducopter_top_speed_mps(profile)
-    wpnav = profile.si("WPNAV_SPEED")
+    lim = scurve_limits(profile)
     cmd = np.array(
-        [wpnav if leg.kind == "rtl" or leg.speed_mps is None else leg.speed_mps for leg in legs],
+        [lim.default_speed_mps if leg.kind == "rtl" or leg.speed_mps is None else leg.speed_mps
+         for leg in legs],
         dtype=float,
     )
     unit = geom.unit
-    speed = kinematic_limit(unit, np.minimum(cmd, v_cap), profile.si("WPNAV_SPEED_UP"),
-                            profile.si("WPNAV_SPEED_DN"))
+    speed = kinematic_limit(unit, np.minimum(cmd, lim.top_speed_mps),
+                            profile.si("WPNAV_SPEED_UP"), profile.si("WPNAV_SPEED_DN"))
     a_z = profile.si("WPNAV_ACCEL_Z")
-    accel = kinematic_limit(unit, np.full(len(legs), a_xy), a_z, a_z)
+    accel = kinematic_limit(unit, np.full(len(legs), lim.accel_mps2), a_z, a_z)
     vertical = np.hypot(unit[:, 0], unit[:, 1]) < 1e-9
-    jerk = np.where(vertical, profile.si("PSC_JERK_Z"), profile.si("WPNAV_JERK"))
+    jerk = np.where(vertical, profile.si("PSC_JERK_Z"), lim.jerk_mps3)
     # ArduCopter lands at WPNAV_SPEED_DN (never slower than LAND_SPEED) down to LAND_ALT_LOW,
     # then at LAND_SPEED until the ground stops it
     landing = np.array([leg.kind == "land" for leg in legs]) & vertical
@@ -196,8 +218,7 @@ def fly(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
     total = prof.total_s
     radius = profile.si("WPNAV_RADIUS")
     corner_acc = profile.si("WPNAV_ACCEL_C") or 2.0 * profile.si("WPNAV_ACCEL")
-    # ArduCopter stores hold times as whole seconds (uint16 param1)
-    hold = np.array([math.floor(leg.hold_s + 1e-9) for leg in legs], dtype=float)
+    hold = np.array([stored_hold_s(leg.hold_s, "ardupilot") for leg in legs], dtype=float)
     hold += np.array([profile.si("RTL_LOIT_TIME") if leg.kind == "rtl" else 0.0 for leg in legs])
     n = len(legs)
     start = np.zeros(n)

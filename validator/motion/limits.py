@@ -1,15 +1,35 @@
-"""A multicopter's own limits: how far it may lean, and the top speed its drag then allows."""
+"""A multicopter's own limits: speed, acceleration, jerk, lean, and the top speed drag allows."""
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from validator.errors import InputError
+from validator.site import Site
 
 GRAVITY_MPS2 = 9.80665
 # Fitted to ArduCopter 4.5.6 SITL (quad, `+` frame; ../shared/data/arducopter-sitl-2): level
 # top speed 10.03 m/s at 40 m AMSL and 10.37 m/s at 584 m, both at the 30° lean limit.
 SITL_QUAD_DRAG_PER_M = 0.0561
+
+
+@dataclass(frozen=True)
+class VehicleLimits:
+    """What a flight model needs to know of the vehicle: its top speed (m/s), acceleration
+    (m/s²) and jerk (m/s³) limits, and the altitude it flies at above mean sea level (m, for
+    the air density)."""
+
+    speed_mps: float
+    accel_mps2: float
+    jerk_mps3: float
+    alt_amsl_m: float = 0.0
+
+
+def site_limits(site: Site) -> VehicleLimits:
+    """The limits of a site's vehicle (``uav`` block), flying at the site's altitude."""
+    return VehicleLimits(site.max_speed_mps, site.max_accel_mps2, site.max_jerk_mps3,
+                         site.frame.alt0_m + site.altitude_m)
 
 
 def air_density_ratio(alt_amsl_m: float) -> float:

@@ -9,13 +9,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from validator.autopilot.rules import STATIONARY_M  # a shorter slot is a hover, as exported
 from validator.channel import spectral_efficiency
 from validator.flight import Flight, ServicePlan
 from validator.geometry import segment_point_closest_fraction, segment_point_distance
 from validator.replay.track import Track
 from validator.site import Site
 
-STATIONARY_M = 0.05  # a planned slot shorter than this is a hover (as the exporter merges them)
 SLOT_MATCH_M = 0.1  # planned slot end points and mission waypoints agree this closely
 
 @dataclass(frozen=True)

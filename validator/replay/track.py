@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from validator.autopilot.rules import stored_hold_s
 from validator.dynamics import Profile, fly
 from validator.errors import InputError
 from validator.flight import Flight
@@ -154,7 +155,7 @@ def track_from_samples(
                 cursor = min(stop + 1, hi - 1)
                 continue
             leg_of[cursor:hi] = g
-            hold = math.floor(leg.hold_s + 1e-9)  # as ArduCopter stores it
+            hold = stored_hold_s(leg.hold_s, "ardupilot")
             if not math.isnan(end_t) and leg.kind in ("waypoint", "loiter"):
                 reached[g] = max(float(t[cursor]), end_t - hold)
             else:

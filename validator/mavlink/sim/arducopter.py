@@ -1,13 +1,15 @@
 """What the simulated vehicle copies from ArduCopter: its mode numbers and its parameters.
 
-Parameter values are in ArduCopter's own units (cm, cm/s, cm/s² as ArduCopter keeps them);
-the flight profile's parameters (:data:`validator.dynamics.PARAM_SPECS`) are added to these.
+Parameter values are in ArduCopter's own units (cm, cm/s, cm/s² as ArduCopter keeps them),
+names, defaults and types from :mod:`validator.autopilot.ardupilot`; the flight profile's
+parameters (:data:`validator.motion.profile.PARAM_SPECS`) are added to these.
 """
 
 from __future__ import annotations
 
 from enum import IntEnum
 
+from validator.autopilot.ardupilot import PARAMS as ARDUPILOT_PARAMS
 from validator.mavlink.wire import mavlink
 
 # COMPONENT_ARM_DISARM param2 that disarms in flight (ArduPilot's "force" value)
@@ -35,19 +37,15 @@ REAL32 = int(mavlink.MAV_PARAM_TYPE_REAL32)
 INT8 = int(mavlink.MAV_PARAM_TYPE_INT8)
 INT16 = int(mavlink.MAV_PARAM_TYPE_INT16)
 
-# ArduCopter's names, units and defaults, except the fence, which is on and report-only here
-# so a validation sees every breach.
+# The ArduCopter parameters served besides the flight profile's, at ArduCopter's defaults
+# (validator.autopilot.ardupilot), except the fence, which is on and report-only here so a
+# validation sees every breach.
+_SERVED = ("WPNAV_SPEED", "WPNAV_ACCEL", "WPNAV_JERK", "WPNAV_SPEED_UP", "WPNAV_SPEED_DN",
+           "LAND_SPEED", "RTL_ALT", "RTL_SPEED", "FENCE_ENABLE", "FENCE_TYPE", "FENCE_ACTION")
+_REPORT_ONLY_FENCE = {"FENCE_ENABLE": 1.0, "FENCE_TYPE": 7.0, "FENCE_ACTION": 0.0}
 BASE_PARAMS: dict[str, tuple[float, int]] = {
-    "WPNAV_SPEED": (1000.0, REAL32),
-    "WPNAV_ACCEL": (250.0, REAL32),
-    "WPNAV_JERK": (1.0, REAL32),
-    "WPNAV_SPEED_UP": (250.0, REAL32),
-    "WPNAV_SPEED_DN": (150.0, REAL32),
-    "LAND_SPEED": (50.0, INT16),
-    "RTL_ALT": (1500.0, INT16),
-    "RTL_SPEED": (0.0, INT16),
-    "FENCE_ENABLE": (1.0, INT8),
-    "FENCE_TYPE": (7.0, INT8),
-    "FENCE_ACTION": (0.0, INT8),
+    name: (_REPORT_ONLY_FENCE.get(name, ARDUPILOT_PARAMS[name].default),
+           ARDUPILOT_PARAMS[name].mav_type)
+    for name in _SERVED
 }
 SITL_TOP_SPEED_MPS = 10.4  # ArduPilot's SITL quad at ANGLE_MAX 30 deg (mavlink-facts.md)

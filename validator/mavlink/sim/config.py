@@ -6,6 +6,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from validator.mavlink.sim.arducopter import SITL_TOP_SPEED_MPS
+from validator.motion.limits import VehicleLimits
+from validator.site import DEFAULT_MAX_ACCEL_MPS2, DEFAULT_MAX_JERK_MPS3
 
 
 @dataclass(frozen=True)
@@ -30,3 +32,10 @@ class VehicleConfig:
     params: Mapping[str, float] = field(default_factory=dict)
     max_speed_mps: float = SITL_TOP_SPEED_MPS
     signing_key: bytes | None = None  # sign, and refuse what is not signed (mavlink.signing)
+
+    @property
+    def limits(self) -> VehicleLimits:
+        """The vehicle its flight model flies: ``max_speed_mps``, a site's default acceleration
+        and jerk limits, at home's altitude."""
+        return VehicleLimits(self.max_speed_mps, DEFAULT_MAX_ACCEL_MPS2, DEFAULT_MAX_JERK_MPS3,
+                             self.home[2])

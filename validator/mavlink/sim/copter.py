@@ -75,6 +75,9 @@ class Copter:
     def _param(self, name: str) -> float:
         return self.param_table.value(name)
 
+    def _param_si(self, name: str) -> float:
+        return self.param_table.si(name)
+
     def _plan_of(self, lists: WireLists) -> Plan:
         return wire_to_plan(lists, home_item=True, home=self.config.home)
 
@@ -133,7 +136,7 @@ class Copter:
             if mode in HOLDING_MODES:
                 self._hold_here()
             elif mode == CopterMode.RTL:
-                rtl_alt = self._param("RTL_ALT") / 100.0
+                rtl_alt = self._param_si("RTL_ALT")
                 self._target = (np.zeros(2), max(self.alt_m, rtl_alt))
                 self._land_after_target = True
             elif mode == CopterMode.LAND:
@@ -259,15 +262,15 @@ class Copter:
         to land, and a vehicle that reaches the ground lands and disarms."""
         assert self._target is not None
         target_xy, target_alt = self._target
-        speed_h = self.guided_speed_mps or self._param("WPNAV_SPEED") / 100.0
+        speed_h = self.guided_speed_mps or self._param_si("WPNAV_SPEED")
         if self.mode == CopterMode.RTL and self._param("RTL_SPEED") > 0:
-            speed_h = self._param("RTL_SPEED") / 100.0
-        down = self._param("WPNAV_SPEED_DN") / 100.0
+            speed_h = self._param_si("RTL_SPEED")
+        down = self._param_si("WPNAV_SPEED_DN")
         if self.mode == CopterMode.LAND or (target_alt == 0.0
                                             and self.alt_m < LAND_SPEED_BELOW_M):
-            down = self._param("LAND_SPEED") / 100.0
-        limits = FollowLimits(speed_mps=speed_h, accel_mps2=self._param("WPNAV_ACCEL") / 100.0,
-                              up_mps=self._param("WPNAV_SPEED_UP") / 100.0, down_mps=down)
+            down = self._param_si("LAND_SPEED")
+        limits = FollowLimits(speed_mps=speed_h, accel_mps2=self._param_si("WPNAV_ACCEL"),
+                              up_mps=self._param_si("WPNAV_SPEED_UP"), down_mps=down)
         moved = follow(self.xy, self.vel, self.alt_m, target_xy, target_alt, dt_s, limits)
         self.xy, self.vel, self.alt_m = moved.xy, moved.vel, moved.alt_m
         if moved.at_target and self._land_after_target:

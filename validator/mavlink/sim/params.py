@@ -7,26 +7,28 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
-from validator.dynamics import Profile
+from validator.autopilot.ardupilot import PARAMS as ARDUPILOT_PARAMS
 from validator.errors import InputError
 from validator.mavlink.autoflight import vehicle_profile
 from validator.mavlink.sim.arducopter import BASE_PARAMS, INT16, REAL32
 from validator.mavlink.sim.config import VehicleConfig
-from validator.site import Site
+from validator.motion.limits import VehicleLimits
+from validator.motion.profile import PARAM_SPECS, Profile
 
 
 class ParamTable:
     """Name -> [value, MAV_PARAM_TYPE] in :attr:`values`, in the order the vehicle numbers
     them; a value is accepted only if the flight profile accepts it."""
 
-    def __init__(self, config: VehicleConfig, site: Site) -> None:
+    def __init__(self, config: VehicleConfig, limits: VehicleLimits) -> None:
         self.profile_name = config.profile
-        self.site = site
-        profile = vehicle_profile(config.profile, site,
+        self.limits = limits
+        profile = vehicle_profile(config.profile, limits,
                                   {**{k: v for k, (v, _) in BASE_PARAMS.items()}, **config.params})
         self.values: dict[str, list[float]] = {k: [v, t] for k, (v, t) in BASE_PARAMS.items()}
+        specs = PARAM_SPECS[profile.name]
         for name, value in profile.params.items():
-            self.values[name] = [float(value), float(REAL32)]
+            self.values[name] = [float(value), float(specs[name].mav_type)]
         for name, value in config.params.items():
             if name not in self.values:
                 raise InputError(f"--param {name}: the vehicle has no such parameter")
@@ -36,12 +38,16 @@ class ParamTable:
     def value(self, name: str) -> float:
         return float(self.values[name][0])
 
+    def si(self, name: str) -> float:
+        """An ArduCopter parameter's value in SI units (:mod:`validator.autopilot.ardupilot`)."""
+        return self.value(name) * ARDUPILOT_PARAMS[name].to_si
+
     def profile(self, changes: Mapping[str, float] | None = None) -> Profile:
         """The flight profile at the current values (with ``changes``); raises
         :class:`InputError` for a value out of the profile's range."""
         values = {k: float(v[0]) for k, v in self.values.items()}
         values.update(changes or {})
-        return vehicle_profile(self.profile_name, self.site, values)
+        return vehicle_profile(self.profile_name, self.limits, values)
 
     # -- the protocol: ``mav`` sends the answers ---------------------------------------------
 

@@ -10,7 +10,6 @@ from collections.abc import Callable
 from typing import Any
 
 from validator.geodesy import LocalFrame
-from validator.mavlink.autoflight import vehicle_site
 from validator.mavlink.sim.commands import Commands
 from validator.mavlink.sim.config import VehicleConfig
 from validator.mavlink.sim.copter import Copter
@@ -33,9 +32,8 @@ class SitlVehicle(Copter):
         if not listen_url.startswith(("udpin:", "udp:")):
             raise ValueError("listen on UDP, e.g. udpin:127.0.0.1:14550")
         frame = LocalFrame(*config.home)
-        self.site = vehicle_site(frame, config.max_speed_mps)
         # parameters first: a bad --param is refused before a socket is opened
-        param_table = ParamTable(config, self.site)
+        param_table = ParamTable(config, config.limits)
         self.radio = Radio(listen_url, config)
         self.conn = self.radio.conn
         self.writer = self.radio.writer

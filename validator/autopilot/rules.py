@@ -1,0 +1,74 @@
+"""How each autopilot flies what a plan says: holds, when a vehicle stands still, corner radius.
+
+- **Holds.** ArduCopter keeps a waypoint's hold (NAV_WAYPOINT param1) as whole seconds, and
+  truncates a fraction (:func:`stored_hold_s`; the replay and a recorded track's reading of
+  it use this). So an ArduPilot mission is exported with whole-second holds, rounded by error
+  diffusion along the cycle (:func:`whole_second_holds`), so that no hold is off by a second or
+  more and the cycle's total differs from the plan by less than half a second. PX4 keeps
+  fractional holds.
+- **Standing still.** A planned slot that moves less than :data:`STATIONARY_M` is a hover: the
+  exporter merges it into a waypoint's hold, the flyable timing takes it for a hover point,
+  the throughput reading of a track for a hold.
+- **Slowest speed.** ArduCopter ignores a DO_CHANGE_SPEED below
+  :data:`ARDUPILOT_MIN_SPEED_MPS` (WPNAV_SPEED's documented minimum); the exporter flies a
+  slower leg at that speed and holds for the rest of its slot.
+- **Corner radius.** Both autopilots cut a corner inside the acceptance radius (ArduCopter
+  WPNAV_RADIUS, PX4 NAV_ACC_RAD; :data:`ACCEPTANCE_RADIUS_PARAM`). :func:`acceptance_radius_m`
+  keeps a wanted radius between the autopilot's minimum and its default (wider corners save
+  little time).
+
+The S-curve limits ArduCopter flies with (WPNAV_ACCEL capped by the lean angle, the lean- and
+drag-limited top speed, the jerk ramp) are derived from the parameters in one place,
+:func:`validator.motion.arducopter.scurve_limits`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from validator.autopilot.tables import param_table
+
+STATIONARY_M = 0.05  # a planned slot that moves less than this (m) is a hover
+# ArduCopter ignores a DO_CHANGE_SPEED below WPNAV_SPEED's minimum (AC_WPNav's
+# WPNAV_WP_SPEED_MIN, 20 cm/s): a slower leg must be flown faster and wait at its end.
+_WPNAV_SPEED = param_table("ardupilot")["WPNAV_SPEED"]
+ARDUPILOT_MIN_SPEED_MPS = _WPNAV_SPEED.minimum * _WPNAV_SPEED.to_si
+ACCEPTANCE_RADIUS_PARAM = {"ardupilot": "WPNAV_RADIUS", "px4": "NAV_ACC_RAD"}
+
+
+def stored_hold_s(hold_s: float, autopilot: str = "ardupilot") -> float:
+    """The hold (s) ``autopilot`` keeps of a planned ``hold_s``: ArduCopter truncates it to
+    whole seconds (a uint16; float noise just below a second still counts as that second), PX4
+    keeps it."""
+    return float(math.floor(hold_s + 1e-9)) if autopilot == "ardupilot" else float(hold_s)
+
+
+def whole_second_holds(holds_s: ArrayLike) -> NDArray[np.float64]:
+    """Holds (s) rounded to whole seconds by error diffusion along the sequence.
+
+    Hold k becomes round(Σ_{i≤k} h_i) − round(Σ_{i<k} h_i): never negative, zero where the
+    planned hold is zero, and the total stays within half a second of the planned total.
+    """
+    cum = np.cumsum(np.asarray(holds_s, dtype=float))
+    rounded = np.floor(cum + 0.5)
+    return np.diff(np.concatenate([[0.0], rounded]))
+
+
+def programmed_holds_s(holds_s: ArrayLike, autopilot: str) -> NDArray[np.float64]:
+    """The holds (s) to write in ``autopilot``'s mission for the planned ``holds_s``: whole
+    seconds for ArduPilot (:func:`whole_second_holds`), unchanged for PX4."""
+    if autopilot == "ardupilot":
+        return whole_second_holds(holds_s)
+    return np.asarray(holds_s, dtype=float)
+
+
+def acceptance_radius_m(wanted_m: float, autopilot: str = "ardupilot") -> float:
+    """``wanted_m`` within ``autopilot``'s acceptance radius range as a mission uses it: at
+    least the documented minimum (ArduCopter 5 cm, PX4 0.05 m), at most the default (2 m for
+    both multicopters)."""
+    spec = param_table(autopilot)[ACCEPTANCE_RADIUS_PARAM[autopilot]]
+    lowest, widest = spec.minimum * spec.to_si, spec.default * spec.to_si
+    return float(min(widest, max(lowest, wanted_m)))
