@@ -18,7 +18,7 @@ from mission_planner.mission.fence import ROUNDING_ALLOWANCE_M, exclusion_outlin
 from mission_planner.mission.options import leg_margin_m
 from mission_planner.mission.summary import mission_summary
 from mission_planner.study.plots import plot_fig3_map
-from tests.mission_planner.solutions import solution_for, subdivided
+from tests.mission_planner.solutions import airfield_solution
 from validator.audit import audit
 from validator.geodesy import LocalFrame, round_e7
 from validator.plan_format import Cmd
@@ -27,19 +27,21 @@ from validator.waypoints_format import dumps_fence_waypoints, loads_fence_waypoi
 from validator.zones import fence_outline_m, polygon_zone
 
 REPO = Path(__file__).resolve().parents[2]
-# a tour round the airfield's zones that starts north of the CTR, so both transits from and to
-# home (south of the runway) must go round it
-TOUR = [(300.0, 300.0), (570.0, 300.0), (570.0, 460.0), (60.0, 460.0), (60.0, 300.0)]
 
 
 @pytest.fixture(scope="module")
-def site() -> Site:
-    return load_site(REPO / "samples" / "airfield.yaml").with_limits(slots=60, period_s=300.0)
+def solution():
+    return airfield_solution()
 
 
 @pytest.fixture(scope="module")
-def mission(site):
-    return build_mission(solution_for(site, subdivided(TOUR, 12)), MissionOptions())
+def site(solution) -> Site:
+    return solution.site
+
+
+@pytest.fixture(scope="module")
+def mission(solution):
+    return build_mission(solution, MissionOptions())
 
 
 def _held(frame: LocalFrame, vertices_deg) -> shapely.Polygon:
