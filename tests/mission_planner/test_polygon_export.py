@@ -22,7 +22,7 @@ from tests.mission_planner.solutions import airfield_solution
 from validator.audit import audit
 from validator.geodesy import LocalFrame, round_e7
 from validator.plan_format import Cmd
-from validator.site import Site, load_site
+from validator.site import Site
 from validator.waypoints_format import dumps_fence_waypoints, loads_fence_waypoints
 from validator.zones import fence_outline_m, polygon_zone
 
