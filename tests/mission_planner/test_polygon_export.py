@@ -4,8 +4,6 @@ airfield sample, so no optimiser is needed)."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 import shapely
@@ -25,8 +23,6 @@ from validator.plan_format import Cmd
 from validator.site import Site
 from validator.waypoints_format import dumps_fence_waypoints, loads_fence_waypoints
 from validator.zones import fence_outline_m, polygon_zone
-
-REPO = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
