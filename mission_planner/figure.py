@@ -1,7 +1,8 @@
 """The paper's Fig. 3 for one solution: (a) the map, (b) slot lengths and transmit power.
 
-(a) NFZs as published (filled), with their safety buffer (dashed) and the largest per-leg
-expanded radius √((R + buffer)² + (Vδ[n]/2)²) of eq. (6) (dotted), the trajectory with each leg
+(a) NFZs as published (filled; circles and polygons), with their safety buffer (dashed) and,
+for circles, the largest per-leg expanded radius √((R + buffer)² + (Vδ[n]/2)²) of eq. (6)
+(dotted), the trajectory with each leg
 coloured by the GN served in its slot (grey: nobody), the transits of an exported mission
 (grey dashed), GNs and home. (b) δ[n] (s, left axis) and p[n] (mW, right axis) per slot.
 
@@ -16,7 +17,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
-from matplotlib.patches import Circle
+from matplotlib.patches import Circle, Polygon
 
 from mission_planner.mission import Mission
 from mission_planner.optimize.solution import Solution
@@ -41,6 +42,15 @@ def solution_figure(solution: Solution, mission: Mission | None = None) -> Figur
         ax.add_patch(Circle(tuple(c), float(np.max(exp[:, m])), fill=False, ec="tab:red", ls=":",
                             lw=0.8, label="max expanded radius (eq. 6)" if m == 0 else None))
         ax.annotate(site.nfz_names[m], tuple(c), ha="center", va="center", fontsize=8)
+    for j, zone in enumerate(site.polygon_zones):
+        first = j == 0 and not site.num_nfzs
+        ax.add_patch(Polygon(zone.vertices_xy_m, closed=True, color="tab:red", alpha=0.25, lw=0))
+        if site.buffer_m > 0:
+            ring = np.asarray(zone.shape.buffer(site.buffer_m).exterior.coords)
+            ax.add_patch(Polygon(ring, closed=True, fill=False, ec="tab:red", ls="--", lw=0.8,
+                                 label="NFZ + buffer" if first else None))
+        centre = zone.shape.representative_point()
+        ax.annotate(zone.name, (centre.x, centre.y), ha="center", va="center", fontsize=8)
 
     legs = np.stack([q[:-1], q[1:]], axis=1)
     leg_colours = [colours[k] if k >= 0 else "0.6" for k in solution.schedule]

@@ -1,4 +1,4 @@
-"""Shortest safe transit between two points around circular no-fly zones.
+"""Shortest safe transit between two points around no-fly zones: circles, and polygons.
 
 Positions are metres in the site's local east/north frame. A path is a polyline (P, 2) whose
 straight legs each keep at least ``radius`` from every circle centre.
@@ -10,6 +10,10 @@ plus the arcs between neighbouring tangent points on each circle. An autopilot f
 lines, so each arc in the answer is then replaced by chords of the circumscribed polygon: every
 chord touches the circle at its midpoint and never enters it, and the chords before and after
 an arc continue the tangent lines, so no corner is cut into the zone.
+
+Among polygon zones (:func:`shortest_path_around_polygons`) the obstacles are polygons already
+grown by the clearance, and circles join them as circumscribed polygons (the same chords): the
+shortest path bends only at obstacle vertices, so the visibility graph of the vertices holds it.
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import shapely
 from numpy.typing import ArrayLike, NDArray
 
 from validator.geometry import segment_point_distance
@@ -234,3 +239,73 @@ def shortest_safe_path(
         pieces.append(np.array([nodes[u].xy]))
         v = u
     return drop_collinear(np.vstack(pieces[::-1]))
+
+
+def circle_sides(arc_step_deg: float = DEFAULT_ARC_STEP_DEG) -> int:
+    """How many chords of at most ``arc_step_deg`` go round a circle."""
+    return max(3, math.ceil(360.0 / arc_step_deg))
+
+
+def circumscribed_polygon(centre_m: ArrayLike, radius_m: float, k: int) -> NDArray[np.float64]:
+    """Vertices (k, 2), counter-clockwise, of a regular k-gon whose every edge touches the
+    circle (centre, radius): a path outside it keeps at least the radius from the centre."""
+    phi = 2.0 * math.pi / k
+    angles = phi * np.arange(k)
+    rv = float(radius_m) / math.cos(phi / 2.0)
+    c = np.asarray(centre_m, dtype=float)
+    return np.stack([c[0] + rv * np.cos(angles), c[1] + rv * np.sin(angles)], axis=1)
+
+
+def shortest_path_around_polygons(start_m: ArrayLike, goal_m: ArrayLike,
+                                  obstacles_m: list[NDArray[np.float64]]) -> NDArray[np.float64]:
+    """Shortest polyline (P, 2) from ``start_m`` to ``goal_m`` that never enters the interior
+    of any obstacle polygon (vertices (V, 2) each; it may run along their edges).
+
+    The shortest such path bends only at obstacle vertices, so Dijkstra on the visibility graph
+    of the end points and every vertex finds it. Raises ``ValueError`` if an end point lies
+    inside an obstacle or none exists.
+    """
+    start = np.asarray(start_m, dtype=float).reshape(2)
+    goal = np.asarray(goal_m, dtype=float).reshape(2)
+    shapes = [shapely.Polygon(o) for o in obstacles_m]
+    for name, p in (("start", start), ("goal", goal)):
+        for j, s in enumerate(shapes):
+            if s.contains(shapely.Point(p)):
+                raise ValueError(f"{name} point lies inside obstacle {j}")
+    nodes = np.vstack([start, goal, *obstacles_m]) if obstacles_m else np.array([start, goal])
+    n = len(nodes)
+    iu, ju = np.triu_indices(n, 1)
+    pairs = np.stack([nodes[iu], nodes[ju]], axis=1)
+    long = np.hypot(*(pairs[:, 1] - pairs[:, 0]).T) > 0.0
+    iu, ju, pairs = iu[long], ju[long], pairs[long]
+    segs = shapely.linestrings(pairs)
+    free = np.ones(len(segs), dtype=bool)
+    for s in shapes:
+        shapely.prepare(s)
+        # a segment is blocked when it meets the obstacle's interior (its edges are free)
+        free &= ~np.asarray(shapely.relate_pattern(segs, s, "T********"), dtype=bool)
+    edges: dict[int, list[tuple[int, float]]] = {}
+    for u, v, (a, b) in zip(iu[free].tolist(), ju[free].tolist(), pairs[free], strict=True):
+        length = float(np.hypot(*(b - a)))
+        edges.setdefault(u, []).append((v, length))
+        edges.setdefault(v, []).append((u, length))
+    dist = {0: 0.0}
+    prev: dict[int, int] = {}
+    heap = [(0.0, 0)]
+    while heap:
+        du, u = heapq.heappop(heap)
+        if u == 1:
+            break
+        if du > dist.get(u, math.inf):
+            continue
+        for v, cost in edges.get(u, []):
+            if du + cost < dist.get(v, math.inf) - 1e-12:
+                dist[v] = du + cost
+                prev[v] = u
+                heapq.heappush(heap, (du + cost, v))
+    if 1 not in dist:
+        raise ValueError("no safe path between the points: the zones wall one of them in")
+    order = [1]
+    while order[-1] != 0:
+        order.append(prev[order[-1]])
+    return drop_collinear(nodes[order[::-1]])

@@ -3,7 +3,9 @@
 :func:`audit` proves (or refutes) continuous-path clearance: for every straight leg the vehicle
 flies (as resolved by :func:`~validator.flight.resolve_flight`: takeoff, waypoints, DO_JUMP
 repeats, RTL as a straight line home, LAND) it computes the exact minimum distance to every
-no-fly zone, and checks the geofence: each NFZ inside an exclusion fence at least as large, no
+no-fly zone (circles exactly; polygons exactly in sign, a depth to within
+:data:`validator.zones.DEPTH_STEP_M`), and checks the geofence: each NFZ inside an exclusion
+fence at least as large, no
 leg entering an exclusion fence or leaving the inclusion fences, home, rally and breach-return
 points outside exclusions and inside inclusions. It also checks commanded speeds against the
 site's V, altitudes against its H, and lists what the flight model could not resolve.
@@ -25,12 +27,14 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
+from validator.autopilot.fence_storage import fence_storage_problem
 from validator.dynamics import ideal_leg_times, make_profile
 from validator.fence_geometry import local_fence
 from validator.flight import Finding, Flight, resolve_flight
 from validator.geometry import leg_clearances, segment_point_closest_fraction
 from validator.plan_format import Autopilot, Cmd, Plan
 from validator.site import Site
+from validator.zones import leg_closest_m, path_clearances_m, point_clearance_m
 
 CLEARANCE_TOLERANCE_M = 0.01  # MAVLink's int32 1e-7° coordinates move a point up to ~0.6 cm
 ALTITUDE_TOLERANCE_M = 0.5
@@ -57,8 +61,9 @@ class NfzClosest:
 
 @dataclass(frozen=True)
 class AuditReport:
-    """The audit's results. ``leg_clearance_m`` is (legs, NFZs); ``findings`` include the
-    flight resolution's findings."""
+    """The audit's results. ``leg_clearance_m`` is (legs, zones), the zones in ``nfz_names``
+    order (``Site.zone_names``: circles, then polygons); ``findings`` include the flight
+    resolution's findings."""
 
     flight: Flight
     nfz_names: tuple[str, ...]
@@ -127,7 +132,7 @@ def _check_legs(
         if key in reported:
             continue
         reported.add(key)
-        name = site.nfz_names[m]
+        name = site.zone_names[m]
         c = float(clr[k, m])
         if c < -tol:
             out.append(Finding("violation", f"{_leg_name(flight, k)} enters {name} by "
@@ -165,6 +170,19 @@ def _check_fence(plan: Plan, flight: Flight, site: Site, tol: float) -> list[Fin
                 detail = " (the plan has no exclusion fence)"
             out.append(Finding("violation", f"{name} is not inside an exclusion fence at least "
                                f"as large{detail}", None))
+    for zone in site.polygon_zones:
+        covered = any(
+            all(float(np.hypot(*(v - c))) <= r + tol for v in zone.vertices_xy_m)
+            for c, r in excl_c
+        ) or any(p.buffer(tol).contains(zone.shape) for p in excl_p)
+        if not covered:
+            if excl_p:
+                out_m2 = min(float(zone.shape.difference(p).area) for p in excl_p)
+                detail = f" (the closest exclusion polygon leaves {out_m2:.2f} m² of it out)"
+            else:
+                detail = " (the plan has no exclusion polygon)"
+            out.append(Finding("violation", f"{zone.name} is not inside an exclusion fence at "
+                               f"least as large{detail}", None))
     # legs against the fences
     path = flight.path_xy_m
     if flight.legs and excl_c:
@@ -197,6 +215,9 @@ def _check_fence(plan: Plan, flight: Flight, site: Site, tol: float) -> list[Fin
                 out.append(Finding("violation", f"{_leg_name(flight, k)} leaves {rule}",
                                    flight.legs[k].item))
                 break
+    storage = fence_storage_problem(plan, flight.is_ardupilot)
+    if storage is not None:
+        out.append(Finding("violation", storage, None))
     # home, rally and breach return
     points: list[tuple[str, NDArray[np.float64]]] = [("home", flight.home_xy_m)]
     points += [(f"rally point {i}", np.asarray(site.frame.to_local(lat, lon), dtype=float))
@@ -209,6 +230,9 @@ def _check_fence(plan: Plan, flight: Flight, site: Site, tol: float) -> list[Fin
         for m, name in enumerate(site.nfz_names):
             if np.hypot(*(xy - site.nfz_xy_m[m])) < site.nfz_radius_m[m] - tol:
                 out.append(Finding("violation", f"{label} lies inside {name}", None))
+        for zone in site.polygon_zones:
+            if float(point_clearance_m(zone, xy)) < -tol:
+                out.append(Finding("violation", f"{label} lies inside {zone.name}", None))
         for j, (c, r) in enumerate(excl_c):
             if np.hypot(*(xy - c)) < r - tol:
                 out.append(Finding("violation", f"{label} lies inside exclusion fence circle {j}",
@@ -267,19 +291,46 @@ def _check_items(plan: Plan, flight: Flight, site: Site) -> list[Finding]:
 def _closest(
     flight: Flight, site: Site, clr: NDArray[np.float64]
 ) -> tuple[NfzClosest, ...]:
-    if not flight.legs or site.num_nfzs == 0:
+    if not flight.legs or not site.zone_names:
         return ()
     start, reached, _ = ideal_leg_times(flight, make_profile("ideal", site))
     out = []
-    for m, name in enumerate(site.nfz_names):
+    for m, name in enumerate(site.zone_names):
         k = int(np.argmin(clr[:, m]))
         leg = flight.legs[k]
-        f = float(segment_point_closest_fraction(leg.start_xy_m, leg.end_xy_m, site.nfz_xy_m[m]))
+        if m < site.num_nfzs:
+            f = float(segment_point_closest_fraction(leg.start_xy_m, leg.end_xy_m,
+                                                     site.nfz_xy_m[m]))
+        else:
+            f, _ = leg_closest_m(site.polygon_zones[m - site.num_nfzs], leg.start_xy_m,
+                                 leg.end_xy_m)
         xy = leg.start_xy_m + f * (leg.end_xy_m - leg.start_xy_m)
         t = float(start[k] + f * (reached[k] - start[k]))
         out.append(NfzClosest(name, float(clr[k, m]), k, _from_item(flight, k), leg.item, t,
                               (float(xy[0]), float(xy[1]))))
     return tuple(out)
+
+
+def zone_leg_clearances(flight: Flight, site: Site) -> NDArray[np.float64]:
+    """Signed clearance (m) of each leg of ``flight`` from each zone of ``site`` (legs, zones),
+    in ``Site.zone_names`` order; a loiter leg counts its circle round the end point."""
+    zones = len(site.zone_names)
+    if not flight.legs or not zones:
+        return np.zeros((len(flight.legs), zones))
+    path = flight.path_xy_m
+    clr = np.hstack([leg_clearances(path, site.nfz_xy_m, site.nfz_radius_m)
+                     if site.num_nfzs else np.zeros((len(flight.legs), 0)),
+                     path_clearances_m(site.polygon_zones, path)])
+    loiter = np.array([leg.loiter_radius_m for leg in flight.legs])
+    if np.any(loiter > 0):
+        ends = path[1:]
+        circle = np.hstack([
+            np.linalg.norm(ends[:, None, :] - site.nfz_xy_m[None], axis=2)
+            - site.nfz_radius_m[None, :],
+            np.stack([point_clearance_m(z, ends) for z in site.polygon_zones], axis=1)
+            if site.polygon_zones else np.zeros((len(ends), 0))]) - loiter[:, None]
+        clr = np.minimum(clr, np.where(loiter[:, None] > 0, circle, np.inf))
+    return clr
 
 
 def audit(
@@ -299,20 +350,11 @@ def audit(
     """
     if flight is None:
         flight = resolve_flight(plan, site, source)
-    if flight.legs and site.num_nfzs:
-        clr = leg_clearances(flight.path_xy_m, site.nfz_xy_m, site.nfz_radius_m)
-        loiter = np.array([leg.loiter_radius_m for leg in flight.legs])
-        if np.any(loiter > 0):
-            ends = flight.path_xy_m[1:]
-            circle = (np.linalg.norm(ends[:, None, :] - site.nfz_xy_m[None], axis=2)
-                      - loiter[:, None] - site.nfz_radius_m[None, :])
-            clr = np.minimum(clr, np.where(loiter[:, None] > 0, circle, np.inf))
-    else:
-        clr = np.zeros((len(flight.legs), site.num_nfzs))
+    clr = zone_leg_clearances(flight, site)
     findings = list(flight.findings)
     findings += _check_legs(flight, site, clr, tolerance_m, require_buffer)
     findings += _check_fence(plan, flight, site, tolerance_m)
     findings += _check_items(plan, flight, site)
     order = {"violation": 0, "warning": 1, "note": 2}
     findings.sort(key=lambda f: (order[f.severity], -1 if f.item is None else f.item))
-    return AuditReport(flight, site.nfz_names, clr, _closest(flight, site, clr), tuple(findings))
+    return AuditReport(flight, site.zone_names, clr, _closest(flight, site, clr), tuple(findings))

@@ -4,8 +4,9 @@ Features, each with a ``kind`` property: ``flown_path`` (LineString through ever
 mission item, home to home), ``service_trajectory`` (the planner's closed cycle from the
 plan's ``nfzMission`` data, when present), ``waypoint`` (Point per positional item, with its
 item index, command and hold), ``ground_node``, ``home``, ``nfz`` (the published zone),
-``nfz_buffered`` (zone plus safety buffer), ``fence_exclusion`` / ``fence_inclusion`` (circles
-and polygons of the geofence) and ``rally``. GeoJSON has no circles, so a circle is a Polygon
+``nfz_buffered`` (zone plus safety buffer; circles, then polygon zones), ``fence_exclusion`` /
+``fence_inclusion`` (circles and polygons of the geofence; an exclusion polygon holding polygon
+zones names them in ``zones``) and ``rally``. GeoJSON has no circles, so a circle is a Polygon
 of ``CIRCLE_VERTICES`` points on it, with ``center`` and ``radius_m`` in its properties.
 """
 
@@ -17,6 +18,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
+from shapely.geometry.polygon import orient
 
 from validator.fence_geometry import local_fence
 from validator.fileio import write_atomic
@@ -49,6 +51,12 @@ def _circle(frame: LocalFrame, centre_m: ArrayLike, radius_m: float,
                     radius_m=float(radius_m), **props)
 
 
+def _polygon(frame: LocalFrame, vertices_m: ArrayLike, **props: Any) -> dict[str, Any]:
+    ring = _lonlat(frame, vertices_m)
+    ring.append(ring[0])
+    return _feature({"type": "Polygon", "coordinates": [ring]}, **props)
+
+
 def plan_geojson(plan: Plan, site: Site) -> dict[str, Any]:
     """The FeatureCollection of ``plan`` flown at ``site`` (see the module doc)."""
     frame = site.frame
@@ -78,14 +86,24 @@ def plan_geojson(plan: Plan, site: Site) -> dict[str, Any]:
         if site.buffer_m > 0:
             feats.append(_circle(frame, xy, float(r + site.buffer_m), kind="nfz_buffered",
                                  name=name, buffer_m=site.buffer_m))
-    for centre, radius, inclusion in local_fence(plan, frame).circles:
+    for zone in site.polygon_zones:
+        feats.append(_polygon(frame, zone.vertices_xy_m, kind="nfz", name=zone.name))
+        if site.buffer_m > 0:
+            grown = orient(zone.shape.buffer(site.buffer_m, quad_segs=CIRCLE_VERTICES // 4), 1.0)
+            feats.append(_polygon(frame, np.asarray(grown.exterior.coords)[:-1],
+                                  kind="nfz_buffered", name=zone.name, buffer_m=site.buffer_m))
+    fence = local_fence(plan, frame)
+    for centre, radius, inclusion in fence.circles:
         feats.append(_circle(frame, centre, radius,
                              kind="fence_inclusion" if inclusion else "fence_exclusion"))
-    for p in plan.polygons:
+    for p, (shape, _) in zip(plan.polygons, fence.polygons, strict=True):
         ring = [[lon, lat] for lat, lon in p.vertices_deg]
         ring.append(ring[0])
+        held = [z.name for z in site.polygon_zones
+                if not p.inclusion and shape.is_valid and shape.contains(z.shape)]
         feats.append(_feature({"type": "Polygon", "coordinates": [ring]},
-                              kind="fence_inclusion" if p.inclusion else "fence_exclusion"))
+                              kind="fence_inclusion" if p.inclusion else "fence_exclusion",
+                              **({"zones": held} if held else {})))
     for lat, lon, alt in plan.rally:
         feats.append(_feature({"type": "Point", "coordinates": [lon, lat]}, kind="rally",
                               altitude_m=alt))

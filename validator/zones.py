@@ -170,3 +170,67 @@ def fence_outline_m(zone: PolygonZone, margin_m: float) -> NDArray[np.float64]:
     if float(shapely.distance(out.exterior, zone.shape)) < margin_m * (1.0 - 1e-9):
         raise AssertionError(f"fence outline of {zone.name} cuts its {margin_m} m margin")
     return np.asarray(out.exterior.coords, dtype=float)[:-1]
+
+
+def _segments(a_m: NDArray[np.float64], b_m: NDArray[np.float64]) -> NDArray[np.object_]:
+    """Shapely geometries of the legs a[i]→b[i]: a line, or a point for a leg of no length."""
+    lines = shapely.linestrings(np.stack([a_m, b_m], axis=1))
+    still = np.all(a_m == b_m, axis=1)
+    if np.any(still):
+        lines[still] = shapely.points(a_m[still])
+    return np.asarray(lines)
+
+
+def path_clearances_m(zones: tuple[PolygonZone, ...] | list[PolygonZone],
+                      path_xy_m: ArrayLike) -> NDArray[np.float64]:
+    """Signed clearance (m) of each leg of the polyline ``path_xy_m`` (P, 2) from each zone:
+    (P - 1, len(zones)), as :func:`leg_clearance_m` gives it leg by leg."""
+    path = np.asarray(path_xy_m, dtype=float).reshape(-1, 2)
+    out = np.zeros((max(len(path) - 1, 0), len(zones)))
+    if len(path) < 2 or not len(zones):
+        return out
+    legs = _segments(path[:-1], path[1:])
+    for j, zone in enumerate(zones):
+        d = np.asarray(shapely.distance(zone.shape, legs), dtype=float)
+        for k in np.flatnonzero(d <= 0.0):
+            d[k] = leg_clearance_m(zone, path[k], path[k + 1])
+        out[:, j] = d
+    return out
+
+
+def polyline_clearance_m(zone: PolygonZone, xy_m: ArrayLike) -> tuple[float, int, float]:
+    """Least signed clearance (m) of the polyline through ``xy_m`` (S, 2) from the zone, the
+    index k of the chord xy[k]→xy[k+1] where it occurs and the fraction along that chord (a
+    flown track judged exactly between its samples; a depth to within DEPTH_STEP_M / 2)."""
+    xy = np.asarray(xy_m, dtype=float).reshape(-1, 2)
+    if len(xy) == 1:
+        xy = np.vstack([xy, xy])
+    a, b = xy[:-1], xy[1:]
+    chords = _segments(a, b)
+    d = np.asarray(shapely.distance(zone.shape, chords), dtype=float)
+    if float(np.min(d)) > 0.0:
+        k = int(np.argmin(d))
+        near = np.asarray(shapely.shortest_line(zone.shape, chords[k]).coords, dtype=float)[1]
+        return float(d[k]), k, _fraction(a[k], b[k], near)
+    best = (math.inf, 0, 0.0)
+    for k in np.flatnonzero(d <= 0.0).tolist():
+        n = max(2, int(math.ceil(float(np.linalg.norm(b[k] - a[k])) / DEPTH_STEP_M)) + 1)
+        t = np.linspace(0.0, 1.0, n)
+        c = point_clearance_m(zone, a[k] + t[:, None] * (b[k] - a[k]))
+        i = int(np.argmin(c))
+        if c[i] < best[0]:
+            best = (float(c[i]), int(k), float(t[i]))
+    return best
+
+
+def _fraction(a: NDArray[np.float64], b: NDArray[np.float64], p: NDArray[np.float64]) -> float:
+    ab = b - a
+    den = float(ab @ ab)
+    return 0.0 if den == 0.0 else float(np.clip((p - a) @ ab / den, 0.0, 1.0))
+
+
+def leg_closest_m(zone: PolygonZone, a_m: ArrayLike, b_m: ArrayLike) -> tuple[float, float]:
+    """The fraction along the leg ``a``→``b`` of its point nearest the zone (or deepest in it)
+    and that point's signed clearance (m)."""
+    clr, _, f = polyline_clearance_m(zone, np.array([a_m, b_m], dtype=float))
+    return f, clr

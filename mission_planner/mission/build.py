@@ -122,11 +122,13 @@ def _service_cycle(solution: Solution, opt: MissionOptions) -> _Cycle:
             steps, q, angle_deg=opt.merge_angle_deg, speed_rel=opt.merge_speed_rel,
             offset_m=opt.merge_offset_m, min_speed_mps=opt.min_speed_mps,
             nfz_xy_m=site.nfz_xy_m, nfz_radius_m=radii, clearance_target_m=target_m,
+            zones=site.polygon_zones, zone_clearance_m=site.buffer_m,
             scurve=lambda lengths: scurve_legs(site, lengths, timed_speed, solution.notes),
             scurve_speed_mps=timed_speed)
     cyc_idx = [0] + [s.index for s in steps if s.index not in (0, len(q) - 1)]
     pts, moved = nudge_clear(q[cyc_idx], site.nfz_xy_m, radii, target_margin_m=target_m,
-                             max_nudge_m=opt.max_nudge_m, closed=True)
+                             max_nudge_m=opt.max_nudge_m, closed=True,
+                             zones=site.polygon_zones, zone_clearance_m=site.buffer_m)
     planned_q = q.copy()
     q[cyc_idx] = pts
     q[-1] = q[0]

@@ -11,50 +11,56 @@ to refuse. Transits are planned around R + buffer + the same margin (:func:`safe
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+import shapely
 from numpy.typing import ArrayLike, NDArray
 
 from mission_planner.mission.options import MissionOptions, leg_margin_m
-from mission_planner.transit import shortest_safe_path
+from mission_planner.transit import (
+    circle_sides,
+    circumscribed_polygon,
+    shortest_path_around_polygons,
+    shortest_safe_path,
+)
 from validator.geometry import segment_point_closest_fraction, segment_point_distance
 from validator.site import Site
+from validator.zones import PolygonZone, fence_outline_m
 
 
 def nudge_clear(points_m: ArrayLike, centres_m: ArrayLike, radii_m: ArrayLike, *,
-                target_margin_m: float, max_nudge_m: float,
-                closed: bool = True) -> tuple[NDArray[np.float64], float]:
-    """Push a polyline's points out so every leg keeps ``radii + target_margin_m`` from each centre.
+                target_margin_m: float, max_nudge_m: float, closed: bool = True,
+                zones: tuple[PolygonZone, ...] = (),
+                zone_clearance_m: float = 0.0) -> tuple[NDArray[np.float64], float]:
+    """Push a polyline's points out so every leg keeps ``radii + target_margin_m`` from each
+    centre, and ``zone_clearance_m + target_margin_m`` from each polygon of ``zones``.
 
     Only legs short of that by at most ``target_margin_m + max_nudge_m`` are moved: both their
-    end points are translated away from the centre (along the normal through the leg's closest
-    point) by the shortfall, which raises the leg's distance by at least as much; repeated
-    until no leg is short. ``closed`` adds the leg from the last point back to the first.
-    Returns the points and the largest distance any point moved (m).
+    end points are translated away from the zone (along the normal through the leg's closest
+    point: from the centre, or from the polygon's nearest point) by the shortfall, which raises
+    the leg's distance from a circle or a convex part by at least as much; repeated until no
+    leg is short. ``closed`` adds the leg from the last point back to the first. Returns the
+    points and the largest distance any point moved (m).
     """
     pts = np.array(points_m, dtype=float)
     original = pts.copy()
     centres = np.asarray(centres_m, dtype=float).reshape(-1, 2)
     target = np.asarray(radii_m, dtype=float).reshape(-1) + target_margin_m
-    if centres.size == 0 or len(pts) < 2:
+    if (centres.size == 0 and not zones) or len(pts) < 2:
         return pts, 0.0
     limit = target_margin_m + max_nudge_m
     for _ in range(100):
         a = pts
         b = np.roll(pts, -1, axis=0) if closed else pts[1:]
         a = a if closed else pts[:-1]
-        d = segment_point_distance(a[:, None, :], b[:, None, :], centres[None, :, :])
-        short = target[None, :] - d
-        fix = (short > 1e-9) & (short <= limit)
-        if not np.any(fix):
+        pushes = _circle_pushes(a, b, centres, target, limit)
+        pushes += _polygon_pushes(a, b, zones, zone_clearance_m + target_margin_m, limit)
+        if not pushes:
             break
         move = np.zeros_like(pts)
-        for k, m in zip(*np.nonzero(fix), strict=True):
-            t = float(segment_point_closest_fraction(a[k], b[k], centres[m]))
-            closest = a[k] + t * (b[k] - a[k])
-            u = closest - centres[m]
-            norm = float(np.hypot(*u))
-            u = u / norm if norm > 0 else np.array([1.0, 0.0])
-            push = (short[k, m] + 1e-6) * u
+        for k, push in pushes:
+            u = push / float(np.hypot(*push))
             j = (k + 1) % len(pts) if closed else k + 1
             for idx in (k, j):
                 if np.dot(move[idx], u) < np.dot(push, u):
@@ -62,6 +68,45 @@ def nudge_clear(points_m: ArrayLike, centres_m: ArrayLike, radii_m: ArrayLike, *
         pts = pts + move
     moved = float(np.max(np.linalg.norm(pts - original, axis=1)))
     return pts, moved
+
+
+Push = tuple[int, NDArray[np.float64]]  # a leg and the vector its two end points move by
+
+
+def _circle_pushes(a: NDArray[np.float64], b: NDArray[np.float64], centres: NDArray[np.float64],
+                   target: NDArray[np.float64], limit: float) -> list[Push]:
+    """(leg, push) for each leg a shortfall of at most ``limit`` short of a circle's target."""
+    if not centres.size:
+        return []
+    d = segment_point_distance(a[:, None, :], b[:, None, :], centres[None, :, :])
+    short = target[None, :] - d
+    out = []
+    for k, m in zip(*np.nonzero((short > 1e-9) & (short <= limit)), strict=True):
+        t = float(segment_point_closest_fraction(a[k], b[k], centres[m]))
+        u = a[k] + t * (b[k] - a[k]) - centres[m]
+        norm = float(np.hypot(*u))
+        u = u / norm if norm > 0 else np.array([1.0, 0.0])
+        out.append((int(k), (short[k, m] + 1e-6) * u))
+    return out
+
+
+def _polygon_pushes(a: NDArray[np.float64], b: NDArray[np.float64],
+                    zones: tuple[PolygonZone, ...], target_m: float,
+                    limit: float) -> list[Push]:
+    """(leg, push) for each leg short of a polygon zone's target by at most ``limit``; a leg
+    inside a zone has no outward normal and is left to the safety gate."""
+    out = []
+    for zone in zones:
+        for k in range(len(a)):
+            leg = (shapely.LineString([a[k], b[k]]) if np.any(a[k] != b[k])
+                   else shapely.Point(a[k]))
+            d = float(shapely.distance(zone.shape, leg))
+            short = target_m - d
+            if d <= 0.0 or not 1e-9 < short <= limit:
+                continue
+            near, far = np.asarray(shapely.shortest_line(zone.shape, leg).coords, dtype=float)
+            out.append((k, (short + 1e-6) * (far - near) / d))
+    return out
 
 
 def safe_transits(site: Site, home: NDArray[np.float64], start: NDArray[np.float64],
@@ -85,9 +130,41 @@ def safe_transits(site: Site, home: NDArray[np.float64], start: NDArray[np.float
     out = []
     for a, b, name in ((ends[0], ends[1], "outbound"), (ends[2], ends[0], "return")):
         try:
-            out.append(shortest_safe_path(a, b, centres, radii_for(np.array([a, b])),
-                                          arc_step_deg=opt.arc_step_deg))
+            if site.polygon_zones:
+                out.append(_transit_round_polygons(site, a, b, radii_for(np.array([a, b])),
+                                                   leg_margin_m(site, opt), opt.arc_step_deg))
+            else:
+                out.append(shortest_safe_path(a, b, centres, radii_for(np.array([a, b])),
+                                              arc_step_deg=opt.arc_step_deg))
         except ValueError as err:
             problems.append(f"{name} transit: {err}; flying straight instead")
             out.append(np.array([a, b]))
     return out[0], out[1]
+
+
+def _transit_round_polygons(site: Site, a: NDArray[np.float64], b: NDArray[np.float64],
+                            radii_m: NDArray[np.float64], margin_m: float,
+                            arc_step_deg: float) -> NDArray[np.float64]:
+    """The shortest transit a → b outside every polygon zone grown by buffer + ``margin_m``
+    (its mitred outline, :func:`~validator.zones.fence_outline_m`) and every circle of
+    ``radii_m`` (as circumscribed chords). A zone closer than that to an end point is grown
+    less, until the end point lies outside it, so the search can start there (the safety
+    gate judges the result, as for circles)."""
+    k = circle_sides(arc_step_deg)
+    obstacles = []
+    for c, r in zip(site.nfz_xy_m, radii_m, strict=True):
+        d = float(min(np.hypot(*(a - c)), np.hypot(*(b - c))))
+        r_fit = min(float(r), d * math.cos(math.pi / k) * (1 - 1e-9))
+        obstacles.append(circumscribed_polygon(c, r_fit, k))
+    ends = shapely.MultiPoint([a, b])
+    for zone in site.polygon_zones:
+        grow = site.buffer_m + margin_m
+        for _ in range(60):
+            outline = fence_outline_m(zone, grow)
+            if not shapely.Polygon(outline).intersects(ends):
+                break
+            grow /= 2.0
+        else:
+            raise ValueError(f"an end point lies inside {zone.name}")
+        obstacles.append(outline)
+    return shortest_path_around_polygons(a, b, obstacles)

@@ -1,5 +1,12 @@
-"""The mission's geofence: an exclusion circle per zone (R + fence margin) and an optional
-inclusion area around everything flown."""
+"""The mission's geofence: an exclusion circle per circle zone (R + fence margin), an exclusion
+polygon per polygon zone (its outline grown by the fence margin) and an optional inclusion area
+around everything flown.
+
+A polygon fence's vertices are written as the vehicle will hold them, on MAVLink's int32 1e-7°
+grid: rounding moves each vertex by up to ~0.8 cm, which could cut an edge into the zone plus
+margin, so the outline is grown by :data:`ROUNDING_ALLOWANCE_M` more and its containment checked
+after rounding (:func:`exclusion_outline`).
+"""
 
 from __future__ import annotations
 
@@ -9,9 +16,12 @@ import numpy as np
 import shapely
 from numpy.typing import ArrayLike, NDArray
 
-from validator.geodesy import LocalFrame
+from validator.geodesy import LocalFrame, round_e7
 from validator.plan_format import FenceCircle, FencePolygon
 from validator.site import Site
+from validator.zones import PolygonZone, fence_outline_m
+
+ROUNDING_ALLOWANCE_M = 0.01  # > the ~0.8 cm an int32 1e-7° vertex moves at mid latitudes
 
 
 def operating_area(points_m: ArrayLike, kind: str, margin_m: float) -> NDArray[np.float64]:
@@ -40,6 +50,23 @@ def _latlon(frame: LocalFrame, xy_m: NDArray[np.float64]) -> tuple[float, float]
     return float(lat), float(lon)
 
 
+def exclusion_outline(zone: PolygonZone, margin_m: float,
+                      frame: LocalFrame) -> list[tuple[float, float]]:
+    """(lat, lon) vertices on the 1e-7° grid of an exclusion fence holding every point within
+    ``margin_m`` of ``zone``: :func:`validator.zones.fence_outline_m`, grown by a rounding
+    allowance (doubled until the rounded outline contains the zone plus margin)."""
+    extra = ROUNDING_ALLOWANCE_M
+    for _ in range(8):
+        lat, lon = frame.to_geodetic(fence_outline_m(zone, margin_m + extra))
+        lat, lon = round_e7(lat), round_e7(lon)
+        held = shapely.Polygon(frame.to_local(lat, lon))
+        if (held.is_valid and held.contains(zone.shape)
+                and float(shapely.distance(held.exterior, zone.shape)) >= margin_m):
+            return [(float(a), float(b)) for a, b in zip(lat, lon, strict=True)]
+        extra *= 2.0
+    raise AssertionError(f"no rounded fence outline of {zone.name} holds its {margin_m} m margin")
+
+
 @dataclass(frozen=True)
 class Geofence:
     """The fence of a mission: ``circles`` and ``polygons`` as the plan stores them, and
@@ -52,15 +79,17 @@ class Geofence:
     @classmethod
     def around(cls, site: Site, margin_m: float, flown_m: ArrayLike, area: str | None,
                area_margin_m: float) -> Geofence:
-        """An exclusion circle of radius R + ``margin_m`` per NFZ and, when ``area`` is
-        "polygon" or "circle", an inclusion zone ``area_margin_m`` around the points
-        ``flown_m``."""
+        """An exclusion circle of radius R + ``margin_m`` per circle zone, an exclusion
+        polygon holding each polygon zone plus ``margin_m`` (:func:`exclusion_outline`) and,
+        when ``area`` is "polygon" or "circle", an inclusion zone ``area_margin_m`` around the
+        points ``flown_m``."""
         frame = site.frame
         circles = [
             FenceCircle(*_latlon(frame, c), float(r + margin_m), inclusion=False)
             for c, r in zip(site.nfz_xy_m, site.nfz_radius_m, strict=True)
         ]
-        polygons: list[FencePolygon] = []
+        polygons = [FencePolygon(exclusion_outline(z, margin_m, frame), inclusion=False)
+                    for z in site.polygon_zones]
         vertices_m: NDArray[np.float64] | None = None
         if area is not None:
             vertices_m = operating_area(flown_m, area, area_margin_m)

@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 from mission_planner.optimize.retime import LegMotion, leg_profiles
 from validator.geometry import segment_point_closest_fraction, segment_point_distance
 from validator.site import Site
+from validator.zones import PolygonZone, path_clearances_m
 
 
 @dataclass(frozen=True)
@@ -151,8 +152,16 @@ class _Run:
         return float(np.max(np.hypot(*(flown - self.ends).T)))
 
     def keeps_clearance(self, centres: NDArray[np.float64], radii: NDArray[np.float64],
-                        target_m: float) -> bool:
-        """The chord at least as clear of each circle as its slots were (or ``target_m``)."""
+                        target_m: float, zones: tuple[PolygonZone, ...] = (),
+                        zone_clearance_m: float = 0.0) -> bool:
+        """The chord at least as clear of each circle (beyond ``radii``) and each polygon zone
+        (beyond ``zone_clearance_m``) as its slots were (or ``target_m``)."""
+        if zones:
+            slots = path_clearances_m(zones, np.vstack([self.start, self.ends]))
+            chord = path_clearances_m(zones, np.array([self.start, self.ends[-1]]))[0]
+            need = np.minimum(np.min(slots, axis=0) - zone_clearance_m, target_m)
+            if np.any(chord - zone_clearance_m < need - 1e-12):
+                return False
         if not centres.size:
             return True
         starts = np.vstack([self.start, self.ends[:-1]])
@@ -166,6 +175,7 @@ def merge_straight_steps(
     steps: list[CycleStep], trajectory_m: ArrayLike, *, angle_deg: float = 1.0,
     speed_rel: float = 0.01, offset_m: float = 0.05, min_speed_mps: float = 0.0,
     nfz_xy_m: ArrayLike = (), nfz_radius_m: ArrayLike = (), clearance_target_m: float = 0.0,
+    zones: tuple[PolygonZone, ...] = (), zone_clearance_m: float = 0.0,
     scurve: Callable[[NDArray[np.float64]], LegMotion] | None = None,
     scurve_speed_mps: float | None = None, scurve_time_tol_s: float = 0.02,
 ) -> list[CycleStep]:
@@ -174,8 +184,9 @@ def merge_straight_steps(
     A run of slots (no hold before its end, every slot within ``angle_deg`` degrees of the
     run's chord and every end point within ``offset_m`` of it, the chord at least as clear of
     each NFZ as its slots, or ``clearance_target_m`` beyond the planning radius
-    ``nfz_radius_m``) becomes one leg when a vehicle flying it is within ``offset_m`` (m) of
-    the planned position at every slot boundary:
+    ``nfz_radius_m``, or beyond ``zone_clearance_m`` from each polygon of ``zones``) becomes
+    one leg when a vehicle flying it is within ``offset_m`` (m) of the planned position at
+    every slot boundary:
 
     - **at one speed**: greedily from each waypoint, while every slot's speed is within
       ``speed_rel`` (fraction) of the chord's constant speed and at least ``min_speed_mps``;
@@ -194,7 +205,7 @@ def merge_straight_steps(
     radii = np.asarray(nfz_radius_m, dtype=float).reshape(-1)
 
     def clear(run: _Run) -> bool:
-        return run.keeps_clearance(centres, radii, clearance_target_m)
+        return run.keeps_clearance(centres, radii, clearance_target_m, zones, zone_clearance_m)
 
     def one_speed(run: _Run) -> bool:
         speeds = run.slot_speeds()

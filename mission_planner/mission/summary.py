@@ -6,12 +6,14 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import shapely
 
 from mission_planner.mission.build import Mission
 from mission_planner.mission.readback import flown_legs
 from mission_planner.transit import path_length_m
 from validator.geometry import expanded_radius, segment_point_distance
 from validator.plan_format import Cmd
+from validator.zones import leg_clearance_m
 
 
 def cycle_duration_s(mission: Mission) -> float:
@@ -52,9 +54,13 @@ def mission_summary(mission: Mission) -> dict[str, Any]:
     clearance = (segment_point_distance(legs[:, None, 0, :], legs[:, None, 1, :],
                                         site.nfz_xy_m[None]) - site.nfz_radius_m[None, :]
                  if site.num_nfzs and len(legs) else np.zeros((0, 0)))
+    if site.polygon_zones and len(legs):
+        poly_clr = np.array([[leg_clearance_m(z, a, b) for z in site.polygon_zones]
+                             for a, b in legs])
+        clearance = np.hstack([clearance.reshape(len(legs), -1), poly_clr])
     out_len = path_length_m(mission.outbound_m)
     ret_len = path_length_m(mission.return_m)
-    return {
+    out = {
         "autopilot": mission.options.autopilot,
         "items": len(plan.items),
         "service_waypoints": len(mission.steps),
@@ -89,3 +95,35 @@ def mission_summary(mission: Mission) -> dict[str, Any]:
         "rally_points": len(plan.rally),
         "problems": list(mission.problems),
     }
+    if site.polygon_zones:
+        out |= _polygon_summary(mission, clearance)
+    return out
+
+
+def _polygon_summary(mission: Mission, clearance: np.ndarray) -> dict[str, Any]:
+    """Per polygon zone: its exclusion fence (vertices, area against the zone plus fence
+    margin) and, for every zone, the least clearance of the flown legs (m)."""
+    site = mission.solution.site
+    frame = site.frame
+    fences = {}
+    for zone, fence in zip(site.polygon_zones, mission.plan.polygons, strict=False):
+        lat = np.array([v[0] for v in fence.vertices_deg])
+        lon = np.array([v[1] for v in fence.vertices_deg])
+        held = shapely.Polygon(frame.to_local(lat, lon))
+        fences[zone.name] = {
+            "vertices": len(fence.vertices_deg),
+            "area_m2": float(held.area),
+            "zone_plus_margin_area_m2": float(zone.shape.buffer(mission.fence_margin_m,
+                                                                quad_segs=64).area),
+            "standoff_max_m": _standoff_m(held, zone.shape),
+        }
+    by_zone = ({n: float(np.min(clearance[:, m])) for m, n in enumerate(site.zone_names)}
+               if clearance.size else {})
+    return {"fence_polygons": fences, "nfz_clearance_by_zone_m": by_zone}
+
+
+def _standoff_m(fence: shapely.Polygon, zone: shapely.Polygon) -> float:
+    """How far (m) the fence's outline stands off the zone at most (sampled every 1 cm)."""
+    ring = shapely.segmentize(fence.exterior, 0.01)
+    pts = shapely.points(shapely.get_coordinates(ring))
+    return float(np.max(shapely.distance(zone, pts)))

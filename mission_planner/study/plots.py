@@ -18,7 +18,7 @@ from matplotlib import colormaps
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
-from matplotlib.patches import Circle
+from matplotlib.patches import Circle, Polygon
 from numpy.typing import NDArray
 
 from validator.fileio import write_atomic
@@ -63,6 +63,17 @@ def _draw_site(ax: Axes, sol: Solution, gn_colors: Sequence[Any], labels: bool) 
                                 lw=0.6, linestyle=":", zorder=1))
         if labels:
             ax.annotate(name, tuple(c), ha="center", va="center", fontsize=8, color="0.2")
+    for zone in site.polygon_zones:
+        ax.add_patch(Polygon(zone.vertices_xy_m, closed=True, facecolor="0.85", edgecolor="0.3",
+                             lw=1.0, zorder=1))
+        if site.buffer_m > 0:
+            ring = np.asarray(zone.shape.buffer(site.buffer_m).exterior.coords)
+            ax.add_patch(Polygon(ring, closed=True, fill=False, edgecolor="0.3", lw=0.6,
+                                 linestyle=":", zorder=1))
+        if labels:
+            at = zone.shape.representative_point()
+            ax.annotate(zone.name, (at.x, at.y), ha="center", va="center", fontsize=8,
+                        color="0.2")
     for k, (name, g) in enumerate(zip(site.gn_names, site.gn_xy_m, strict=True)):
         ax.plot(*g, marker="^", markersize=10, color=gn_colors[k], markeredgecolor="k", zorder=5)
         if labels:

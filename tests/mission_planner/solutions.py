@@ -82,3 +82,19 @@ def subdivided(corners: list[tuple[float, float]], per_side: int) -> NDArray[np.
     f = np.arange(per_side)[None, :, None] / per_side
     pts = (c[:, None, :] + f * (nxt - c)[:, None, :]).reshape(-1, 2)
     return np.vstack([pts, pts[:1]])
+
+
+# A tour round the airfield sample's zones that starts north of its CTR, so both transits from
+# and to home (south of the runway) must go round it.
+AIRFIELD_TOUR = [(300.0, 300.0), (570.0, 300.0), (570.0, 460.0), (60.0, 460.0), (60.0, 300.0)]
+
+
+def airfield_solution() -> Solution:
+    """The airfield sample (60 slots, T = 300 s) flown round :data:`AIRFIELD_TOUR`."""
+    from pathlib import Path
+
+    from validator.site import load_site
+
+    site = load_site(Path(__file__).resolve().parents[2] / "samples" / "airfield.yaml")
+    site = site.with_limits(slots=60, period_s=300.0)
+    return solution_for(site, subdivided(AIRFIELD_TOUR, 12))

@@ -17,6 +17,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 from validator.autopilot.fence import FENCE_RULES
+from validator.autopilot.fence_storage import fence_storage_problem
 from validator.errors import InputError
 from validator.geodesy import from_int_e7
 from validator.mavlink import mission_protocol, param_protocol
@@ -169,6 +170,9 @@ def upload_to(link: Link, plan: Plan, params: Mapping[str, float] | None = None,
     store an item with another meaning (a fractional ArduPilot hold), and :class:`LinkError`
     on any failure, any difference, or, with ``require_fence``, a plan whose fence the vehicle
     then holds switched off or with a breach action that can cross another zone."""
+    storage = fence_storage_problem(plan, link.vehicle.is_ardupilot)
+    if storage is not None:
+        raise InputError(f"the vehicle would not keep the plan as written: {storage}")
     sent = plan_to_wire(plan, home_item=link.vehicle.is_ardupilot)
     losses = [line for mtype in MissionType
               for line in storage_losses(sent.of(mtype), link.vehicle.autopilot)]

@@ -17,7 +17,9 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import shapely
 from numpy.typing import NDArray
+from shapely.geometry.polygon import orient
 
 from validator.audit import CLEARANCE_TOLERANCE_M
 from validator.dynamics import make_profile
@@ -28,6 +30,7 @@ from validator.plan_format import Plan
 from validator.replay.throughput import Throughput, flown_rates, planned_leg_times
 from validator.replay.track import Track, replay
 from validator.site import Site
+from validator.zones import PolygonZone, polyline_clearance_m
 
 
 @dataclass(frozen=True)
@@ -130,6 +133,25 @@ def track_clearances(
     return d[k, cols], k.astype(np.int64), np.asarray(frac, dtype=float)
 
 
+def zone_track_clearances(
+    xy_m: NDArray[np.float64], site: Site
+) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]]:
+    """:func:`track_clearances` for every zone of ``site`` (``Site.zone_names`` order): the
+    circles exactly, the polygons by :func:`validator.zones.polyline_clearance_m`."""
+    clr, k, f = (track_clearances(xy_m, site.nfz_xy_m, site.nfz_radius_m) if site.num_nfzs
+                 else (np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros(0)))
+    poly = [polyline_clearance_m(z, xy_m) for z in site.polygon_zones]
+    return (np.concatenate([clr, [p[0] for p in poly]]),
+            np.concatenate([k, np.array([p[1] for p in poly], dtype=np.int64)]),
+            np.concatenate([f, [p[2] for p in poly]]))
+
+
+def _as_zone(poly: shapely.Polygon, j: int) -> PolygonZone:
+    """A fence polygon as a zone, to measure how deep a track goes into it."""
+    v = np.asarray(orient(poly, 1.0).exterior.coords, dtype=float)[:-1]
+    return PolygonZone(f"exclusion fence polygon {j}", v, (v,))
+
+
 def _cycle_window(flight: Flight, track: Track) -> tuple[float, float] | None:
     if flight.cycle is None:
         return None
@@ -183,10 +205,10 @@ def score_track(
     t = track.t_s[flying] if flying.any() else track.t_s
     seq = track.mission_seq[flying] if flying.any() else track.mission_seq
     passes: list[NfzPass] = []
-    if site.num_nfzs:
-        clr, k, f = track_clearances(xy, site.nfz_xy_m, site.nfz_radius_m)
+    if site.zone_names:
+        clr, k, f = zone_track_clearances(xy, site)
         k1 = np.minimum(k + 1, xy.shape[0] - 1)
-        for m, name in enumerate(site.nfz_names):
+        for m, name in enumerate(site.zone_names):
             at_t = float(t[k[m]] + f[m] * (t[k1[m]] - t[k[m]]))
             at_xy = xy[k[m]] + f[m] * (xy[k1[m]] - xy[k[m]])
             passes.append(NfzPass(name, float(clr[m]), at_t, int(seq[k[m]]),
@@ -197,7 +219,8 @@ def score_track(
                     f"t = {at_t:.1f} s (item {int(seq[k[m]])})", int(seq[k[m]])))
     fence: list[Finding] = []
     if plan is not None:
-        centres, radii = local_fence(plan, site.frame).exclusion_circles()
+        local = local_fence(plan, site.frame)
+        centres, radii = local.exclusion_circles()
         if radii.size:
             fclr, fk, _ = track_clearances(xy, centres, radii)
             for j in np.flatnonzero(fclr < -CLEARANCE_TOLERANCE_M):
@@ -205,6 +228,13 @@ def score_track(
                     "violation", f"flown track enters exclusion fence circle {j} by "
                     f"{-fclr[j]:.2f} m (the autopilot's fence action would fire)",
                     int(seq[fk[j]])))
+        excl_p = [poly for poly, inclusion in local.polygons if not inclusion]
+        for jp, poly in enumerate(excl_p):
+            depth, pk, _ = polyline_clearance_m(_as_zone(poly, jp), xy)
+            if depth < -CLEARANCE_TOLERANCE_M:
+                fence.append(Finding(
+                    "violation", f"flown track enters exclusion fence polygon {jp} by "
+                    f"{-depth:.2f} m (the autopilot's fence action would fire)", int(seq[pk])))
     findings += fence
 
     window = _cycle_window(flight, track)

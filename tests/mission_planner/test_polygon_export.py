@@ -1,0 +1,171 @@
+"""Polygon zones in the exporter: fence outlines that survive MAVLink's rounding, transits round
+polygons, nudges, the report, the .waypoints fence and the figures (hand-made solutions on the
+airfield sample, so no optimiser is needed)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import shapely
+from matplotlib.patches import Polygon
+
+from mission_planner.figure import solution_figure
+from mission_planner.mission import MissionOptions, build_mission
+from mission_planner.mission.clearance import nudge_clear
+from mission_planner.mission.fence import ROUNDING_ALLOWANCE_M, exclusion_outline
+from mission_planner.mission.options import leg_margin_m
+from mission_planner.mission.summary import mission_summary
+from mission_planner.study.plots import plot_fig3_map
+from tests.mission_planner.solutions import airfield_solution
+from validator.audit import audit
+from validator.geodesy import LocalFrame, round_e7
+from validator.plan_format import Cmd
+from validator.site import Site
+from validator.waypoints_format import dumps_fence_waypoints, loads_fence_waypoints
+from validator.zones import fence_outline_m, polygon_zone
+
+
+@pytest.fixture(scope="module")
+def solution():
+    return airfield_solution()
+
+
+@pytest.fixture(scope="module")
+def site(solution) -> Site:
+    return solution.site
+
+
+@pytest.fixture(scope="module")
+def mission(solution):
+    return build_mission(solution, MissionOptions())
+
+
+def _held(frame: LocalFrame, vertices_deg) -> shapely.Polygon:
+    lat = np.array([v[0] for v in vertices_deg])
+    lon = np.array([v[1] for v in vertices_deg])
+    return shapely.Polygon(frame.to_local(lat, lon))
+
+
+ZONES = {
+    "T": [(0, 0), (300, 0), (300, 60), (180, 60), (180, 110), (120, 110), (120, 60), (0, 60)],
+    "sliver": [(0, 0), (400, 3), (0, 8)],  # two corners of about 1°
+    "hexagon": [(50 * np.cos(a), 50 * np.sin(a)) for a in np.linspace(0, 2 * np.pi, 7)[:-1]],
+}
+
+
+@pytest.mark.parametrize("lat0", [0.0, 37.5585, 69.9])
+@pytest.mark.parametrize("margin_m", [0.0, 0.05, 1.5])
+@pytest.mark.parametrize("name", list(ZONES))
+def test_the_rounded_fence_outline_holds_the_zone_plus_its_margin(lat0, margin_m, name):
+    frame = LocalFrame(lat0, 10.0)
+    zone = polygon_zone(name, np.asarray(ZONES[name]) + 1000.0, name)
+    verts = exclusion_outline(zone, margin_m, frame)
+    lat, lon = np.array(verts).T
+    assert np.array_equal(lat, round_e7(lat)) and np.array_equal(lon, round_e7(lon))
+    held = _held(frame, verts)
+    assert held.is_valid and held.contains(zone.shape)
+    assert held.exterior.distance(zone.shape) >= margin_m
+    # and it is the mitred outline grown by the allowance once, not a looser one
+    assert len(verts) == len(fence_outline_m(zone, margin_m + ROUNDING_ALLOWANCE_M))
+    assert held.area <= shapely.Polygon(fence_outline_m(zone, margin_m + 0.02)).area
+
+
+def test_without_the_allowance_rounding_cuts_into_the_margin_somewhere():
+    # the reason for ROUNDING_ALLOWANCE_M: some rounded vertex moves inwards
+    cut = 0
+    for lat0 in (0.0, 37.5585, 69.9):
+        frame = LocalFrame(lat0, 10.0)
+        for name, v in ZONES.items():
+            zone = polygon_zone(name, np.asarray(v) + 1000.0, name)
+            lat, lon = frame.to_geodetic(fence_outline_m(zone, 1.5))
+            held = shapely.Polygon(frame.to_local(round_e7(lat), round_e7(lon)))
+            cut += held.exterior.distance(zone.shape) < 1.5
+    assert cut > 0
+
+
+def test_the_airfield_sample_has_a_non_convex_ctr_a_circle_and_an_airspace_polygon(site):
+    assert site.zone_names == ("MAST", "CTR", "PRISON")
+    ctr, prison = site.polygon_zones
+    assert not ctr.is_convex and prison.is_convex
+
+
+def test_each_polygon_zone_gets_an_exclusion_fence_and_the_gate_passes(site, mission):
+    assert mission.safe, mission.problems
+    plan = mission.plan
+    excl = [p for p in plan.polygons if not p.inclusion]
+    assert [len(p.vertices_deg) for p in excl] == [8, 5]
+    assert [c.inclusion for c in plan.circles] == [False]
+    for zone, fence in zip(site.polygon_zones, excl, strict=True):
+        held = _held(site.frame, fence.vertices_deg)
+        assert held.exterior.distance(zone.shape) >= mission.fence_margin_m
+    report = audit(plan, site, require_buffer=True)
+    assert report.ok, [f.message for f in report.violations]
+    rows = {z.name: z.clearance_m for z in report.nfz}
+    assert min(rows.values()) >= site.buffer_m
+
+
+def test_transits_go_round_the_ctr_with_the_leg_margin(site, mission):
+    ctr = site.polygon_zones[0]
+    need = site.buffer_m + leg_margin_m(site, mission.options)
+    for path in (mission.outbound_m, mission.return_m):
+        assert len(path) > 2  # the straight line home crosses the runway
+        line = shapely.LineString(path)
+        assert line.distance(ctr.shape) >= need - 1e-6
+        # and not far round: within 10 % of the shortest way round the grown zone
+        grown = ctr.shape.buffer(need)
+        assert line.length < 1.1 * (np.hypot(*(path[-1] - path[0])) + grown.length / 2)
+    assert np.allclose(mission.outbound_m[0], site.home_xy_m)
+    assert np.allclose(mission.return_m[-1], site.home_xy_m)
+
+
+def test_a_service_leg_just_inside_a_polygon_buffer_is_nudged_out(site):
+    prison = site.polygon_zones[1]
+    # a leg 1 cm inside PRISON's buffer, along its west edge pushed out by buffer - 1 cm
+    a, b = prison.vertices_xy_m[0], prison.vertices_xy_m[-1]
+    normal = np.array([-(b - a)[1], (b - a)[0]]) / np.hypot(*(b - a))
+    normal = normal if shapely.Point(a + normal).distance(prison.shape) > 0 else -normal
+    legs = np.array([a, b]) + (site.buffer_m - 0.01) * normal
+    pts, moved = nudge_clear(legs, np.zeros((0, 2)), np.zeros(0), target_margin_m=0.01,
+                             max_nudge_m=0.05, closed=False, zones=(prison,),
+                             zone_clearance_m=site.buffer_m)
+    assert shapely.LineString(pts).distance(prison.shape) >= site.buffer_m + 0.01 - 1e-9
+    assert 0.02 <= moved < 0.03
+    # a leg 10 cm short is not solver noise: left for the gate
+    far = np.array([a, b]) + (site.buffer_m - 0.1) * normal
+    assert nudge_clear(far, np.zeros((0, 2)), np.zeros(0), target_margin_m=0.01,
+                       max_nudge_m=0.05, closed=False, zones=(prison,),
+                       zone_clearance_m=site.buffer_m)[1] == 0.0
+
+
+def test_the_report_lists_each_polygon_fence_and_zone_clearance(site, mission):
+    summary = mission_summary(mission)
+    fences = summary["fence_polygons"]
+    assert list(fences) == ["CTR", "PRISON"]
+    assert [f["vertices"] for f in fences.values()] == [8, 5]
+    for f in fences.values():
+        assert f["area_m2"] >= f["zone_plus_margin_area_m2"]
+        # mitred right angles stand off margin x sqrt 2 (plus the rounding allowance)
+        assert mission.fence_margin_m <= f["standoff_max_m"] <= 2.0 * mission.fence_margin_m
+    assert list(summary["nfz_clearance_by_zone_m"]) == ["MAST", "CTR", "PRISON"]
+    assert summary["nfz_clearance_min_m"] == pytest.approx(
+        min(summary["nfz_clearance_by_zone_m"].values()))
+
+
+def test_the_waypoints_fence_holds_exclusion_vertices_with_their_count(mission):
+    text = dumps_fence_waypoints(mission.plan)
+    rows = [line.split("\t") for line in text.splitlines()[1:]]
+    vertex = [r for r in rows if int(r[3]) == int(Cmd.NAV_FENCE_POLYGON_VERTEX_EXCLUSION)]
+    assert [float(r[4]) for r in vertex] == [8.0] * 8 + [5.0] * 5
+    circles, polygons, _ = loads_fence_waypoints(text)
+    assert [(p.inclusion, p.vertices_deg) for p in polygons] == [
+        (p.inclusion, p.vertices_deg) for p in mission.plan.polygons]
+
+
+def test_the_figures_draw_polygon_zones_and_their_buffers(site, mission):
+    fig = solution_figure(mission.solution, mission)
+    patches = [p for p in fig.axes[0].patches if isinstance(p, Polygon)]
+    filled = [p for p in patches if p.get_fill()]
+    assert len(filled) == 2 and len(patches) == 4
+    assert np.allclose(filled[0].get_xy()[:-1], site.polygon_zones[0].vertices_xy_m)
+    study = plot_fig3_map([mission.solution])
+    assert sum(isinstance(p, Polygon) for p in study.axes[0].patches) == 4
