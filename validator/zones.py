@@ -31,7 +31,11 @@ DEPTH_STEP_M = 0.05
 # A fence outline's mitred corner may stand off its zone vertex at most this many times the
 # margin; beyond, it is bevelled there, still containing the zone plus margin (so no outline
 # vertex lies further than sqrt(1 + limit^2) margins from the zone; see fence_outline_m).
-FENCE_MITRE_LIMIT = 2.0
+# 1.5 keeps every outline vertex within sqrt(1 + 1.5^2) = 1.80 margins of its zone, so a fence
+# of the default margin (half the buffer) stays inside the planner's buffer (0.90 of it) even at
+# a sliver's corner (2.0 allowed 2.24 margins: 1.12 buffers, a leg at the buffer could enter the
+# fence); right-angle corners (mitre at 1.41 margins) keep their single vertex.
+FENCE_MITRE_LIMIT = 1.5
 
 
 @dataclass(frozen=True, eq=False)
