@@ -168,3 +168,38 @@ def fence_outline_m(zone: PolygonZone, margin_m: float) -> NDArray[np.float64]:
     if float(shapely.distance(out.exterior, zone.shape)) < margin_m * (1.0 - 1e-9):
         raise AssertionError(f"fence outline of {zone.name} cuts its {margin_m} m margin")
     return np.asarray(out.exterior.coords, dtype=float)[:-1]
+
+
+def leg_separation(part_xy_m: ArrayLike, a_m: ArrayLike, b_m: ArrayLike
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The best separating line between a convex part and each straight leg ``a``→``b``.
+
+    Returns unit directions u (L, 2) and gaps g (L,) with g = min over the leg of u·x minus
+    :func:`support_m` (part, u), the largest such value over all unit u: for a leg clear of the
+    part it is their distance, reached by the direction from the part's closest point to the
+    leg's. Legs ``a``, ``b`` are (L, 2); a zero-length leg is a point. When the leg touches or
+    enters the part (no closest-point direction), the best outward edge normal is used instead
+    and g ≤ 0 says by how much no line separates them.
+    """
+    part = np.asarray(part_xy_m, dtype=float)
+    a = np.asarray(a_m, dtype=float).reshape(-1, 2)
+    b = np.asarray(b_m, dtype=float).reshape(-1, 2)
+    same = np.all(a == b, axis=1)
+    legs = np.where(same, shapely.points(a), shapely.linestrings(np.stack([a, b], axis=1)))
+    ends = shapely.get_coordinates(shapely.shortest_line(shapely.Polygon(part), legs))
+    step = ends[1::2] - ends[0::2]  # part → leg
+    gap = np.linalg.norm(step, axis=1)
+    tiny = 1e-9 * max(1.0, float(np.max(np.abs(part))))
+    ok = gap > tiny
+    u = np.zeros((len(a), 2))
+    u[ok] = step[ok] / gap[ok, None]
+    if not np.all(ok):  # counter-clockwise part: outward normal of edge v→w is (w − v) rotated −90°
+        edge = np.roll(part, -1, axis=0) - part
+        normals = np.stack([edge[:, 1], -edge[:, 0]], axis=1)
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        h = support_m(part, normals)  # (E,)
+        score = np.minimum(a[~ok] @ normals.T, b[~ok] @ normals.T) - h[None, :]
+        best = np.argmax(score, axis=1)
+        u[~ok] = normals[best]
+        gap[~ok] = score[np.arange(len(best)), best]
+    return u, gap
