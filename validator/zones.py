@@ -186,11 +186,12 @@ def leg_separation(part_xy_m: ArrayLike, a_m: ArrayLike, b_m: ArrayLike
     b = np.asarray(b_m, dtype=float).reshape(-1, 2)
     same = np.all(a == b, axis=1)
     legs = np.where(same, shapely.points(a), shapely.linestrings(np.stack([a, b], axis=1)))
-    ends = shapely.get_coordinates(shapely.shortest_line(shapely.Polygon(part), legs))
+    with np.errstate(divide="ignore", invalid="ignore"):  # GEOS on near-degenerate legs
+        ends = shapely.get_coordinates(shapely.shortest_line(shapely.Polygon(part), legs))
     step = ends[1::2] - ends[0::2]  # part → leg
     gap = np.linalg.norm(step, axis=1)
     tiny = 1e-9 * max(1.0, float(np.max(np.abs(part))))
-    ok = gap > tiny
+    ok = np.isfinite(gap) & (gap > tiny)
     u = np.zeros((len(a), 2))
     u[ok] = step[ok] / gap[ok, None]
     if not np.all(ok):  # counter-clockwise part: outward normal of edge v→w is (w − v) rotated −90°
