@@ -196,6 +196,7 @@ def leg_separation(part_xy_m: ArrayLike, a_m: ArrayLike, b_m: ArrayLike
     u[ok] = step[ok] / gap[ok, None]
     if not np.all(ok):  # counter-clockwise part: outward normal of edge v→w is (w − v) rotated −90°
         edge = np.roll(part, -1, axis=0) - part
+        edge = edge[np.linalg.norm(edge, axis=1) > 0.0]  # a repeated vertex has no normal
         normals = np.stack([edge[:, 1], -edge[:, 0]], axis=1)
         normals /= np.linalg.norm(normals, axis=1, keepdims=True)
         h = support_m(part, normals)  # (E,)
