@@ -200,9 +200,12 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("site", type=Path, help="site file (YAML)")
     p.add_argument("-o", "--output", type=Path, required=True,
                    help="mission file to write (.plan, or .waypoints with --format waypoints)")
-    p.add_argument("--scheme", choices=("proposed", "conventional"), default="proposed",
+    p.add_argument("--scheme", choices=("proposed", "conventional", "tangent"),
+                   default="proposed",
                    help="NFZ rule: proposed = whole leg outside (Theorem 1), conventional = "
-                   "waypoints only (default: proposed)")
+                   "waypoints only, tangent = whole leg beyond a tangent line of each circle "
+                   "(research option); polygon zones: whole leg under proposed and tangent "
+                   "(default: proposed)")
     p.add_argument("--dynamics", choices=DYNAMICS, default="vehicle",
                    help="vehicle = speed changes within the site's uav.max_accel and "
                    "uav.max_jerk (default); none = the paper's kinematic model (top speed "

@@ -238,3 +238,40 @@ def leg_closest_m(zone: PolygonZone, a_m: ArrayLike, b_m: ArrayLike) -> tuple[fl
     and that point's signed clearance (m)."""
     clr, _, f = polyline_clearance_m(zone, np.array([a_m, b_m], dtype=float))
     return f, clr
+
+
+def leg_separation(part_xy_m: ArrayLike, a_m: ArrayLike, b_m: ArrayLike
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The best separating line between a convex part and each straight leg ``a``→``b``.
+
+    Returns unit directions u (L, 2) and gaps g (L,) with g = min over the leg of u·x minus
+    :func:`support_m` (part, u), the largest such value over all unit u: for a leg clear of the
+    part it is their distance, reached by the direction from the part's closest point to the
+    leg's. Legs ``a``, ``b`` are (L, 2); a zero-length leg is a point. When the leg touches or
+    enters the part (no closest-point direction), the best outward edge normal is used instead
+    and g ≤ 0 says by how much no line separates them.
+    """
+    part = np.asarray(part_xy_m, dtype=float)
+    a = np.asarray(a_m, dtype=float).reshape(-1, 2)
+    b = np.asarray(b_m, dtype=float).reshape(-1, 2)
+    same = np.all(a == b, axis=1)
+    legs = np.where(same, shapely.points(a), shapely.linestrings(np.stack([a, b], axis=1)))
+    with np.errstate(divide="ignore", invalid="ignore"):  # GEOS on near-degenerate legs
+        ends = shapely.get_coordinates(shapely.shortest_line(shapely.Polygon(part), legs))
+    step = ends[1::2] - ends[0::2]  # part → leg
+    gap = np.linalg.norm(step, axis=1)
+    tiny = 1e-9 * max(1.0, float(np.max(np.abs(part))))
+    ok = np.isfinite(gap) & (gap > tiny)
+    u = np.zeros((len(a), 2))
+    u[ok] = step[ok] / gap[ok, None]
+    if not np.all(ok):  # counter-clockwise part: outward normal of edge v→w is (w − v) rotated −90°
+        edge = np.roll(part, -1, axis=0) - part
+        edge = edge[np.linalg.norm(edge, axis=1) > 0.0]  # a repeated vertex has no normal
+        normals = np.stack([edge[:, 1], -edge[:, 0]], axis=1)
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        h = support_m(part, normals)  # (E,)
+        score = np.minimum(a[~ok] @ normals.T, b[~ok] @ normals.T) - h[None, :]
+        best = np.argmax(score, axis=1)
+        u[~ok] = normals[best]
+        gap[~ok] = score[np.arange(len(best)), best]
+    return u, gap

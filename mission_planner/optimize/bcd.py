@@ -115,7 +115,9 @@ def plan(
     options: PlannerOptions | None = None,
     progress: Progress | None = None,
 ) -> Solution:
-    """Optimise a service cycle for ``site`` with the ``proposed`` or ``conventional`` NFZ rule.
+    """Optimise a service cycle for ``site`` with the ``proposed``, ``conventional`` or
+    ``tangent`` zone rule (:data:`~.solution.SCHEMES`; polygons: every leg under proposed and
+    tangent, waypoints under conventional).
 
     Deterministic: the same site and options give the same solution.
     """
@@ -263,7 +265,8 @@ def _retimed(
     # Simplified legs keep the planner's margin too, so the exporter need not nudge them (a
     # nudged waypoint no longer lies on the S-curve it was timed with).
     sk = retime.skeleton(
-        paper.trajectory_m, paper.delta_s, site.nfz_xy_m, site.planning_radius_m + opt.nfz_margin_m
+        paper.trajectory_m, paper.delta_s, site.nfz_xy_m, site.planning_radius_m + opt.nfz_margin_m,
+        polygons=site.polygon_zones, polygon_clear_m=site.buffer_m + opt.nfz_margin_m,
     )
     move_s, timed = retime.time_cycle(site, sk, site.period_s, site.slots, opt.autopilot,
                                       opt.timing_params)

@@ -4,7 +4,14 @@ A closed tour through the GNs (shortest visiting order), bent around every NFZ, 
 hovering slots at each GN and the rest spread evenly along the tour, slot lengths T/N. Every
 point keeps outside the expanded radius √(R² + (V T/(2N))²), so the start satisfies the
 proposed constraint (6) — and with it the point-only constraint (5) — and every SCA step from it
-stays feasible. When the tour is too long to fly in T, it is shrunk towards a safe hub near the
+stays feasible.
+
+Polygon zones are laid out as the zone plus its clearance (mitred, so their outline has the
+zone's few corners) and the tour walks round them like round the circles; the tour's slots are
+then spread so that every corner of such an outline is a slot position, and each leg runs along
+the outline: the whole leg keeps the polygon's clearance, as the proposed rule requires of every
+leg (and only the polygons' corners, not the circles' many outline vertices, cost slots).
+When the tour is too long to fly in T, it is shrunk towards a safe hub near the
 GNs; the last resort is hovering at the hub.
 """
 
@@ -13,6 +20,7 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
+import shapely
 from numpy.typing import NDArray
 from shapely.geometry import LineString, Point, Polygon
 from shapely.geometry.base import BaseGeometry
@@ -20,9 +28,11 @@ from shapely.ops import nearest_points, unary_union
 
 from mission_planner.optimize.scaled import Scaled
 from validator.geometry import expanded_radius
+from validator.zones import FENCE_MITRE_LIMIT, leg_separation
 
 QUAD_SEGS = 16  # polygon segments per quarter circle
 CLEAR_FACTOR = 1.05  # how far outside the expanded radius the tour is laid
+POLYGON_LAY = 0.01  # and outside a polygon's clearance: 1 m more (100 m units)
 
 
 def visiting_order(points: NDArray[np.float64]) -> list[int]:
@@ -60,6 +70,14 @@ def _zones(centres: NDArray[np.float64], radii: NDArray[np.float64]) -> BaseGeom
             for c, r in zip(centres, radii, strict=True)
         ]
     )
+
+
+def _polygon_zones(sc: Scaled, lay: float) -> BaseGeometry:
+    """Union of the polygon zones, each grown by ``lay`` with mitred corners."""
+    if not sc.parts:
+        return Polygon()
+    zones = shapely.union_all([Polygon(p) for p in sc.parts])
+    return zones.buffer(lay, join_style="mitre", mitre_limit=FENCE_MITRE_LIMIT)
 
 
 def _push_out(p: NDArray[np.float64], zones: BaseGeometry) -> NDArray[np.float64]:
@@ -127,6 +145,24 @@ def _resample(loop: list[NDArray[np.float64]], count: int) -> NDArray[np.float64
     return np.stack([x, y], axis=1)
 
 
+def _resample_corners(
+    loop: list[NDArray[np.float64]], corner: NDArray[np.bool_], spacing: float
+) -> NDArray[np.float64]:
+    """Points along a closed polyline from loop[0], at most ``spacing`` apart along it, with every
+    vertex marked ``corner`` among them: the stretch between two such vertices is split evenly."""
+    pts = np.array([*loop, loop[0]])
+    cum = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))]
+    marks = [0, *(i for i in range(1, len(loop)) if corner[i]), len(loop)]
+    out = []
+    for a, b in zip(marks[:-1], marks[1:], strict=True):
+        length = cum[b] - cum[a]
+        count = int(np.ceil(length / spacing)) if length > 0 else 0
+        targets = cum[a] + np.arange(count) * length / max(count, 1)
+        out.append(np.stack([np.interp(targets, cum, pts[:, 0]),
+                             np.interp(targets, cum, pts[:, 1])], axis=1))
+    return np.concatenate(out)
+
+
 def _hub(sc: Scaled, zones: BaseGeometry) -> NDArray[np.float64]:
     """A point outside the zones, as close as possible to the GNs' centroid."""
     centre = sc.gn.mean(axis=0)
@@ -149,6 +185,10 @@ def _feasible(sc: Scaled, q: NDArray[np.float64], delta: float, radii: NDArray[n
     legs = np.linalg.norm(q - np.roll(q, 1, axis=0), axis=1)
     if np.any(legs > sc.speed * delta * (1 - 1e-9)):
         return False
+    prev = np.roll(q, 1, axis=0)
+    for part in sc.parts:  # every leg, whole, keeps the clearance
+        if np.any(leg_separation(part, prev, q)[1] < sc.clearance):
+            return False
     if sc.num_nfzs == 0:
         return True
     d = np.linalg.norm(q[:, None, :] - sc.nfz[None, :, :], axis=-1)
@@ -162,20 +202,30 @@ def initial_tour(sc: Scaled) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     r_exp = expanded_radius(sc.radius, sc.speed) if sc.num_nfzs else np.zeros(0)
     lay = r_exp * CLEAR_FACTOR
     zones = _zones(sc.nfz, lay)
+    polygons = _polygon_zones(sc, sc.clearance * CLEAR_FACTOR + POLYGON_LAY)
+    if not polygons.is_empty:
+        zones = unary_union([zones, polygons])
     hub = _hub(sc, zones)
     order = visiting_order(sc.gn) if sc.num_gns > 1 else [0]
     for shrink in (1.0, 0.75, 0.5, 0.3, 0.15):
         stops = [_push_out(hub + shrink * (sc.gn[j] - hub), zones) for j in order]
         loop = _bend(stops, zones)
-        pts = np.array([*loop, loop[0]])
-        length = float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
-        travel = int(np.ceil(1.15 * length / sc.speed)) if length > 0 else 0
+        if polygons.is_empty:
+            pts = np.array([*loop, loop[0]])
+            length = float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
+            travel = int(np.ceil(1.15 * length / sc.speed)) if length > 0 else 0
+            moving = _resample(loop, travel) if 0 < travel <= n else np.zeros((0, 2))
+        else:
+            outline = polygons.boundary
+            corner = shapely.distance(outline, shapely.points(np.array(loop))) < 1e-9
+            moving = _resample_corners(loop, corner, sc.speed / 1.15)
+            travel = len(moving)
         if travel > n:
             continue
         hover = n - travel
         per_stop = np.full(len(stops), hover // len(stops))
         per_stop[: hover % len(stops)] += 1
-        q = _build(loop, stops, travel, per_stop)
+        q = _build(moving, stops, per_stop)
         q = np.array([_push_out(p, zones) for p in q])
         if _feasible(sc, q, 1.0, r_exp):
             return q, delta
@@ -183,13 +233,13 @@ def initial_tour(sc: Scaled) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
 
 
 def _build(
-    loop: list[NDArray[np.float64]],
+    moving: NDArray[np.float64],
     stops: list[NDArray[np.float64]],
-    travel: int,
     per_stop: NDArray[np.int64],
 ) -> NDArray[np.float64]:
-    """Travel points evenly along the loop, with ``per_stop[i]`` extra copies at each stop."""
-    moving = _resample(loop, travel) if travel else np.zeros((0, 2))
+    """The travel points ``moving`` (along the loop), with ``per_stop[i]`` extra copies at each
+    stop."""
+    travel = len(moving)
     out: list[NDArray[np.float64]] = []
     # Give each stop's hover copies to the travel point nearest it.
     nearest = [int(np.argmin(np.linalg.norm(moving - s, axis=1))) if travel else -1 for s in stops]

@@ -26,7 +26,7 @@ are metres east/north; times seconds.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -45,6 +45,7 @@ from validator.motion.profile import Profile, flight_params, make_profile
 from validator.motion.px4_mission import px4_rest_to_rest, px4_top_speed_mps
 from validator.motion.scurve import scurve_rest_to_rest
 from validator.site import Site
+from validator.zones import PolygonZone
 
 STATIONARY_M = 0.05  # a slot that moves less than this is hovering
 HOVER_SLOT_DISCOUNT = 0.25
@@ -89,13 +90,16 @@ def skeleton(
     centres_m: NDArray[np.float64],
     radii_m: NDArray[np.float64],
     tolerance_m: float = SIMPLIFY_STEPS_M[0],
+    polygons: tuple[PolygonZone, ...] = (),
+    polygon_clear_m: float = 0.0,
 ) -> Skeleton:
     """Corners and hover points of a closed slot trajectory (N+1, 2) with slot lengths (N,).
 
     Runs of stationary slots become one waypoint holding their total time. Between hover
     points the path is simplified (Douglas-Peucker, shapely) with the largest tolerance in
     :data:`SIMPLIFY_STEPS_M` up to ``tolerance_m`` that keeps every leg at least as clear of
-    the circles (``centres_m``, ``radii_m``) as the original, or clear of them.
+    the circles (``centres_m``, ``radii_m``) as the original, or clear of them, and of the
+    ``polygons`` by ``polygon_clear_m``.
     """
     q = np.asarray(trajectory_m, dtype=float)
     n = len(delta_s)
@@ -114,7 +118,15 @@ def skeleton(
     if len(verts) > 1:  # the last move returns to the first waypoint
         verts, holds = verts[:-1], holds[:-1]
     hover = {v for v, h in zip(verts, holds, strict=True) if h > 0}
-    keep = _simplify(q[:n], verts, hover, centres_m, radii_m, tolerance_m)
+    def clearance(pts: NDArray[np.float64]) -> float:
+        """Least clearance of a polyline from the circles and the polygons (plus their clear)."""
+        c = min_leg_clearance(pts, centres_m, radii_m)
+        if polygons and len(pts) > 1:
+            line = LineString(pts)
+            c = min(c, *(float(z.shape.distance(line)) - polygon_clear_m for z in polygons))
+        return c
+
+    keep = _simplify(q[:n], verts, hover, clearance, tolerance_m)
     hold_of = dict(zip(verts, holds, strict=True))
     # Waypoints closer than a hover's wobble are one waypoint (no zero-length legs).
     points: list[NDArray[np.float64]] = []
@@ -135,8 +147,7 @@ def _simplify(
     q: NDArray[np.float64],
     verts: list[int],
     hover: set[int],
-    centres_m: NDArray[np.float64],
-    radii_m: NDArray[np.float64],
+    clearance: Callable[[NDArray[np.float64]], float],
     tolerance_m: float,
 ) -> list[int]:
     """Vertices kept after simplifying each stretch between hover points."""
@@ -145,12 +156,12 @@ def _simplify(
     for a, b in zip(anchors, [*anchors[1:], anchors[0] + len(verts)], strict=True):
         stretch = [verts[k % len(verts)] for k in range(a, b + 1)]
         pts = q[stretch]
-        before = min_leg_clearance(pts, centres_m, radii_m)
+        before = clearance(pts)
         chosen = list(range(len(stretch)))
         for tol in (t for t in SIMPLIFY_STEPS_M if t <= tolerance_m):
             simple = LineString(pts).simplify(tol, preserve_topology=False)
             idx = _indices_of(simple, pts)
-            if min_leg_clearance(pts[idx], centres_m, radii_m) >= min(before, 0.0) - 1e-9:
+            if clearance(pts[idx]) >= min(before, 0.0) - 1e-9:
                 chosen = idx
                 break
         keep.extend(stretch[i] for i in chosen[:-1])

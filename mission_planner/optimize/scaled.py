@@ -5,6 +5,10 @@ in units of P_avg. σ² cancels from the rate: with d̃ = d / 100 m and p̃ = p 
 
     log2(1 + β0 p / (σ² d²)) = log2(1 + ρ p̃ / d̃²),   ρ = β0 P_avg / (σ² (100 m)²).
 
+Polygon zones enter as their convex parts (``parts``) in the same length unit, each part
+tagged with its zone (``part_zone``); a leg keeps ``clearance`` (buffer + planning margin) from
+every part.
+
 The paper's γ1 = γ2 = 100 are shifted by the constant that normalisation moves out of each
 logarithm, so the quadratic-transform surrogate is exactly the paper's (see ``gamma1``).
 """
@@ -23,7 +27,8 @@ LENGTH_UNIT_M = 100.0
 
 @dataclass(frozen=True)
 class Scaled:
-    """A site in solver units. ``radius`` already includes buffer and planning margin."""
+    """A site in solver units. ``radius`` already includes buffer and planning margin, and so
+    does ``clearance``, the distance every leg keeps from each polygon part."""
 
     num_slots: int  # N
     num_gns: int  # K
@@ -38,6 +43,9 @@ class Scaled:
     gamma1: float
     gamma2: float
     period_s: float
+    parts: tuple[NDArray[np.float64], ...] = ()  # convex parts of the polygon zones, (Q, 2) each
+    part_zone: tuple[int, ...] = ()  # index into Site.polygon_zones of each part
+    clearance: float = 0.0  # buffer + margin
 
     @property
     def slot_s(self) -> float:
@@ -46,7 +54,8 @@ class Scaled:
 
 
 def scale_site(site: Site, margin_m: float, gamma: float = 100.0) -> Scaled:
-    """Scale ``site``; NFZ radii become radius + buffer + ``margin_m``."""
+    """Scale ``site``; NFZ radii become radius + buffer + ``margin_m``, and polygon parts are
+    kept buffer + ``margin_m`` away from."""
     n = site.slots
     slot_s = site.period_s / n
     # log2(σ² A_SI + β0 p) = log2(Ã + ρ p̃) + log2(σ² L0²); log2(B_SI/σ²) = log2 B̃ − log2(σ² L0²).
@@ -65,6 +74,9 @@ def scale_site(site: Site, margin_m: float, gamma: float = 100.0) -> Scaled:
         gamma1=gamma + shift,
         gamma2=gamma - shift,
         period_s=site.period_s,
+        parts=tuple(p / LENGTH_UNIT_M for z in site.polygon_zones for p in z.parts),
+        part_zone=tuple(i for i, z in enumerate(site.polygon_zones) for _ in z.parts),
+        clearance=(site.buffer_m + margin_m) / LENGTH_UNIT_M,
     )
 
 

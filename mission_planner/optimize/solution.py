@@ -17,8 +17,11 @@ from numpy.typing import NDArray
 from validator.channel import hover_upper_bound, spectral_efficiency
 from validator.geometry import expanded_radius, leg_clearances
 from validator.site import Site
+from validator.zones import leg_clearance_m
 
-SCHEMES = ("proposed", "conventional")
+# The zone rule: proposed = Theorem 1's expanded radius (6-1), conventional = waypoints only (5),
+# tangent = each leg beyond a tangent line of the circle (research); polygons: separating lines.
+SCHEMES = ("proposed", "conventional", "tangent")
 
 
 def average_rates(
@@ -79,9 +82,25 @@ class Solution:
         return leg_clearances(self.trajectory_m, self.site.nfz_xy_m, self.site.nfz_radius_m)
 
     @property
+    def polygon_clearance_m(self) -> NDArray[np.float64]:
+        """(N, P): signed clearance of each leg from each polygon zone as published (buffer not
+        included; negative: the depth the leg reaches inside)."""
+        q = self.trajectory_m
+        return np.array(
+            [[leg_clearance_m(z, a, b) for z in self.site.polygon_zones]
+             for a, b in zip(q[:-1], q[1:], strict=True)]
+        ).reshape(len(q) - 1, len(self.site.polygon_zones))
+
+    @property
     def nfz_clearance_min_m(self) -> float:
-        c = self.nfz_clearance_m
+        """The least clearance of any leg from any zone, circle or polygon (m)."""
+        c = np.concatenate([self.nfz_clearance_m.ravel(), self.polygon_clearance_m.ravel()])
         return float(np.min(c)) if c.size else float("inf")
+
+    def _zone_clearance_min_m(self) -> dict[str, float]:
+        """Each zone's least leg clearance (m), circles then polygons, by name."""
+        c = np.hstack([self.nfz_clearance_m, self.polygon_clearance_m])
+        return {n: float(v) for n, v in zip(self.site.zone_names, np.min(c, axis=0), strict=True)}
 
     def report(self) -> dict[str, Any]:
         """The JSON-ready report of this solution."""
@@ -113,5 +132,7 @@ class Solution:
             "buffer_m": site.buffer_m,
             "expanded_radius_max_m": float(np.max(exp_r)) if exp_r.size else None,
             "history": [float(h) for h in self.history],
+            **({"zone_clearance_min_m": self._zone_clearance_min_m()}
+               if site.polygon_zones else {}),
             **({"notes": self.notes} if self.notes else {}),
         }

@@ -12,6 +12,18 @@ For fixed schedule s and power p, around the current point (q^r, δ^r):
          proposed:     G_m(q[n]) ≥ R̃² + (Ṽδ̃[n]/2)²  and  G_m(q[n−1]) ≥ R̃² + (Ṽδ̃[n]/2)²   (6-1)
          conventional: G_m(q[n]) ≥ R̃²                                                   (5)
          G_m(q) = 2(q^r − c_m)ᵀ(q − q^r) + ‖q^r − c_m‖²                       (21)
+         tangent:      u·q[n] ≥ u·c_m + R̃  and  u·q[n−1] ≥ u·c_m + R̃
+         polygon part P, proposed and tangent: u·q[n] ≥ h_P(u) + b̃  and  u·q[n−1] ≥ h_P(u) + b̃
+         polygon part P, conventional:         u·q[n] ≥ h_P(u) + b̃
+
+Separating lines: u is the unit direction from the disc's centre, or from the convex part's
+closest point, to the closest point of the current leg q^r[n−1]→q^r[n] (to q^r[n] alone for
+conventional); h_P(u) = max_{v∈P} u·v is the part's support function and b̃ the buffer plus
+margin. Both ends beyond one line put the whole leg beyond it, so every leg the rows accept keeps
+R̃ from the centre, or b̃ from the part, whatever δ̃ (unlike (6-1)). That u maximises the leg's
+least margin over the line, which is the leg's distance at q^r: the current point stays feasible
+and SCA stays monotone. Every obstacle gets its rows in every slot: leaving out those beyond
+reach of one trust-region step (√2 × TRUST_REGION) saved nothing measurable (8 polygon sites).
 
 The average-power constraint (7) contains δ, which this block moves, so it is kept here although
 the paper's list for (P3-2) omits it. λ, μ are set in closed form ((28), (29)) before each solve.
@@ -24,8 +36,10 @@ a quarter of the steps on the benchmark sites lowered the objective and were thr
 the terms dropped are non-negative rates, so it stays a lower bound.
 
 :class:`TrajectoryProblem` assembles the conic form for Clarabel directly (no cvxpy compile; its
-size grows with the non-zeros: J·N rate terms, M·N zone rows); :class:`TrajectoryModel` states
-the same problem in cvxpy, from the same :func:`sca_point`, as the readable model and test oracle.
+size grows with the non-zeros: J·N rate terms, M·N zone rows, 2·O·N separating rows);
+:class:`TrajectoryModel` states the same problem in cvxpy, from the same :func:`sca_point`, as
+the readable model and test oracle.
+
 Conic form, per slot n and term i = (j, n) serving GN k(i):
 
     v1_i ≤ ln Ã_i, v2_i ≤ ln B̃_i          (x, 1, z) ∈ K_exp
@@ -44,6 +58,8 @@ from numpy.typing import NDArray
 
 from mission_planner.optimize import conic
 from mission_planner.optimize.scaled import Scaled
+from validator.geometry import segment_point_closest_fraction
+from validator.zones import leg_separation, support_m
 
 if TYPE_CHECKING:
     import cvxpy as cp
@@ -80,6 +96,42 @@ class ScaPoint:
     gx: NDArray[np.float64]  # (M, N) 2 (q^r − c)_x
     gy: NDArray[np.float64]
     g0: NDArray[np.float64]  # ‖c‖² − ‖q^r‖² − R̃²
+    ux: NDArray[np.float64]  # (O, N) separating line u·q ≥ h of obstacle o for leg n
+    uy: NDArray[np.float64]
+    h: NDArray[np.float64]  # h_P(u) + b̃, or u·c + R̃
+
+
+def separating_lines(
+    sc: Scaled, q: NDArray[np.float64], scheme: str
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Unit directions u (O, N, 2), offsets h (O, N) and the current slack (O, N) of the
+    separating line of each obstacle o and leg n at q^r = ``q`` (module docstring).
+
+    Obstacles: the polygon parts, then (``tangent`` only) the circles. ``conventional`` takes
+    the line to the point q^r[n] instead of the leg.
+    """
+    n = sc.num_slots
+    start = q if scheme == "conventional" else q[np.r_[n - 1, np.arange(n - 1)]]
+    us, hs, slacks = [], [], []
+    for part in sc.parts:
+        u, gap = leg_separation(part, start, q)
+        us.append(u)
+        hs.append(support_m(part, u) + sc.clearance)
+        slacks.append(gap - sc.clearance)
+    if scheme == "tangent":
+        for c, r in zip(sc.nfz, sc.radius, strict=True):
+            t = segment_point_closest_fraction(start, q, c)
+            d = start + t[:, None] * (q - start) - c
+            dist = np.linalg.norm(d, axis=1)
+            # A leg through the centre is never feasible; any line will do for it.
+            d = np.where(dist[:, None] > 1e-12, d, [1.0, 0.0])
+            u = d / np.linalg.norm(d, axis=1, keepdims=True)
+            us.append(u)
+            hs.append(u @ c + r)
+            slacks.append(dist - r)
+    if not us:
+        return np.zeros((0, n, 2)), np.zeros((0, n)), np.zeros((0, n))
+    return np.stack(us), np.stack(hs), np.stack(slacks)
 
 
 def sca_point(
@@ -89,8 +141,10 @@ def sca_point(
     power: NDArray[np.float64],
     s: NDArray[np.float64],
     terms: int,
+    scheme: str = "proposed",
 ) -> ScaPoint:
-    """(22), (23), (21) linearised at q^r = ``q``; λ, μ by (28), (29) at (q, δ)."""
+    """(22), (23), (21) linearised at q^r = ``q``; λ, μ by (28), (29) at (q, δ); the
+    separating lines of ``scheme`` at q^r."""
     n = sc.num_slots
     cols = np.arange(n)
     top = np.argsort(-s, axis=0, kind="stable")[: min(sc.num_gns, terms)]  # (J, N)
@@ -102,6 +156,7 @@ def sca_point(
     lam = delta[None, :] * np.sqrt(np.log2(d2 + sc.rho * power[None, :]) + sc.gamma1)
     mu = delta[None, :] * np.sqrt(np.log2(1.0 / d2) + sc.gamma2)
     cdiff = q[None, :, :] - sc.nfz[:, None, :]  # (M, N, 2)
+    u, h, _ = separating_lines(sc, q, scheme)
     return ScaPoint(
         top=top,
         ax=2 * diff[..., 0],
@@ -119,6 +174,9 @@ def sca_point(
         gy=2 * cdiff[..., 1],
         g0=np.sum(sc.nfz**2, axis=1)[:, None] - np.sum(q**2, axis=1)[None, :]
         - (sc.radius**2)[:, None],
+        ux=u[..., 0],
+        uy=u[..., 1],
+        h=h,
     )
 
 
@@ -160,7 +218,7 @@ class TrajectoryProblem:
     ) -> TrajectoryStep | None:
         """One SCA step from (q, δ) for schedule s (K, N) and power p̃ (N,); None on failure."""
         n, k, m, j = self.shape
-        pt = sca_point(sc, q, delta, power, s, j)
+        pt = sca_point(sc, q, delta, power, s, j, self.scheme)
         c, prev = self.col, self.prev
         form = conic.ConicForm(self.num_vars)
         form.c[c["r"]] = -1.0  # max r_min
@@ -201,8 +259,13 @@ class TrajectoryProblem:
                     (c["qy"][prev][None], pt.gy[:, prev]),
                     e_term,
                 )
-            else:
+            elif self.scheme == "conventional":
                 form.nonneg(pt.g0, *at_n)  # (5)
+        # Separating lines (polygon parts; circles under tangent): u·q − h ≥ 0 at leg ends.
+        if pt.h.size:
+            ends = [np.arange(n)] if self.scheme == "conventional" else [np.arange(n), prev]
+            for e in ends:
+                form.nonneg(-pt.h, (c["qx"][e][None], pt.ux), (c["qy"][e][None], pt.uy))
         # (1): ‖q[n] − q[n−1]‖ ≤ Ṽ δ̃[n].
         form.soc(
             np.zeros((n, 3)),
@@ -271,7 +334,8 @@ class TrajectoryModel:
     """
 
     def __init__(
-        self, num_slots: int, num_gns: int, num_nfzs: int, scheme: str, terms: int = 1
+        self, num_slots: int, num_gns: int, num_nfzs: int, scheme: str, terms: int = 1,
+        num_parts: int = 0,
     ) -> None:
         import cvxpy as cp
 
@@ -344,8 +408,21 @@ class TrajectoryModel:
                 self.half_speed_sq = cp.Parameter(nonneg=True)  # (Ṽ/2)²
                 half_leg2 = self.half_speed_sq * rows(cp.square(self.delta), m)
                 constraints += [g_lb >= half_leg2, g_lb[:, prev] >= half_leg2]
-            else:
+            elif scheme == "conventional":
                 constraints += [g_lb >= 0]
+        num_lines = num_parts + (m if scheme == "tangent" else 0)
+        self.num_lines = num_lines
+        if num_lines:
+            self.ux = cp.Parameter((num_lines, n))  # separating line u·q ≥ h per obstacle, leg
+            self.uy = cp.Parameter((num_lines, n))
+            self.h = cp.Parameter((num_lines, n))
+            ox = rows(self.q[:, 0], num_lines)
+            oy = rows(self.q[:, 1], num_lines)
+            ends = [np.arange(n)] if scheme == "conventional" else [np.arange(n), prev]
+            constraints += [
+                cp.multiply(self.ux, ox[:, e]) + cp.multiply(self.uy, oy[:, e]) >= self.h
+                for e in ends
+            ]
         self.scheme = scheme
         self.problem = cp.Problem(cp.Maximize(self.r_min), constraints)
         assert self.problem.is_dpp()
@@ -360,7 +437,7 @@ class TrajectoryModel:
     ) -> TrajectoryStep | None:
         """One SCA step from (q, δ) for schedule s (K, N) and power p̃ (N,); None on failure."""
         n, k, m, j = self.shape
-        pt = sca_point(sc, q, delta, power, s, j)
+        pt = sca_point(sc, q, delta, power, s, j, self.scheme)
         cols = np.arange(n)
         route = np.zeros((k, j, n))  # term (j, n) to its GN's row
         route[pt.top, np.arange(j)[:, None], cols[None, :]] = 1.0
@@ -378,6 +455,8 @@ class TrajectoryModel:
             self.gx.value, self.gy.value, self.g0.value = pt.gx, pt.gy, pt.g0
             if self.scheme == "proposed":
                 self.half_speed_sq.value = (sc.speed / 2) ** 2
+        if self.num_lines:
+            self.ux.value, self.uy.value, self.h.value = pt.ux, pt.uy, pt.h
         if not conic.solve(self.problem) or self.q.value is None:
             return None
         return TrajectoryStep(

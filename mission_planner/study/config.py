@@ -6,11 +6,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mission_planner.optimize.solution import SCHEMES as PLANNER_SCHEMES
 from mission_planner.study.sites import PAPER_AREA_M
 from mission_planner.study.trials import TrialSpec
 from validator.errors import InputError
 
-SCHEMES = ("proposed", "conventional")
+SCHEMES = ("proposed", "conventional")  # the paper's pair, compared by default
 
 
 @dataclass(frozen=True)
@@ -50,8 +51,9 @@ class Fig4Config:
         if self.buffer_m < 0:
             raise InputError(f"--buffer-m: must be >= 0, got {self.buffer_m}")
         for s in self.schemes:
-            if s not in SCHEMES:
-                raise InputError(f"schemes: unknown scheme {s!r} (expected {', '.join(SCHEMES)})")
+            if s not in PLANNER_SCHEMES:
+                raise InputError(f"schemes: unknown scheme {s!r} "
+                                 f"(expected {', '.join(PLANNER_SCHEMES)})")
 
     def points(self) -> list[tuple[str, float, int]]:
         """(sweep, radius_m, num_nfzs) of every point, radius sweep first."""

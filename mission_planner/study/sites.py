@@ -1,8 +1,9 @@
 """Random sites as in the paper's section IV: GNs and NFZs drawn in a square area.
 
 :func:`random_site` is the one generator used by the Fig. 4 study and the planner benchmark,
-so a seed names the same site everywhere. Defaults are the paper's: a 400 m x 400 m area,
-K = 4 GNs, M = 3 NFZs of radius 30 m, T = 50 s, N = 50, H = 30 m, V = 30 m/s,
+so a seed names the same site everywhere; :func:`random_polygon_site` draws polygon zones
+instead (convex and non-convex), for the polygon benchmark. Defaults are the paper's: a
+400 m x 400 m area, K = 4 GNs, M = 3 NFZs of radius 30 m, T = 50 s, N = 50, H = 30 m, V = 30 m/s,
 P_avg = 20 dBm, P_peak = 4 P_avg, beta0 = -30 dB, sigma^2 = -70 dBm, and no safety buffer.
 """
 
@@ -11,6 +12,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import shapely
 from numpy.typing import NDArray
 
 from validator.errors import InputError
@@ -130,3 +132,100 @@ def random_site(
         "safety": {"buffer_m": buffer_m},
     }
     return parse_site(data, f"random site (seed {seed})")
+
+
+def _polygon(rng: np.random.Generator, centre: NDArray[np.float64], size_m: float,
+             convex: bool) -> NDArray[np.float64]:
+    """A random polygon inside the circle of radius ``size_m`` round ``centre``.
+
+    Convex: 4 to 8 points drawn on an ellipse (aspect 0.4 to 1, random heading), their hull.
+    Non-convex: a star of 5 to 9 rays, every other ray 35 to 65 % as long, so at least one
+    corner is reflex.
+    """
+    if convex:
+        count = int(rng.integers(4, 9))
+        angle = np.sort(rng.uniform(0.0, 2 * np.pi, count))
+        aspect, heading = rng.uniform(0.4, 1.0), rng.uniform(0.0, np.pi)
+        pts = np.stack([np.cos(angle), aspect * np.sin(angle)], axis=1)
+        rot = np.array([[np.cos(heading), -np.sin(heading)], [np.sin(heading), np.cos(heading)]])
+        hull = shapely.MultiPoint(pts @ rot.T).convex_hull
+        return centre + size_m * np.asarray(hull.exterior.coords)[:-1]
+    count = int(rng.integers(5, 10))
+    angle = (np.arange(count) + rng.uniform(0.15, 0.85, count)) * 2 * np.pi / count
+    reach = np.where(np.arange(count) % 2 == 0, rng.uniform(0.8, 1.0, count),
+                     rng.uniform(0.35, 0.65, count))
+    return centre + size_m * np.stack([reach * np.cos(angle), reach * np.sin(angle)], axis=1)
+
+
+def random_polygon_site(
+    seed: int,
+    *,
+    num_gns: int = 4,
+    num_zones: int = 3,
+    size_m: float = 45.0,
+    nonconvex_share: float = 0.5,
+    slots: int = 50,
+    area_m: float = PAPER_AREA_M,
+    buffer_m: float = 0.0,
+    period_s: float = 50.0,
+    max_speed_mps: float = 30.0,
+) -> Site:
+    """A random site like :func:`random_site` whose no-fly zones are polygons.
+
+    Each zone lies in a circle of radius ``size_m`` whose centre is drawn so that the circle
+    lies inside the area and no two circles overlap; a zone is non-convex with probability
+    ``nonconvex_share`` (a star), else convex (the hull of points on an ellipse). GNs are
+    uniform in the area outside every zone, home outside every zone plus ``buffer_m``. Zones, GNs
+    and home come from three streams spawned from ``seed``; the paper's radio and altitude.
+    """
+    if seed < 0:
+        raise InputError(f"seed: must be >= 0, got {seed}")
+    if not area_m > 2 * size_m > 0:
+        raise InputError(f"size_m: must be > 0 and below half the area {area_m:g} m, "
+                         f"got {size_m}")
+    zone_rng, gn_rng, home_rng = (
+        np.random.default_rng(s) for s in np.random.SeedSequence([seed, 1]).spawn(3)
+    )
+    centres = np.zeros((0, 2))
+    zones = []
+    for m in range(num_zones):
+        c = _draw_clear(zone_rng, size_m, area_m - size_m, centres,
+                        np.full(len(centres), 2.0 * size_m))
+        if c is None:
+            raise InputError(f"num_zones: cannot place {num_zones} zones of size {size_m:g} m "
+                             f"(seed {seed}, stuck at zone {m + 1})")
+        centres = np.vstack([centres, c])
+        zones.append(_polygon(zone_rng, c, size_m, bool(zone_rng.uniform() < nonconvex_share)))
+    shapes = [shapely.Polygon(z) for z in zones]
+
+    def clear(rng: np.random.Generator, margin_m: float) -> NDArray[np.float64] | None:
+        for _ in range(MAX_DRAWS_PER_ITEM):
+            p = rng.uniform(0.0, area_m, size=2)
+            if all(shapely.Point(p).distance(z) > margin_m for z in shapes):
+                return p
+        return None
+
+    gns = [clear(gn_rng, 0.0) for _ in range(num_gns)]
+    home = clear(home_rng, buffer_m + 1.0)
+    if home is None or any(g is None for g in gns):
+        raise InputError(f"num_zones: no room outside the zones (seed {seed})")
+    lat0, lon0, alt0 = PAPER_ORIGIN
+    data = {
+        "name": f"random-polygons-{seed}",
+        "origin": {"lat": lat0, "lon": lon0, "alt": alt0},
+        "home": {"x": float(home[0]), "y": float(home[1])},
+        "uav": {"altitude": 30.0, "max_speed": max_speed_mps, "period": period_s,
+                "slots": slots},
+        "radio": {"p_avg_dbm": 20.0, "p_peak_dbm": PAPER_P_PEAK_DBM, "beta0_db": -30.0,
+                  "noise_dbm": -70.0},
+        "ground_nodes": [
+            {"name": f"GN{k + 1}", "x": float(g[0]), "y": float(g[1])}
+            for k, g in enumerate(gns) if g is not None
+        ],
+        "no_fly_zones": [
+            {"name": f"ZONE{m + 1}", "polygon": [{"x": float(x), "y": float(y)} for x, y in z]}
+            for m, z in enumerate(zones)
+        ],
+        "safety": {"buffer_m": buffer_m},
+    }
+    return parse_site(data, f"random polygon site (seed {seed})")

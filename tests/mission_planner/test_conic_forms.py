@@ -21,7 +21,7 @@ from mission_planner.optimize.trajectory import (
     TrajectoryModel,
     TrajectoryProblem,
 )
-from mission_planner.study.sites import random_site
+from mission_planner.study.sites import random_polygon_site, random_site
 
 TOL = 2e-6  # both optima to Clarabel's 1e-7 gap, on objectives of order 1
 
@@ -56,6 +56,22 @@ def test_trajectory_form_agrees_with_model(seed: int, scheme: str, terms: int) -
     assert np.all(np.abs(direct.q - q) <= TRUST_REGION + 1e-6)
     # The surrogate is a lower bound of the exact rate: the step's exact min rate reaches it.
     assert min_rate(sc, direct.q, direct.delta, power, s) >= direct.r_min - 1e-6
+
+
+@pytest.mark.parametrize("scheme", ["proposed", "conventional", "tangent"])
+def test_trajectory_form_agrees_with_model_with_separating_lines(scheme: str) -> None:
+    # Separating lines: polygon parts (every scheme) and circles (tangent).
+    for site in (random_polygon_site(3, slots=24, buffer_m=2.0), random_site(5, slots=24)):
+        sc = scale_site(site, 0.02)
+        q, delta = initial_tour(sc)
+        rng = np.random.default_rng(3)
+        s = rng.dirichlet(np.ones(sc.num_gns), size=sc.num_slots).T
+        power = rng.uniform(0.5, 1.0, sc.num_slots)
+        shape = (sc.num_slots, sc.num_gns, sc.num_nfzs, scheme, 2)
+        direct = TrajectoryProblem(*shape).solve(sc, q, delta, power, s)
+        oracle = TrajectoryModel(*shape, num_parts=len(sc.parts)).solve(sc, q, delta, power, s)
+        assert direct is not None and oracle is not None
+        assert direct.r_min == pytest.approx(oracle.r_min, abs=TOL)
 
 
 def test_trajectory_form_keeps_every_leg_outside_the_zones() -> None:
