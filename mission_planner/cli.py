@@ -1,7 +1,8 @@
 """``plan-mission``: optimise a site's service cycle and export it as an autopilot mission.
 
-    plan-mission SITE.yaml -o mission.plan [--scheme proposed|conventional] [--report R.json]
-        [--dynamics vehicle|none] [--buffer-m B] [--autopilot ardupilot|px4] [--cycles C]
+    plan-mission SITE.yaml -o mission.plan [--scheme proposed|conventional|tangent]
+        [--report R.json] [--dynamics vehicle|none] [--buffer-m B] [--autopilot ardupilot|px4]
+        [--cycles C]
         [--fence-margin-m M] [--operating-area polygon|circle] [--operating-area-margin-m A]
         [--format plan|waypoints] [--params F.param] [--no-merge] [--geojson F.geojson]
         [--plot F.png] [--force] [--quiet]

@@ -47,3 +47,23 @@ def test_mavsdk_imports_the_plan_with_every_item(tmp_path, site, autopilot, area
             assert theirs.param2 <= site.max_speed_mps
     jumps = [it for it in data.mission_items if it.command == Cmd.DO_JUMP]
     assert len(jumps) == (cycles > 1)
+
+
+@pytest.mark.parametrize("autopilot", ["ardupilot", "px4"])
+def test_mavsdk_imports_polygon_exclusion_fences_vertex_by_vertex(tmp_path, autopilot):
+    from tests.mission_planner.solutions import airfield_solution
+
+    m = build_mission(airfield_solution(), MissionOptions(autopilot=autopilot))
+    assert len(m.plan.polygons) == 2  # the airfield's CTR and its airspace file's PRISON
+    path = tmp_path / "airfield.plan"
+    write_plan(m.plan, path)
+    firmware = Autopilot.ARDUPILOTMEGA if autopilot == "ardupilot" else Autopilot.PX4
+    data = mavsdk_import(path, int(firmware))
+
+    vertices = [it for it in data.geofence_items
+                if it.command == Cmd.NAV_FENCE_POLYGON_VERTEX_EXCLUSION]
+    want = [(len(p.vertices_deg), *to_int_e7(v)) for p in m.plan.polygons
+            for v in p.vertices_deg]
+    assert [(int(it.param1), it.x, it.y) for it in vertices] == want
+    circles = [it for it in data.geofence_items if it.command == Cmd.NAV_FENCE_CIRCLE_EXCLUSION]
+    assert len(circles) == 1  # MAST
