@@ -24,6 +24,7 @@ from validator.mavlink.driver import builtin_vehicle, fly_mission
 from validator.mavlink.link import Link, LinkError, upload_plan, upload_to
 from validator.mavlink.sim import SitlVehicle, VehicleConfig
 from validator.mavlink.telemetry import telemetry_track
+from validator.motion.limits import site_limits
 from validator.motion.profile import make_profile
 from validator.plan_format import Cmd, FenceCircle, Frame, MissionItem, Plan
 from validator.replay import replay
@@ -73,7 +74,7 @@ def main() -> None:
             vehicle.stop()
 
     site = parse_site(SITE)
-    profile = make_profile("arducopter", site)
+    profile = make_profile("arducopter", site_limits(site))
     flight = resolve_flight(plan, site)
     with builtin_vehicle(plan, profile=profile, speedup=args.speedup) as url:
         with Link(url, timeout_s=10) as link:

@@ -35,7 +35,8 @@ import numpy as np
 
 from validator.audit import audit
 from validator.flight import resolve_flight
-from validator.motion.profile import flight_params, make_profile
+from validator.motion.limits import site_limits
+from validator.motion.profile import flown_params, make_profile
 from validator.plan_format import Cmd, FenceCircle, Frame, MissionItem, Plan, write_plan
 from validator.replay import TrackReport, replay, score_track
 from validator.site import Site, load_site
@@ -140,7 +141,7 @@ def speed_figures(runs: int) -> None:
         t_aud, rep = timed(partial(audit, plan, site, flight), runs)
         assert rep.ok, [f.message for f in rep.violations]
         for name in ("ideal", "arducopter", "px4"):
-            prof = make_profile(name, site)
+            prof = make_profile(name, site_limits(site))
 
             def run(prof: Any = prof, flight: Any = flight, plan: Plan = plan) -> Any:
                 track = replay(flight, prof)
@@ -200,7 +201,7 @@ def calibration() -> None:
     print(f"  {'flight':<24} {CALIBRATION_HEADER}")
     for name in sitl_flights.names():
         rec = sitl_flights.load(name)
-        prof = make_profile("arducopter", rec.site, rec.params)
+        prof = make_profile("arducopter", site_limits(rec.site), rec.params)
         model = score_track(replay(rec.flight, prof), rec.flight, rec.site, rec.plan)
         flown = score_track(rec.track(), rec.flight, rec.site, rec.plan)
         print(calibration_row(name, model, flown, rec.cycle_s, rec.mission_s))
@@ -214,7 +215,7 @@ def px4_calibration() -> None:
     print(f"  {'flight':<24} {CALIBRATION_HEADER}")
     for name in px4_flights.names():
         rec = px4_flights.load(name)
-        prof = make_profile("px4", rec.site, flight_params("px4", rec.site, rec.params))
+        prof = make_profile("px4", site_limits(rec.site), flown_params("px4", rec.params))
         model = score_track(replay(rec.flight, prof), rec.flight, rec.site, rec.plan)
         flown = score_track(rec.track(), rec.flight, rec.site, rec.plan)
         assert flown.cycle is not None

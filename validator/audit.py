@@ -32,6 +32,7 @@ from validator.dynamics import ideal_leg_times, make_profile
 from validator.fence_geometry import local_fence
 from validator.flight import Finding, Flight, resolve_flight
 from validator.geometry import leg_clearances, segment_point_closest_fraction
+from validator.motion.limits import site_limits
 from validator.plan_format import Autopilot, Cmd, Plan
 from validator.site import Site
 from validator.zones import leg_closest_m, path_clearances_m, point_clearance_m
@@ -293,7 +294,7 @@ def _closest(
 ) -> tuple[NfzClosest, ...]:
     if not flight.legs or not site.zone_names:
         return ()
-    start, reached, _ = ideal_leg_times(flight, make_profile("ideal", site))
+    start, reached, _ = ideal_leg_times(flight, make_profile("ideal", site_limits(site)))
     out = []
     for m, name in enumerate(site.zone_names):
         k = int(np.argmin(clr[:, m]))

@@ -34,20 +34,21 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from shapely.geometry import LineString
 
+from validator.autopilot.rules import STATIONARY_M, stored_hold_s
 from validator.geometry import min_leg_clearance
 from validator.motion.arducopter import (
     STOP_LAG_S,
-    arducopter_accel_mps2,
     arducopter_top_speed_mps,
     jerk_ramp_s,
+    scurve_limits,
 )
-from validator.motion.profile import Profile, flight_params, make_profile
+from validator.motion.limits import site_limits
+from validator.motion.profile import Profile, flown_params, make_profile
 from validator.motion.px4_mission import px4_rest_to_rest, px4_top_speed_mps
 from validator.motion.scurve import scurve_rest_to_rest
 from validator.site import Site
 from validator.zones import PolygonZone
 
-STATIONARY_M = 0.05  # a slot that moves less than this is hovering
 HOVER_SLOT_DISCOUNT = 0.25
 MIN_SLOT_MOVE_M = 0.1  # the first and last slot of a move travel at least this far
 MIN_HOLD_S = 1.0  # every waypoint of a flyable plan holds this long at least (whole seconds)
@@ -190,7 +191,7 @@ def motion_profile(site: Site, autopilot: str = "ardupilot",
     at the site's defaults and the parameters ``params`` (autopilot units) the plan will set:
     the one model legs are timed with."""
     name = "px4" if autopilot == "px4" else "arducopter"
-    return make_profile(name, site, flight_params(name, site, params or {}))
+    return make_profile(name, site_limits(site), flown_params(name, params or {}))
 
 
 def top_speed_mps(site: Site, autopilot: str = "ardupilot") -> float:
@@ -223,14 +224,14 @@ def leg_profiles(site: Site, lengths_m: ArrayLike, speed_mps: float | None = Non
         top = px4_top_speed_mps(profile)
         speed = top if speed_mps is None else min(speed_mps, top)
         return px4_rest_to_rest(profile, lengths, speed)
-    accel = arducopter_accel_mps2(profile)
-    jerk = np.full(lengths.shape, profile.si("WPNAV_JERK"))
-    top = min(profile.si("WPNAV_SPEED"), arducopter_top_speed_mps(profile))
+    lim = scurve_limits(profile)
+    jerk = np.full(lengths.shape, lim.jerk_mps3)
+    top = min(lim.default_speed_mps, lim.top_speed_mps)
     speed = top if speed_mps is None else min(speed_mps, top)
     return scurve_rest_to_rest(
         lengths,
         np.full(lengths.shape, float(speed)),
-        np.full(lengths.shape, accel),
+        np.full(lengths.shape, lim.accel_mps2),
         jerk,
         jerk_ramp_s(profile, jerk),
     )
@@ -292,7 +293,7 @@ def fit_holds(
     share = hold * (spare / total) if total > 0 else np.full(len(hold), spare / len(hold))
     out = least + share
     longest = int(np.argmax(out))
-    whole = np.floor(out)
+    whole = np.array([stored_hold_s(h) for h in out])
     whole[longest] = out[longest]
     whole[longest] += float(np.sum(out - whole))
     return np.asarray(whole, dtype=float)

@@ -36,6 +36,7 @@ from validator.errors import InputError
 from validator.flight import resolve_flight
 from validator.geometry import min_leg_clearance, segment_point_distance
 from validator.item_lists import GLOBAL_FRAMES
+from validator.motion.limits import site_limits
 from validator.plan_format import EXTRA_KEY, Cmd, Frame, dumps_plan, loads_plan
 from validator.replay import replay, score_track
 
@@ -456,7 +457,7 @@ def test_flown_merged_legs_stay_within_the_offset_of_the_plan_at_every_instant(s
     m = build_mission(sol, MissionOptions(autopilot="px4"))
     assert m.merged_waypoints == 8
     flight = resolve_flight(m.plan, square_site)
-    track = replay(flight, make_profile("ideal", square_site), dt_s=0.01)
+    track = replay(flight, make_profile("ideal", site_limits(square_site)), dt_s=0.01)
     rep = score_track(track, flight, square_site, m.plan)
     inside = (track.t_s >= rep.cycle.start_s) & (track.t_s <= rep.cycle.end_s)
     t = track.t_s[inside] - rep.cycle.start_s
@@ -468,7 +469,8 @@ def test_flown_merged_legs_stay_within_the_offset_of_the_plan_at_every_instant(s
 
 def _ideal_throughput(m, site):
     flight = resolve_flight(m.plan, site)
-    rep = score_track(replay(flight, make_profile("ideal", site), dt_s=0.01), flight, site,
+    rep = score_track(replay(flight, make_profile("ideal", site_limits(site)), dt_s=0.01), flight,
+                      site,
                       m.plan)
     assert rep.throughput is not None, [f.message for f in rep.findings]
     return rep.throughput
@@ -541,5 +543,6 @@ def test_the_validator_scores_s_curve_legs():
     site, sol = _scurve_square()
     m = build_mission(sol, MissionOptions(autopilot="px4"))
     flight = resolve_flight(m.plan, site)
-    rep = score_track(replay(flight, make_profile("arducopter", site)), flight, site, m.plan)
+    rep = score_track(replay(flight, make_profile("arducopter", site_limits(site))), flight, site,
+                      m.plan)
     assert rep.throughput is not None, [f.message for f in rep.findings]

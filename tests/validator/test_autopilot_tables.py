@@ -4,13 +4,12 @@ import math
 
 import pytest
 
-from tests.validator.builders import make_site
 from validator.autopilot import ardupilot, px4
 from validator.autopilot.tables import PARAM_TABLES, param_table, range_notes
 from validator.errors import InputError
 from validator.mavlink.sim.config import VehicleConfig
 from validator.mavlink.sim.params import ParamTable
-from validator.motion.limits import VehicleLimits, site_limits
+from validator.motion.limits import VehicleLimits
 from validator.motion.profile import PARAM_SPECS, make_profile
 
 
@@ -51,12 +50,6 @@ def test_profiles_take_their_speed_accel_and_jerk_from_the_vehicle_limits():
     assert ardu["WPNAV_RADIUS"] == ardupilot.PARAMS["WPNAV_RADIUS"].default
     p = make_profile("px4", limits).params
     assert (p["MPC_XY_CRUISE"], p["MPC_ACC_HOR"], p["MPC_JERK_AUTO"]) == (7.5, 3.25, 2.0)
-
-
-def test_a_site_stands_for_its_vehicles_limits():
-    site = make_site()
-    for name in ("ideal", "arducopter", "px4"):
-        assert make_profile(name, site) == make_profile(name, site_limits(site))
 
 
 def test_zero_is_accepted_only_where_it_is_a_setting():

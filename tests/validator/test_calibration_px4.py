@@ -10,7 +10,8 @@ from __future__ import annotations
 import pytest
 
 from tests.validator import px4_flights
-from validator.motion.profile import flight_params, make_profile
+from validator.motion.limits import site_limits
+from validator.motion.profile import flown_params, make_profile
 from validator.replay import TrackReport, replay, score_track
 
 FLIGHTS = px4_flights.names()
@@ -18,7 +19,7 @@ FLIGHTS = px4_flights.names()
 
 def _scored(name: str) -> tuple[px4_flights.Px4Flight, TrackReport, TrackReport, float]:
     f = px4_flights.load(name)
-    profile = make_profile("px4", f.site, flight_params("px4", f.site, f.params))
+    profile = make_profile("px4", site_limits(f.site), flown_params("px4", f.params))
     modelled = replay(f.flight, profile)
     return (f, score_track(modelled, f.flight, f.site, f.plan),
             score_track(f.track(), f.flight, f.site, f.plan), float(modelled.t_s[-1]))

@@ -9,6 +9,7 @@ from functools import cache
 import pytest
 
 from tests.validator import sitl_flights
+from validator.motion.limits import site_limits
 from validator.motion.profile import make_profile
 from validator.replay import TrackReport, replay, score_track
 
@@ -22,7 +23,7 @@ NAMES = sitl_flights.names()
 @cache
 def scored(name: str) -> tuple[sitl_flights.SitlFlight, TrackReport, TrackReport]:
     rec = sitl_flights.load(name)
-    prof = make_profile("arducopter", rec.site, rec.params)
+    prof = make_profile("arducopter", site_limits(rec.site), rec.params)
     model = score_track(replay(rec.flight, prof), rec.flight, rec.site, rec.plan)
     return rec, model, score_track(rec.track(), rec.flight, rec.site, rec.plan)
 
@@ -55,7 +56,7 @@ def test_replayed_top_speed_is_the_flown_one(name):
 @pytest.mark.parametrize("name", NAMES)
 def test_takeoff_and_landing_take_as_long_as_flown(name):
     rec, _, _ = scored(name)
-    replayed = replay(rec.flight, make_profile("arducopter", rec.site, rec.params))
+    replayed = replay(rec.flight, make_profile("arducopter", site_limits(rec.site), rec.params))
     # arming to the end of NAV_TAKEOFF (the next item's start: 18.23-18.24 s)
     after_takeoff = next(k for k, leg in enumerate(rec.flight.legs) if leg.kind != "takeoff")
     assert replayed.leg_start_s[after_takeoff] == pytest.approx(

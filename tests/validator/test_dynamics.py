@@ -22,6 +22,7 @@ from validator.dynamics import (
 )
 from validator.errors import InputError
 from validator.flight import resolve_flight
+from validator.motion.limits import site_limits
 from validator.plan_format import Cmd
 
 
@@ -89,7 +90,8 @@ def corner_mission(site, radius_cm: float):
              nav(site, Cmd.NAV_WAYPOINT, (0, 0)), nav(site, Cmd.NAV_WAYPOINT, (100, 0)),
              nav(site, Cmd.NAV_WAYPOINT, (100, 100))]
     flight = resolve_flight(plan_of(site, items, fence=False), site)
-    prof = make_profile("arducopter", site, {"WPNAV_RADIUS": radius_cm, "WPNAV_SPEED": 1000})
+    prof = make_profile("arducopter", site_limits(site), {"WPNAV_RADIUS": radius_cm,
+                        "WPNAV_SPEED": 1000})
     return fly(flight, prof, dt_s=0.01)
 
 
@@ -130,7 +132,7 @@ def test_arducopter_speed_change_follows_wpnav_accel_and_jerk(open_site):
              nav(open_site, Cmd.NAV_WAYPOINT, (0, 0), p1=1.0),
              nav(open_site, Cmd.NAV_WAYPOINT, (200, 0), p1=1.0)]
     flight = resolve_flight(plan_of(open_site, items, fence=False), open_site)
-    path = fly(flight, make_profile("arducopter", open_site), dt_s=0.01)
+    path = fly(flight, make_profile("arducopter", site_limits(open_site)), dt_s=0.01)
     leg = 2
     assert path.reached_s[leg] - path.start_s[leg] == pytest.approx(26.8 + STOP_LAG_S, abs=1e-6)
     moving = (path.t_s >= path.start_s[leg]) & (path.t_s <= path.reached_s[leg])
@@ -146,7 +148,7 @@ def test_ideal_profile_flies_the_commanded_speed_exactly(open_site):
              nav(open_site, Cmd.NAV_WAYPOINT, (0, 0)), nav(open_site, Cmd.NAV_WAYPOINT, (40, 30)),
              speed(5.0), nav(open_site, Cmd.NAV_WAYPOINT, (40, 80), p1=2.0)]
     flight = resolve_flight(plan_of(open_site, items, fence=False), open_site)
-    path = fly(flight, make_profile("ideal", open_site))
+    path = fly(flight, make_profile("ideal", site_limits(open_site)))
     assert path.reached_s[2] - path.start_s[2] == pytest.approx(50.0 / 4.0)
     assert path.done_s[3] - path.start_s[3] == pytest.approx(50.0 / 5.0 + 2.0)
 
@@ -156,7 +158,7 @@ def test_px4_rounds_corners_inside_nav_acc_rad(open_site):
              nav(open_site, Cmd.NAV_WAYPOINT, (0, 0)), nav(open_site, Cmd.NAV_WAYPOINT, (100, 0)),
              nav(open_site, Cmd.NAV_WAYPOINT, (100, 100))]
     flight = resolve_flight(plan_of(open_site, items, fence=False), open_site)
-    prof = make_profile("px4", open_site, {"NAV_ACC_RAD": 5.0, "MPC_ACC_HOR": 3.0,
+    prof = make_profile("px4", site_limits(open_site), {"NAV_ACC_RAD": 5.0, "MPC_ACC_HOR": 3.0,
                                            "MPC_JERK_AUTO": 4.0})
     path = fly(flight, prof, dt_s=0.01)
     xy = path.xyz_m[:, :2]
@@ -172,9 +174,9 @@ def test_px4_rounds_corners_inside_nav_acc_rad(open_site):
 
 def test_unknown_parameter_is_bad_input(open_site):
     with pytest.raises(InputError, match="--param WPNAV_SPED"):
-        make_profile("arducopter", open_site, {"WPNAV_SPED": 500})
+        make_profile("arducopter", site_limits(open_site), {"WPNAV_SPED": 500})
     with pytest.raises(InputError, match="--param NAV_ACC_RAD: must be a number > 0"):
-        make_profile("px4", open_site, {"NAV_ACC_RAD": -1})
+        make_profile("px4", site_limits(open_site), {"NAV_ACC_RAD": -1})
 
 
 def test_param_overrides_parse_name_value_pairs():
@@ -186,9 +188,9 @@ def test_param_overrides_parse_name_value_pairs():
 
 def test_defaults_come_from_the_site_limits():
     site = make_site(nfz=(), max_accel=4.0, max_jerk=3.0)
-    prof = make_profile("arducopter", site)
+    prof = make_profile("arducopter", site_limits(site))
     assert prof.si("WPNAV_ACCEL") == 4.0 and prof.si("WPNAV_JERK") == 3.0
-    assert make_profile("px4", site).si("MPC_JERK_AUTO") == 3.0
+    assert make_profile("px4", site_limits(site)).si("MPC_JERK_AUTO") == 3.0
 
 
 def _px4_straight(open_site, **params):
@@ -196,7 +198,7 @@ def _px4_straight(open_site, **params):
              nav(open_site, Cmd.NAV_WAYPOINT, (0, 0), p1=1.0),
              nav(open_site, Cmd.NAV_WAYPOINT, (100, 0), p1=20.0)]
     flight = resolve_flight(plan_of(open_site, items, fence=False), open_site)
-    path = fly(flight, make_profile("px4", open_site, params), dt_s=0.01)
+    path = fly(flight, make_profile("px4", site_limits(open_site), params), dt_s=0.01)
     return path, path.reached_s[2] - path.start_s[2]
 
 
@@ -236,11 +238,12 @@ def test_arducopter_flies_no_faster_than_its_lean_limit_allows(open_site):
              nav(open_site, Cmd.NAV_WAYPOINT, (500, 0), p1=1.0)]
     flight = resolve_flight(plan_of(open_site, items, fence=False), open_site)
     fast = {"WPNAV_SPEED": 3000, "VEHICLE_SPEED_MAX": 30, "ALT_AMSL": 0}
-    path = fly(flight, make_profile("arducopter", open_site, fast), dt_s=0.02)
+    path = fly(flight, make_profile("arducopter", site_limits(open_site), fast), dt_s=0.02)
     top = top_speed_mps(30.0)
     assert np.hypot(path.vel_mps[:, 0], path.vel_mps[:, 1]).max() == pytest.approx(top, rel=1e-6)
     # PSC_ANGLE_MAX, when set, is the limit instead of ANGLE_MAX
-    path = fly(flight, make_profile("arducopter", open_site, {**fast, "PSC_ANGLE_MAX": 20}),
+    path = fly(flight,
+               make_profile("arducopter", site_limits(open_site), {**fast, "PSC_ANGLE_MAX": 20}),
                dt_s=0.02)
     assert np.hypot(path.vel_mps[:, 0], path.vel_mps[:, 1]).max() == pytest.approx(
         top_speed_mps(20.0), rel=1e-6)
@@ -254,7 +257,7 @@ def test_takeoff_waits_for_liftoff_and_landing_slows_below_land_alt_low(open_sit
     # 1.6 s over 1.6 m, leaving 16.825 m at 1.5 m/s and 10 m at 0.5 m/s; then the land detector
     items = [nav(open_site, Cmd.NAV_TAKEOFF, (0, 0)), nav(open_site, Cmd.NAV_LAND, (0, 0), alt=0)]
     flight = resolve_flight(plan_of(open_site, items, fence=False), open_site)
-    path = fly(flight, make_profile("arducopter", open_site), dt_s=0.01)
+    path = fly(flight, make_profile("arducopter", site_limits(open_site)), dt_s=0.01)
     kinds = [leg.kind for leg in flight.legs]
     assert kinds == ["takeoff", "land"]
     assert path.start_s[0] == pytest.approx(LIFTOFF_DELAY_S)
@@ -273,7 +276,7 @@ def test_a_zero_length_leg_takes_no_time(open_site):
              nav(open_site, Cmd.NAV_WAYPOINT, (50, 0), p1=1.0),
              nav(open_site, Cmd.NAV_WAYPOINT, (50, 0), p1=3.0)]
     flight = resolve_flight(plan_of(open_site, items, fence=False), open_site)
-    path = fly(flight, make_profile("arducopter", open_site))
+    path = fly(flight, make_profile("arducopter", site_limits(open_site)))
     assert path.reached_s[3] == pytest.approx(path.start_s[3], abs=1e-9)
 
 

@@ -12,6 +12,7 @@ from tests.validator.builders import ALT_M, nav, plan_of, speed, waypoint_plan
 from validator.audit import audit
 from validator.flight import resolve_flight
 from validator.geojson_format import plan_geojson
+from validator.motion.limits import site_limits
 from validator.motion.profile import make_profile
 from validator.plan_format import Cmd, FencePolygon, Plan
 from validator.replay import replay, score_track
@@ -125,7 +126,7 @@ def test_a_rally_point_inside_a_polygon_zone_is_a_violation(site):
 def test_replay_gives_the_flown_clearance_of_each_polygon_zone(site):
     plan = with_polygon_fence(site, waypoint_plan(site, corner_pass(-math.sqrt(2.0)), end="none"))
     flight = resolve_flight(plan, site)
-    rep = score_track(replay(flight, make_profile("ideal", site)), flight, site, plan)
+    rep = score_track(replay(flight, make_profile("ideal", site_limits(site))), flight, site, plan)
     rows = {p.name: p for p in rep.nfz}
     assert list(rows) == ["DISC", "SQ"]
     assert rows["SQ"].clearance_m == pytest.approx(-1.0, abs=0.03)
@@ -137,7 +138,7 @@ def test_replay_gives_the_flown_clearance_of_each_polygon_zone(site):
                                                                                        abs=0.03)
     clear = with_polygon_fence(site, waypoint_plan(site, corner_pass(3.0), end="none"))
     flight = resolve_flight(clear, site)
-    rep = score_track(replay(flight, make_profile("ideal", site)), flight, site, clear)
+    rep = score_track(replay(flight, make_profile("ideal", site_limits(site))), flight, site, clear)
     assert {p.name: p for p in rep.nfz}["SQ"].clearance_m == pytest.approx(3.0, abs=1e-3)
     assert not rep.fence_entries
 

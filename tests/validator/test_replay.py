@@ -6,6 +6,7 @@ import pytest
 from tests.validator.builders import ALT_M, make_site, service_plan, waypoint_plan
 from validator.audit import audit
 from validator.flight import resolve_flight
+from validator.motion.limits import site_limits
 from validator.motion.profile import make_profile
 from validator.replay import replay, score_track, track_from_samples
 
@@ -25,7 +26,8 @@ def service(site):
 
 def test_ideal_profile_reproduces_the_planned_cycle_time(site, service):
     flight = resolve_flight(service, site)
-    rep = score_track(replay(flight, make_profile("ideal", site)), flight, site, service)
+    rep = score_track(replay(flight, make_profile("ideal", site_limits(site))), flight, site,
+                      service)
     assert rep.cycle is not None
     assert rep.cycle.planned_period_s == pytest.approx(21.0)
     assert rep.cycle.flown_cycle_s == pytest.approx(21.0, rel=0.01)
@@ -34,14 +36,15 @@ def test_ideal_profile_reproduces_the_planned_cycle_time(site, service):
 
 def test_arducopter_cycle_is_longer_than_planned(site, service):
     flight = resolve_flight(service, site)
-    rep = score_track(replay(flight, make_profile("arducopter", site)), flight, site, service)
+    rep = score_track(replay(flight, make_profile("arducopter", site_limits(site))), flight, site,
+                      service)
     assert rep.cycle is not None and rep.cycle.ratio > 1.2
     assert len(rep.cycle.flown_cycles_s) == 3
     assert rep.max_lag_s > 0
 
 
 def test_track_is_sampled_at_20_hz_by_default(site, service):
-    track = replay(resolve_flight(service, site), make_profile("arducopter", site))
+    track = replay(resolve_flight(service, site), make_profile("arducopter", site_limits(site)))
     assert np.diff(track.t_s).max() <= 0.05 + 1e-9
     assert track.mission_seq.min() >= 0
 
@@ -52,7 +55,8 @@ def test_hover_slots_get_exactly_the_planned_rate(site):
                         ["GN1", "GN2", "GN1", None])
     flight = resolve_flight(plan, site)
     for name in ("ideal", "arducopter"):
-        rep = score_track(replay(flight, make_profile(name, site), dt_s=0.01), flight, site, plan)
+        rep = score_track(replay(flight, make_profile(name, site_limits(site)), dt_s=0.01),
+                          flight, site, plan)
         assert rep.throughput is not None
         np.testing.assert_allclose(rep.throughput.flown_bps_hz, rep.throughput.planned_bps_hz,
                                    rtol=2e-3)
@@ -64,7 +68,7 @@ def test_flown_rate_is_the_rate_integrated_along_the_leg(site):
     p = 0.1
     plan = service_plan(site, q, [10.0, 10.0], [p, p], ["GN1", "GN2"])
     flight = resolve_flight(plan, site)
-    rep = score_track(replay(flight, make_profile("ideal", site)), flight, site, plan)
+    rep = score_track(replay(flight, make_profile("ideal", site_limits(site))), flight, site, plan)
     t = np.linspace(0.0, 10.0, 200001)
     snr0 = site.beta0 * p / site.noise_w
 
@@ -85,7 +89,7 @@ def test_a_slot_moving_less_than_the_match_tolerance_is_still_scored(site):
     q = [(0, 60), (60, 60), (0.08, 60), (0, 60)]
     plan = service_plan(site, q, [6.0, 6.0, 1.0], [0.1, 0.1, 0.1], ["GN1", "GN2", "GN1"])
     flight = resolve_flight(plan, site)
-    rep = score_track(replay(flight, make_profile("ideal", site)), flight, site, plan)
+    rep = score_track(replay(flight, make_profile("ideal", site_limits(site))), flight, site, plan)
     assert rep.throughput is not None, [f.message for f in rep.findings]
 
 
@@ -97,14 +101,15 @@ def test_slots_slowing_into_a_waypoint_all_belong_to_its_leg(site):
     plan.extra.update(trajectory_m=[[0, 60], [60, 60], [0.09, 60], [0, 60]],
                       delta_s=[6.0, 6.0, 1.0], power_w=[0.1] * 3, schedule=["GN1", "GN2", "GN2"])
     flight = resolve_flight(plan, site)
-    rep = score_track(replay(flight, make_profile("ideal", site)), flight, site, plan)
+    rep = score_track(replay(flight, make_profile("ideal", site_limits(site))), flight, site, plan)
     assert rep.throughput is not None, [f.message for f in rep.findings]
 
 
 def test_throughput_is_skipped_without_metadata(site):
     plan = waypoint_plan(site, [(0, -40), (200, -40)], end="none")
     flight = resolve_flight(plan, site)
-    rep = score_track(replay(flight, make_profile("arducopter", site)), flight, site, plan)
+    rep = score_track(replay(flight, make_profile("arducopter", site_limits(site))), flight, site,
+                      plan)
     assert rep.throughput is None
     assert any("throughput not scored" in f.message for f in rep.findings)
 
@@ -121,16 +126,18 @@ def test_corner_cut_enters_an_nfz_the_straight_legs_clear():
     plan = waypoint_plan(site, [p1, v, p2], v=8.0, end="none")
     assert audit(plan, site).ok
     flight = resolve_flight(plan, site)
-    ideal = score_track(replay(flight, make_profile("ideal", site)), flight, site, plan)
+    ideal = score_track(replay(flight, make_profile("ideal", site_limits(site))), flight, site,
+                        plan)
     assert ideal.nfz[0].clearance_m == pytest.approx(0.05, abs=1e-3)
-    ardu = score_track(replay(flight, make_profile("arducopter", site)), flight, site, plan)
+    ardu = score_track(replay(flight, make_profile("arducopter", site_limits(site))), flight,
+                       site, plan)
     assert -1.41 < ardu.nfz[0].clearance_m < -1.0
     assert any("flown track enters NFZ1" in f.message for f in ardu.violations)
 
 
 def test_recorded_track_is_scored_like_the_replay(site, service):
     flight = resolve_flight(service, site)
-    track = replay(flight, make_profile("arducopter", site))
+    track = replay(flight, make_profile("arducopter", site_limits(site)))
     rep = score_track(track, flight, site, service)
     recorded = track_from_samples(flight, track.t_s, track.xy_m, track.mission_seq,
                                   alt_m=track.alt_m)

@@ -18,6 +18,7 @@ import pytest
 
 from validator.audit import audit
 from validator.flight import resolve_flight
+from validator.motion.limits import site_limits
 from validator.motion.profile import make_profile
 from validator.plan_format import read_plan
 from validator.replay import TrackReport, replay, score_track, track_from_geodetic
@@ -46,7 +47,8 @@ def scored(track_name: str) -> tuple[dict[str, Any], TrackReport, TrackReport]:
     plan = read_plan(DATA / rec["plan"])
     flight = resolve_flight(plan, site)
     params = {**rec["params"], "VEHICLE_SPEED_MAX": SITL_TOP_SPEED_MPS}
-    model = score_track(replay(flight, make_profile("arducopter", site, params)), flight, site,
+    model = score_track(replay(flight, make_profile("arducopter", site_limits(site), params)),
+                        flight, site,
                         plan)
     with open(DATA / rec["track"], newline="") as f:
         rows = [r for r in csv.DictReader(f) if r["mode"] == "AUTO"]

@@ -20,8 +20,7 @@ from typing import Literal
 from validator.autopilot import ardupilot, px4
 from validator.autopilot.spec import ParamSpec, model_param
 from validator.errors import InputError
-from validator.motion.limits import SITL_QUAD_DRAG_PER_M, VehicleLimits, site_limits
-from validator.site import Site
+from validator.motion.limits import SITL_QUAD_DRAG_PER_M, VehicleLimits
 
 ProfileName = Literal["ideal", "arducopter", "px4"]
 PROFILES: tuple[ProfileName, ...] = ("ideal", "arducopter", "px4")
@@ -88,11 +87,10 @@ class Profile:
 
 
 def make_profile(
-    name: str, vehicle: VehicleLimits | Site, overrides: Mapping[str, float] | None = None
+    name: str, vehicle: VehicleLimits, overrides: Mapping[str, float] | None = None
 ) -> Profile:
     """The profile ``name`` for a vehicle with these limits, with ``overrides`` (autopilot
-    units). A :class:`Site` stands for its vehicle's limits
-    (:func:`~validator.motion.limits.site_limits`).
+    units); a site's vehicle is :func:`~validator.motion.limits.site_limits` of it.
 
     Raises :class:`InputError` for an unknown profile or parameter, or a value that is not a
     finite number > 0 (>= 0 where 0 is a setting: WPNAV_ACCEL_C, RTL_LOIT_TIME, PSC_ANGLE_MAX,
@@ -101,8 +99,7 @@ def make_profile(
     if name not in PROFILES:
         raise InputError(f"--profile: unknown profile {name!r} (choose from {', '.join(PROFILES)})")
     pname: ProfileName = name
-    limits = vehicle if isinstance(vehicle, VehicleLimits) else site_limits(vehicle)
-    params = _defaults(pname, limits)
+    params = _defaults(pname, vehicle)
     for key, value in (overrides or {}).items():
         if key not in params:
             known = ", ".join(sorted(params))
@@ -121,12 +118,6 @@ def flown_params(name: str, params: Mapping[str, float]) -> dict[str, float]:
     rest (the geofence, say) do not move the vehicle."""
     known = PARAM_SPECS.get(name, {})
     return {k: float(v) for k, v in params.items() if k in known}
-
-
-def flight_params(name: str, _site: Site, params: Mapping[str, float]) -> dict[str, float]:
-    """:func:`flown_params` under its old signature (the site was never needed), kept while
-    :mod:`mission_planner.optimize.retime` calls it."""
-    return flown_params(name, params)
 
 
 def parse_param_overrides(pairs: list[str] | None) -> dict[str, float]:

@@ -26,6 +26,7 @@ from validator.dynamics import make_profile
 from validator.fence_geometry import local_fence
 from validator.flight import Finding, Flight
 from validator.geometry import segment_point_closest_fraction, segment_point_distance
+from validator.motion.limits import site_limits
 from validator.plan_format import Plan
 from validator.replay.throughput import Throughput, flown_rates, planned_leg_times
 from validator.replay.track import Track, replay
@@ -198,7 +199,7 @@ def score_track(
     adds its exclusion fences to the checks.
     """
     if reference is None:
-        reference = replay(flight, make_profile("ideal", site))
+        reference = replay(flight, make_profile("ideal", site_limits(site)))
     findings: list[Finding] = []
     flying = track.leg >= 0
     xy = track.xy_m[flying] if flying.any() else track.xy_m

@@ -12,6 +12,7 @@ from validator.mavlink.modes import ARDUCOPTER_MODES
 from validator.mavlink.sim import CopterMode
 from validator.mavlink.telemetry import telemetry_track
 from validator.mavlink.wire import mavlink
+from validator.motion.limits import site_limits
 from validator.motion.profile import make_profile
 from validator.replay import replay
 
@@ -82,7 +83,7 @@ def test_mission_in_auto_reaches_every_item_and_lands(start_vehicle):
 def test_the_vehicle_flies_the_validators_replay(start_vehicle):
     site = make_site(nfz=((100.0, 0.0, 20.0),))
     plan = waypoint_plan(site, [(0.0, 60.0), (80.0, 60.0), (80.0, 120.0)], v=8.0)
-    profile = make_profile("arducopter", site)
+    profile = make_profile("arducopter", site_limits(site))
     vehicle = start_vehicle(plan, speedup=FAST, params=dict(profile.params),
                             max_speed_mps=site.max_speed_mps)
     with Link(url_of(vehicle), timeout_s=3) as link:
