@@ -20,13 +20,17 @@ from __future__ import annotations
 
 import heapq
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 import shapely
 from numpy.typing import ArrayLike, NDArray
 
 from validator.geometry import segment_point_distance
+
+T = TypeVar("T")
 
 DEFAULT_ARC_STEP_DEG = 10.0  # a chord vertex sticks out r·(1/cos(5°) − 1) ≈ 0.4 % of r
 _TOUCH_TOL_M = 1e-7  # float slack for a segment that is tangent to a circle by construction
@@ -210,22 +214,8 @@ def shortest_safe_path(
             add_edge(u, v, cost, (a0, sweep))
             add_edge(v, u, cost, (a1, -sweep))
 
-    dist = {0: 0.0}
-    prev: dict[int, tuple[int, tuple[float, float] | None]] = {}
-    heap = [(0.0, 0)]
-    while heap:
-        du, u = heapq.heappop(heap)
-        if u == 1:
-            break
-        if du > dist.get(u, math.inf):
-            continue
-        for v, cost, arc in edges.get(u, []):
-            nd = du + cost
-            if nd < dist.get(v, math.inf) - 1e-12:
-                dist[v] = nd
-                prev[v] = (u, arc)
-                heapq.heappush(heap, (nd, v))
-    if 1 not in dist:
+    prev = _shortest_path(edges)
+    if prev is None:
         raise ValueError("no safe path between the points: the circles wall one of them in")
 
     pieces: list[NDArray[np.float64]] = [np.array([nodes[1].xy])]
@@ -284,13 +274,27 @@ def shortest_path_around_polygons(start_m: ArrayLike, goal_m: ArrayLike,
         shapely.prepare(s)
         # a segment is blocked when it meets the obstacle's interior (its edges are free)
         free &= ~np.asarray(shapely.relate_pattern(segs, s, "T********"), dtype=bool)
-    edges: dict[int, list[tuple[int, float]]] = {}
+    edges: dict[int, list[tuple[int, float, None]]] = {}
     for u, v, (a, b) in zip(iu[free].tolist(), ju[free].tolist(), pairs[free], strict=True):
         length = float(np.hypot(*(b - a)))
-        edges.setdefault(u, []).append((v, length))
-        edges.setdefault(v, []).append((u, length))
+        edges.setdefault(u, []).append((v, length, None))
+        edges.setdefault(v, []).append((u, length, None))
+    prev = _shortest_path(edges)
+    if prev is None:
+        raise ValueError("no safe path between the points: the zones wall one of them in")
+    order = [1]
+    while order[-1] != 0:
+        order.append(prev[order[-1]][0])
+    return drop_collinear(nodes[order[::-1]])
+
+
+def _shortest_path(edges: Mapping[int, list[tuple[int, float, T]]]
+                   ) -> dict[int, tuple[int, T]] | None:
+    """Dijkstra from node 0 to node 1 over ``edges`` (node -> [(next, length m, payload)]):
+    for each node reached, the node it was reached from and the payload of that edge; None
+    when node 1 cannot be reached."""
     dist = {0: 0.0}
-    prev: dict[int, int] = {}
+    prev: dict[int, tuple[int, T]] = {}
     heap = [(0.0, 0)]
     while heap:
         du, u = heapq.heappop(heap)
@@ -298,14 +302,9 @@ def shortest_path_around_polygons(start_m: ArrayLike, goal_m: ArrayLike,
             break
         if du > dist.get(u, math.inf):
             continue
-        for v, cost in edges.get(u, []):
+        for v, cost, payload in edges.get(u, []):
             if du + cost < dist.get(v, math.inf) - 1e-12:
                 dist[v] = du + cost
-                prev[v] = u
+                prev[v] = (u, payload)
                 heapq.heappush(heap, (du + cost, v))
-    if 1 not in dist:
-        raise ValueError("no safe path between the points: the zones wall one of them in")
-    order = [1]
-    while order[-1] != 0:
-        order.append(prev[order[-1]])
-    return drop_collinear(nodes[order[::-1]])
+    return prev if 1 in dist else None
