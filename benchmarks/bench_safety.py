@@ -7,7 +7,8 @@ Run by hand (figures, not pass/fail; slow: ~10 s per site on a quiet 2-core mach
 
 Sites cycle through the generators below: ``random`` (the study's ``random_site``, with a
 buffer) and adversarial ones (zones clustered into narrow passages, home next to a zone, ground
-nodes between two zones or on a zone's buffer ring, large radii, tiny periods, many slots).
+nodes between two zones or on a zone's buffer ring, large radii, tiny periods, many slots) and
+``polygon`` (the study's ``random_polygon_site``: convex and non-convex polygon zones).
 Each site is planned as ``plan-mission`` does with ``--dynamics none`` and ``--dynamics
 vehicle``. A mission the gate passes is "written": its ``.plan`` text is read back, audited
 against the site and replayed (ArduCopter model at the recommended parameters). It is *unsafe*
@@ -34,7 +35,7 @@ import numpy as np
 
 from mission_planner.cli import plan_and_build
 from mission_planner.flight_report import replay_mission
-from mission_planner.study.sites import PAPER_ORIGIN, random_site
+from mission_planner.study.sites import PAPER_ORIGIN, random_polygon_site, random_site
 from validator.audit import audit
 from validator.errors import InputError
 from validator.flight import resolve_flight
@@ -133,10 +134,16 @@ def gen_many_slots(seed: int, rng: np.random.Generator) -> Site:
                        radius_m=float(rng.uniform(15, 35)))
 
 
+def gen_polygon(seed: int, rng: np.random.Generator) -> Site:
+    """Polygon zones, about half of them non-convex (the study's random_polygon_site)."""
+    return random_polygon_site(seed, buffer_m=float(rng.choice([0.0, 2.0, 5.0])),
+                               num_zones=int(rng.integers(2, 5)))
+
+
 GENERATORS: dict[str, Callable[[int, np.random.Generator], Site]] = {
     "random": gen_random, "passage": gen_passage, "home-at-zone": gen_home_at_zone,
     "gn-between": gen_gn_between, "large-radii": gen_large_radii,
-    "tiny-period": gen_tiny_period, "many-slots": gen_many_slots,
+    "tiny-period": gen_tiny_period, "many-slots": gen_many_slots, "polygon": gen_polygon,
 }
 
 
@@ -184,7 +191,7 @@ def _check(site: Site, name: str, dynamics: str) -> Outcome:
         return Outcome(name, dynamics, "crash", f"{type(err).__name__}: {err}"[:120],
                        detail=tb)
     out = Outcome(name, dynamics, "written")
-    if site.num_nfzs and report.leg_clearance_m.size:
+    if site.zone_names and report.leg_clearance_m.size:
         out.leg_margin_m = float(report.leg_clearance_m.min()) - (site.buffer_m - TOLERANCE_M)
     out.replay_clearance_m = min(check.clearance_by_nfz_m.values(), default=math.inf)
     bad = [f.message for f in report.violations] + [f.message for f in check.report.violations]
@@ -199,8 +206,11 @@ def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sites", type=int, default=500)
     ap.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
+    ap.add_argument("--generators", nargs="+", choices=list(GENERATORS), default=list(GENERATORS),
+                    metavar="NAME", help=f"cycle through these only (default all: "
+                                         f"{', '.join(GENERATORS)})")
     args = ap.parse_args(argv)
-    names = list(GENERATORS)
+    names = list(args.generators)
     tasks = [(names[i % len(names)], i // len(names)) for i in range(args.sites)]
     started = time.perf_counter()
     outcomes: list[Outcome] = []
