@@ -28,14 +28,16 @@ MAX_VERTICES = 1_000  # per zone: published airspace polygons hold tens to hundr
 # Depth sampling along a leg that enters a polygon: the sign of a clearance is exact (shapely),
 # the depth of a violation is measured to within half this step.
 DEPTH_STEP_M = 0.05
-# A fence outline's mitred corner may stand off its zone vertex at most this many times the
-# margin; beyond, it is bevelled there, still containing the zone plus margin (so no outline
-# vertex lies further than sqrt(1 + limit^2) margins from the zone; see fence_outline_m).
-# 1.5 keeps every outline vertex within sqrt(1 + 1.5^2) = 1.80 margins of its zone, so a fence
-# of the default margin (half the buffer) stays inside the planner's buffer (0.90 of it) even at
-# a sliver's corner (2.0 allowed 2.24 margins: 1.12 buffers, a leg at the buffer could enter the
-# fence); right-angle corners (mitre at 1.41 margins) keep their single vertex.
+# The start tour's outline round a polygon (mission_planner.optimize.initial): mitred corners,
+# bevelled where the mitre would stand off more than this many times its offset.
 FENCE_MITRE_LIMIT = 1.5
+# A fence outline goes round each convex corner of its zone in chords of about this angle (deg):
+# it then stands off the zone by at most ~1.06 margins anywhere. A mitred corner stood off
+# sqrt(2) margins at a right angle and up to 1.8 at a sharp one, where a replayed track the
+# exporter keeps inside the buffer, as it may, crossed the fence (bench_safety found two); 45°
+# chords stood off up to 1.2 margins (GEOS rounds a corner's chord count). The cost: three more
+# vertices per right-angled corner (the airfield's CTR: 26 instead of 8).
+FENCE_ARC_STEP_DEG = 30.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -159,21 +161,25 @@ def leg_clearance_m(zone: PolygonZone, a_m: ArrayLike, b_m: ArrayLike) -> float:
 
 def fence_outline_m(zone: PolygonZone, margin_m: float) -> NDArray[np.float64]:
     """Vertices (P, 2), counter-clockwise, of a polygon holding every point within ``margin_m``
-    of the zone: the outline an exclusion fence needs.
+    of the zone, and standing off it little more than that: the outline an exclusion fence needs.
 
     Offsetting each vertex by the margin would cut inside the zone's rounded margin at every
-    corner. Mitred joins (each edge pushed out by the margin, neighbours extended to meet) contain
-    it; at acute corners the mitre point runs far out, so beyond FENCE_MITRE_LIMIT x margin the
-    corner is bevelled by a line at least the margin from the vertex, which still contains it.
+    corner, and mitred corners stand far out. So each convex corner is rounded by chords of at
+    most about FENCE_ARC_STEP_DEG on a circle just wide enough that every chord keeps the margin
+    (GEOS's round join, its radius raised until the outline's least distance from the zone is the
+    margin: checked, not assumed).
     """
     if margin_m <= 0.0:
         return zone.vertices_xy_m.copy()
-    out = zone.shape.buffer(margin_m, join_style="mitre", mitre_limit=FENCE_MITRE_LIMIT)
-    out = orient(out, 1.0)
-    # floating point may leave an edge a hair inside the margin: the containment is checked
-    if float(shapely.distance(out.exterior, zone.shape)) < margin_m * (1.0 - 1e-9):
-        raise AssertionError(f"fence outline of {zone.name} cuts its {margin_m} m margin")
-    return np.asarray(out.exterior.coords, dtype=float)[:-1]
+    quad_segs = max(1, round(90.0 / FENCE_ARC_STEP_DEG))
+    radius = margin_m / math.cos(math.radians(FENCE_ARC_STEP_DEG) / 2.0)
+    for _ in range(8):
+        out = orient(zone.shape.buffer(radius, quad_segs=quad_segs, join_style="round"), 1.0)
+        least = float(shapely.distance(out.exterior, zone.shape))
+        if least >= margin_m:
+            return np.asarray(out.exterior.coords, dtype=float)[:-1]
+        radius *= (margin_m / least) * (1.0 + 1e-9)
+    raise AssertionError(f"no fence outline of {zone.name} keeps its {margin_m} m margin")
 
 
 def _segments(a_m: NDArray[np.float64], b_m: NDArray[np.float64]) -> NDArray[np.object_]:

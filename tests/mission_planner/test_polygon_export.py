@@ -93,7 +93,7 @@ def test_each_polygon_zone_gets_an_exclusion_fence_and_the_gate_passes(site, mis
     assert mission.safe, mission.problems
     plan = mission.plan
     excl = [p for p in plan.polygons if not p.inclusion]
-    assert [len(p.vertices_deg) for p in excl] == [8, 5]
+    assert [len(p.vertices_deg) for p in excl] == _outline_sizes(site, mission)
     assert [c.inclusion for c in plan.circles] == [False]
     for zone, fence in zip(site.polygon_zones, excl, strict=True):
         held = _held(site.frame, fence.vertices_deg)
@@ -137,25 +137,35 @@ def test_a_service_leg_just_inside_a_polygon_buffer_is_nudged_out(site):
                        zone_clearance_m=site.buffer_m)[1] == 0.0
 
 
+def _outline_sizes(site, mission) -> list[int]:
+    """Vertices of each polygon zone's fence outline at the mission's margin (the CTR's six
+    right-angled corners take four each, in 30° chords, its two inner corners one: 26)."""
+    return [len(fence_outline_m(z, mission.fence_margin_m + ROUNDING_ALLOWANCE_M))
+            for z in site.polygon_zones]
+
+
 def test_the_report_lists_each_polygon_fence_and_zone_clearance(site, mission):
     summary = mission_summary(mission)
     fences = summary["fence_polygons"]
     assert list(fences) == ["CTR", "PRISON"]
-    assert [f["vertices"] for f in fences.values()] == [8, 5]
+    assert [f["vertices"] for f in fences.values()] == _outline_sizes(site, mission)
+    assert _outline_sizes(site, mission)[0] == 26
     for f in fences.values():
         assert f["area_m2"] >= f["zone_plus_margin_area_m2"]
-        # mitred right angles stand off margin x sqrt 2 (plus the rounding allowance)
-        assert mission.fence_margin_m <= f["standoff_max_m"] <= 2.0 * mission.fence_margin_m
+        # rounded corners stand off at most ~1.1 margins (plus the rounding allowance)
+        assert mission.fence_margin_m <= f["standoff_max_m"] <= 1.1 * mission.fence_margin_m \
+            + 2 * ROUNDING_ALLOWANCE_M
     assert list(summary["nfz_clearance_by_zone_m"]) == ["MAST", "CTR", "PRISON"]
     assert summary["nfz_clearance_min_m"] == pytest.approx(
         min(summary["nfz_clearance_by_zone_m"].values()))
 
 
-def test_the_waypoints_fence_holds_exclusion_vertices_with_their_count(mission):
+def test_the_waypoints_fence_holds_exclusion_vertices_with_their_count(site, mission):
     text = dumps_fence_waypoints(mission.plan)
     rows = [line.split("\t") for line in text.splitlines()[1:]]
     vertex = [r for r in rows if int(r[3]) == int(Cmd.NAV_FENCE_POLYGON_VERTEX_EXCLUSION)]
-    assert [float(r[4]) for r in vertex] == [8.0] * 8 + [5.0] * 5
+    ctr, prison = _outline_sizes(site, mission)
+    assert [float(r[4]) for r in vertex] == [float(ctr)] * ctr + [float(prison)] * prison
     circles, polygons, _ = loads_fence_waypoints(text)
     assert [(p.inclusion, p.vertices_deg) for p in polygons] == [
         (p.inclusion, p.vertices_deg) for p in mission.plan.polygons]

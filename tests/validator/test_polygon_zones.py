@@ -134,8 +134,9 @@ def test_replay_gives_the_flown_clearance_of_each_polygon_zone(site):
     msgs = [f.message for f in rep.findings if f.severity == "violation"]
     assert any(m.startswith("flown track enters SQ by ") for m in msgs), msgs
     fence = [m for m in msgs if m.startswith("flown track enters exclusion fence polygon 0 by ")]
-    assert fence and float(fence[0].split(" by ")[1].split(" m")[0]) == pytest.approx(1.5,
-                                                                                       abs=0.03)
+    # 1 m inside the zone, so the fence's 0.5 m margin deeper (its edges stand a few cm more
+    # off the zone: the rounded outline's circle is just wide enough for its chords)
+    assert fence and 1.5 <= float(fence[0].split(" by ")[1].split(" m")[0]) <= 1.6
     clear = with_polygon_fence(site, waypoint_plan(site, corner_pass(3.0), end="none"))
     flight = resolve_flight(clear, site)
     rep = score_track(replay(flight, make_profile("ideal", site_limits(site))), flight, site, clear)
