@@ -52,7 +52,8 @@ def test_polygon_fences_upload_switched_on_and_read_back_as_written(mission, sit
               if k.startswith("FENCE_")}
     with Link(sitl_url, timeout_s=20) as link:
         report = upload_to(link, plan, params)  # verifies every item as ArduCopter stores it
-        assert report.counts["fence"] == 15
+        vertices = sum(len(p.vertices_deg) for p in plan.polygons)
+        assert report.counts["fence"] == vertices + len(plan.circles) + 1  # + return point
         assert link.read_param("FENCE_TYPE").value == 4.0  # polygons and circles
         back = download_from(link)
     assert [(p.inclusion, p.vertices_deg) for p in back.polygons] == [
