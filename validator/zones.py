@@ -159,20 +159,28 @@ def leg_clearance_m(zone: PolygonZone, a_m: ArrayLike, b_m: ArrayLike) -> float:
     return float(np.min(point_clearance_m(zone, a + t * (b - a))))
 
 
-def fence_outline_m(zone: PolygonZone, margin_m: float) -> NDArray[np.float64]:
+def fence_outline_m(zone: PolygonZone, margin_m: float,
+                    arc_step_deg: float | None = FENCE_ARC_STEP_DEG) -> NDArray[np.float64]:
     """Vertices (P, 2), counter-clockwise, of a polygon holding every point within ``margin_m``
     of the zone, and standing off it little more than that: the outline an exclusion fence needs.
 
     Offsetting each vertex by the margin would cut inside the zone's rounded margin at every
     corner, and mitred corners stand far out. So each convex corner is rounded by chords of at
-    most about FENCE_ARC_STEP_DEG on a circle just wide enough that every chord keeps the margin
+    most about ``arc_step_deg`` on a circle just wide enough that every chord keeps the margin
     (GEOS's round join, its radius raised until the outline's least distance from the zone is the
-    margin: checked, not assumed).
+    margin: checked, not assumed). Coarser chords take fewer vertices and stand further off
+    (90°: up to ~1.4 margins); ``arc_step_deg`` None mitres the corners (fewest vertices,
+    bevelled beyond FENCE_MITRE_LIMIT margins, up to 1.8 margins off).
     """
     if margin_m <= 0.0:
         return zone.vertices_xy_m.copy()
-    quad_segs = max(1, round(90.0 / FENCE_ARC_STEP_DEG))
-    radius = margin_m / math.cos(math.radians(FENCE_ARC_STEP_DEG) / 2.0)
+    if arc_step_deg is None:
+        out = zone.shape.buffer(margin_m, join_style="mitre", mitre_limit=FENCE_MITRE_LIMIT)
+        if float(shapely.distance(out.exterior, zone.shape)) < margin_m * (1.0 - 1e-9):
+            raise AssertionError(f"fence outline of {zone.name} cuts its {margin_m} m margin")
+        return np.asarray(orient(out, 1.0).exterior.coords, dtype=float)[:-1]
+    quad_segs = max(1, round(90.0 / arc_step_deg))
+    radius = margin_m / math.cos(math.radians(90.0 / quad_segs) / 2.0)
     for _ in range(8):
         out = orient(zone.shape.buffer(radius, quad_segs=quad_segs, join_style="round"), 1.0)
         least = float(shapely.distance(out.exterior, zone.shape))

@@ -187,7 +187,7 @@ def build_mission(solution: Solution, options: MissionOptions | None = None) -> 
 
     margin = fence_margin_for(site, opt)
     fence = Geofence.around(site, margin, np.vstack([outbound, q, back]), opt.operating_area,
-                            opt.operating_area_margin_m)
+                            opt.operating_area_margin_m, ardupilot=opt.autopilot == "ardupilot")
     home_ll = latlon(home)
     plan = Plan(
         items=items,

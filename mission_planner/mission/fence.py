@@ -16,10 +16,11 @@ import numpy as np
 import shapely
 from numpy.typing import ArrayLike, NDArray
 
+from validator.autopilot.fence_storage import fits_ardupilot
 from validator.geodesy import LocalFrame, round_e7
 from validator.plan_format import FenceCircle, FencePolygon
 from validator.site import Site
-from validator.zones import PolygonZone, fence_outline_m
+from validator.zones import FENCE_ARC_STEP_DEG, PolygonZone, fence_outline_m
 
 ROUNDING_ALLOWANCE_M = 0.01  # > the ~0.8 cm an int32 1e-7° vertex moves at mid latitudes
 
@@ -50,14 +51,16 @@ def _latlon(frame: LocalFrame, xy_m: NDArray[np.float64]) -> tuple[float, float]
     return float(lat), float(lon)
 
 
-def exclusion_outline(zone: PolygonZone, margin_m: float,
-                      frame: LocalFrame) -> list[tuple[float, float]]:
+def exclusion_outline(zone: PolygonZone, margin_m: float, frame: LocalFrame,
+                      arc_step_deg: float | None = FENCE_ARC_STEP_DEG
+                      ) -> list[tuple[float, float]]:
     """(lat, lon) vertices on the 1e-7° grid of an exclusion fence holding every point within
-    ``margin_m`` of ``zone``: :func:`validator.zones.fence_outline_m`, grown by a rounding
-    allowance (doubled until the rounded outline contains the zone plus margin)."""
+    ``margin_m`` of ``zone``: :func:`validator.zones.fence_outline_m` (corners in chords of
+    ``arc_step_deg``), grown by a rounding allowance (doubled until the rounded outline contains
+    the zone plus margin)."""
     extra = ROUNDING_ALLOWANCE_M
     for _ in range(8):
-        lat, lon = frame.to_geodetic(fence_outline_m(zone, margin_m + extra))
+        lat, lon = frame.to_geodetic(fence_outline_m(zone, margin_m + extra, arc_step_deg))
         lat, lon = round_e7(lat), round_e7(lon)
         held = shapely.Polygon(frame.to_local(lat, lon))
         if (held.is_valid and held.contains(zone.shape)
@@ -78,18 +81,19 @@ class Geofence:
 
     @classmethod
     def around(cls, site: Site, margin_m: float, flown_m: ArrayLike, area: str | None,
-               area_margin_m: float) -> Geofence:
+               area_margin_m: float, ardupilot: bool = True) -> Geofence:
         """An exclusion circle of radius R + ``margin_m`` per circle zone, an exclusion
         polygon holding each polygon zone plus ``margin_m`` (:func:`exclusion_outline`) and,
         when ``area`` is "polygon" or "circle", an inclusion zone ``area_margin_m`` around the
-        points ``flown_m``."""
+        points ``flown_m``. For ArduPilot the polygons' corners are coarsened as far as its
+        fence storage needs (:func:`_exclusion_polygons`)."""
         frame = site.frame
         circles = [
             FenceCircle(*_latlon(frame, c), float(r + margin_m), inclusion=False)
             for c, r in zip(site.nfz_xy_m, site.nfz_radius_m, strict=True)
         ]
-        polygons = [FencePolygon(exclusion_outline(z, margin_m, frame), inclusion=False)
-                    for z in site.polygon_zones]
+        polygons = _exclusion_polygons(site, margin_m, len(circles) + (area == "circle"),
+                                       ardupilot)
         vertices_m: NDArray[np.float64] | None = None
         if area is not None:
             vertices_m = operating_area(flown_m, area, area_margin_m)
@@ -101,3 +105,23 @@ class Geofence:
                 vertices = [(float(a), float(b)) for a, b in zip(lat, lon, strict=True)]
                 polygons.append(FencePolygon(vertices, inclusion=True))
         return cls(circles, polygons, vertices_m)
+
+
+# Corner chords (deg) tried in turn until the fence fits ArduCopter's storage: the finest stands
+# off the zone ~1.06 margins, 45° ~1.2, 90° ~1.4, mitred (None) up to 1.8. A coarser corner
+# is still judged by the safety gate's replay against the fence, so it costs margin, never safety.
+ARC_STEPS_DEG: tuple[float | None, ...] = (FENCE_ARC_STEP_DEG, 45.0, 90.0, None)
+
+
+def _exclusion_polygons(site: Site, margin_m: float, circles: int,
+                        ardupilot: bool) -> list[FencePolygon]:
+    """An exclusion polygon per polygon zone, with the finest corners whose fence (beside
+    ``circles`` circles, an inclusion polygon counted by the caller's area and the return
+    point) ArduCopter can store; the coarsest when none fits (the gate then says so)."""
+    fences: list[FencePolygon] = []
+    for step in ARC_STEPS_DEG:
+        fences = [FencePolygon(exclusion_outline(z, margin_m, site.frame, step), inclusion=False)
+                  for z in site.polygon_zones]
+        if not ardupilot or fits_ardupilot([len(p.vertices_deg) for p in fences], circles, True):
+            break
+    return fences

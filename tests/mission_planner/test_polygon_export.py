@@ -179,3 +179,30 @@ def test_the_figures_draw_polygon_zones_and_their_buffers(site, mission):
     assert np.allclose(filled[0].get_xy()[:-1], site.polygon_zones[0].vertices_xy_m)
     study = plot_fig3_map([mission.solution])
     assert sum(isinstance(p, Polygon) for p in study.axes[0].patches) == 4
+
+
+def test_fences_too_big_for_ardupilot_take_coarser_corners_and_px4_keeps_the_fine_ones():
+    from mission_planner.mission.fence import _exclusion_polygons
+    from validator.autopilot.fence_storage import fits_ardupilot
+    from validator.site import parse_site
+
+    def star(cx: float, cy: float) -> list[dict[str, float]]:
+        a = np.linspace(0.0, 2 * np.pi, 16, endpoint=False)
+        r = np.where(np.arange(16) % 2 == 0, 40.0, 18.0)
+        return [{"x": float(cx + ri * np.cos(ai)), "y": float(cy + ri * np.sin(ai))}
+                for ai, ri in zip(a, r, strict=True)]
+
+    site = parse_site({
+        "name": "stars", "origin": {"lat": 37.5585, "lon": 126.999},
+        "uav": {"altitude": 30.0, "max_speed": 10.0, "period": 100.0, "slots": 20},
+        "radio": {"p_avg_dbm": 20.0, "p_peak_dbm": 26.0, "beta0_db": -30.0, "noise_dbm": -70.0},
+        "ground_nodes": [{"name": "GN1", "x": 0.0, "y": 300.0}],
+        "no_fly_zones": [{"name": f"S{i}", "polygon": star(100.0 * i, 100.0)} for i in range(2)],
+    })
+    fine = _exclusion_polygons(site, 1.0, circles=0, ardupilot=False)  # PX4: no such limit
+    assert not fits_ardupilot([len(p.vertices_deg) for p in fine], 0, True)
+    held = _exclusion_polygons(site, 1.0, circles=0, ardupilot=True)
+    assert fits_ardupilot([len(p.vertices_deg) for p in held], 0, True)
+    assert sum(len(p.vertices_deg) for p in held) < sum(len(p.vertices_deg) for p in fine)
+    for zone, fence in zip(site.polygon_zones, held, strict=True):  # coarser, still holding
+        assert _held(site.frame, fence.vertices_deg).exterior.distance(zone.shape) >= 1.0

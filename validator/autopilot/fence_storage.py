@@ -22,11 +22,25 @@ MAX_POLYGON_VERTICES = 255  # the vertex count travels in a uint8
 
 def ardupilot_fence_bytes(plan: Plan) -> int:
     """Bytes of ArduCopter's fence storage ``plan``'s fence takes (see the module doc)."""
+    return fence_bytes([len(p.vertices_deg) for p in plan.polygons], len(plan.circles),
+                       plan.breach_return is not None)
+
+
+def fence_bytes(polygon_vertices: list[int], circles: int, return_point: bool) -> int:
+    """Bytes of ArduCopter's fence storage for polygons of these vertex counts, ``circles``
+    circles and, when ``return_point``, a breach return point."""
     total = 4 + 1  # header, end-of-storage marker
-    total += sum(2 + 8 * len(p.vertices_deg) for p in plan.polygons)
-    total += 13 * len(plan.circles)
-    total += 9 if plan.breach_return is not None else 0
+    total += sum(2 + 8 * n for n in polygon_vertices)
+    total += 13 * circles
+    total += 9 if return_point else 0
     return total
+
+
+def fits_ardupilot(polygon_vertices: list[int], circles: int, return_point: bool) -> bool:
+    """Whether ArduCopter can store such a fence (bytes and items)."""
+    items = sum(polygon_vertices) + circles + return_point
+    return (fence_bytes(polygon_vertices, circles, return_point) <= ARDUPILOT_FENCE_BYTES
+            and items <= ARDUPILOT_FENCE_ITEMS)
 
 
 def fence_items(plan: Plan) -> int:
@@ -45,7 +59,8 @@ def fence_storage_problem(plan: Plan, ardupilot: bool) -> str | None:
     if not ardupilot:
         return None
     size, items = ardupilot_fence_bytes(plan), fence_items(plan)
-    if size <= ARDUPILOT_FENCE_BYTES and items <= ARDUPILOT_FENCE_ITEMS:
+    if fits_ardupilot([len(p.vertices_deg) for p in plan.polygons], len(plan.circles),
+                      plan.breach_return is not None):
         return None
     return (f"the geofence ({len(plan.polygons)} polygon(s) of "
             f"{sum(len(p.vertices_deg) for p in plan.polygons)} vertices, "
