@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import shapely
 from matplotlib import colormaps
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
@@ -23,6 +24,7 @@ from numpy.typing import NDArray
 
 from validator.fileio import write_atomic
 from validator.geometry import segment_point_closest_fraction
+from validator.zones import leg_closest_m
 
 if TYPE_CHECKING:
     from mission_planner.optimize.solution import Solution
@@ -88,16 +90,27 @@ def _draw_trajectory(ax: Axes, sol: Solution, gn_colors: Sequence[Any], marker_s
     colors = [gn_colors[k] if k >= 0 else "white" for k in sol.schedule]
     ax.scatter(q[1:, 0], q[1:, 1], c=colors, marker=style["marker"], s=marker_size,
                edgecolors="k", linewidths=0.5, zorder=3)
-    inside = np.any(sol.nfz_clearance_m < 0.0, axis=1) if sol.site.num_nfzs else []
+    c = _zone_clearance_m(sol)
+    inside = np.any(c < 0.0, axis=1) if c.size else []
     for n in np.flatnonzero(inside):
         ax.plot(q[n:n + 2, 0], q[n:n + 2, 1], color=VIOLATION_COLOR, lw=2.5, zorder=4)
 
 
+def _zone_clearance_m(sol: Solution) -> NDArray[np.float64]:
+    """(N, Z): each leg's clearance from each zone as published, in ``site.zone_names`` order
+    (circles, then polygons)."""
+    parts = [sol.nfz_clearance_m] if sol.site.num_nfzs else []
+    if sol.site.polygon_zones:
+        parts.append(sol.polygon_clearance_m)
+    return np.hstack(parts) if parts else np.zeros((len(sol.trajectory_m) - 1, 0))
+
+
 def _intrusions(sol: Solution) -> list[tuple[int, int, float]]:
-    """(leg n, zone m, clearance m) of every leg that enters a zone, deepest first."""
-    if not sol.site.num_nfzs:
+    """(leg n, zone m, clearance m) of every leg that enters a zone, deepest first (m indexes
+    ``site.zone_names``)."""
+    c = _zone_clearance_m(sol)
+    if not c.size:
         return []
-    c = sol.nfz_clearance_m
     legs, zones = np.nonzero(c < 0.0)
     return sorted(((int(n), int(m), float(c[n, m])) for n, m in zip(legs, zones, strict=True)),
                   key=lambda t: t[2])
@@ -106,6 +119,11 @@ def _intrusions(sol: Solution) -> list[tuple[int, int, float]]:
 def _zoom_window(sol: Solution, leg: int, zone: int) -> tuple[NDArray[np.float64], float]:
     """Centre and half-size (m) of a window showing where leg ``leg`` cuts zone ``zone``."""
     a, b = sol.trajectory_m[leg], sol.trajectory_m[leg + 1]
+    if zone >= sol.site.num_nfzs:
+        poly = sol.site.polygon_zones[zone - sol.site.num_nfzs]
+        t, clearance = leg_closest_m(poly, a, b)
+        inside = float(shapely.LineString([a, b]).intersection(poly.shape).length)
+        return a + t * (b - a), max(0.65 * inside, -4.0 * clearance, 5.0)
     c = sol.site.nfz_xy_m[zone]
     r = float(sol.site.nfz_radius_m[zone])
     t = float(segment_point_closest_fraction(a, b, c))
@@ -163,7 +181,7 @@ def plot_fig3_map(solutions: Sequence[Solution]) -> Figure:
         inset.set_ylim(centre[1] - half, centre[1] + half)
         inset.set_aspect("equal")
         inset.tick_params(labelsize=6)
-        inset.set_title(f"{sol.site.nfz_names[zone]}, {sol.scheme} slot {leg + 1}", fontsize=7)
+        inset.set_title(f"{sol.site.zone_names[zone]}, {sol.scheme} slot {leg + 1}", fontsize=7)
         ax.indicate_inset_zoom(inset, edgecolor=VIOLATION_COLOR, alpha=0.5)
     return fig
 

@@ -206,3 +206,22 @@ def test_fences_too_big_for_ardupilot_take_coarser_corners_and_px4_keeps_the_fin
     assert sum(len(p.vertices_deg) for p in held) < sum(len(p.vertices_deg) for p in fine)
     for zone, fence in zip(site.polygon_zones, held, strict=True):  # coarser, still holding
         assert _held(site.frame, fence.vertices_deg).exterior.distance(zone.shape) >= 1.0
+
+
+def test_fig3_marks_legs_cutting_a_polygon_zone_and_zooms_on_it(site):
+    from matplotlib.colors import to_rgba
+
+    from mission_planner.study.plots import VIOLATION_COLOR
+    from tests.mission_planner.solutions import solution_for, subdivided
+
+    # along y = 180 the tour runs through the CTR's runway (y 150-210)
+    sol = solution_for(site, subdivided([(100, 180), (500, 180), (500, 470), (100, 470)], 6),
+                       scheme="conventional")
+    fig = plot_fig3_map([sol])
+    ax = fig.axes[0]
+    red = [ln for ln in ax.lines if ln.get_color() == VIOLATION_COLOR
+           or to_rgba(ln.get_color()) == to_rgba(VIOLATION_COLOR)]
+    inside = [n for n, c in enumerate(sol.polygon_clearance_m[:, 0]) if c < 0]  # CTR's column
+    assert len(inside) >= 3 and len(red) >= len(inside)
+    titles = [a.get_title() for a in fig.axes[0].child_axes]
+    assert any(t.startswith("CTR, conventional slot ") for t in titles), titles
