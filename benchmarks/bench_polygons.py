@@ -32,7 +32,7 @@ import numpy as np
 from mission_planner.optimize import PAPER_OPTIONS, plan
 from mission_planner.study.sites import random_polygon_site, random_site
 from validator.site import Site, load_site
-from validator.zones import leg_clearance_m, polygon_zone
+from validator.zones import path_clearances_m, polygon_zone
 
 SAMPLES = sorted((Path(__file__).resolve().parents[1] / "samples").glob("*.yaml"))
 BUFFER_M = 2.0
@@ -40,8 +40,7 @@ BUFFER_M = 2.0
 
 def worst_clearance_m(site: Site, trajectory_m: np.ndarray) -> float:
     """The least clearance of any leg from any polygon zone (m), exact (shapely)."""
-    legs = list(zip(trajectory_m[:-1], trajectory_m[1:], strict=True))
-    return min(leg_clearance_m(z, a, b) for z in site.polygon_zones for a, b in legs)
+    return float(path_clearances_m(site.polygon_zones, trajectory_m).min())
 
 
 def circle_twin(site: Site) -> Site | None:

@@ -152,11 +152,18 @@ def leg_clearance_m(zone: PolygonZone, a_m: ArrayLike, b_m: ArrayLike) -> float:
     a, b = np.asarray(a_m, dtype=float), np.asarray(b_m, dtype=float)
     leg = shapely.LineString([a, b]) if np.any(a != b) else shapely.Point(a)
     d = float(shapely.distance(zone.shape, leg))
-    if d > 0.0:
-        return d
+    return d if d > 0.0 else _deepest(zone, a, b)[0]
+
+
+def _deepest(zone: PolygonZone, a: NDArray[np.float64], b: NDArray[np.float64]
+             ) -> tuple[float, float]:
+    """The least signed clearance (m) of the leg a→b that meets the zone, sampled every
+    DEPTH_STEP_M along it, and the fraction along the leg where it occurs."""
     n = max(2, int(math.ceil(float(np.linalg.norm(b - a)) / DEPTH_STEP_M)) + 1)
-    t = np.linspace(0.0, 1.0, n)[:, None]
-    return float(np.min(point_clearance_m(zone, a + t * (b - a))))
+    t = np.linspace(0.0, 1.0, n)
+    c = point_clearance_m(zone, a + t[:, None] * (b - a))
+    i = int(np.argmin(c))
+    return float(c[i]), float(t[i])
 
 
 def fence_outline_m(zone: PolygonZone, margin_m: float,
@@ -232,12 +239,9 @@ def polyline_clearance_m(zone: PolygonZone, xy_m: ArrayLike) -> tuple[float, int
         return float(d[k]), k, _fraction(a[k], b[k], near)
     best = (math.inf, 0, 0.0)
     for k in np.flatnonzero(d <= 0.0).tolist():
-        n = max(2, int(math.ceil(float(np.linalg.norm(b[k] - a[k])) / DEPTH_STEP_M)) + 1)
-        t = np.linspace(0.0, 1.0, n)
-        c = point_clearance_m(zone, a[k] + t[:, None] * (b[k] - a[k]))
-        i = int(np.argmin(c))
-        if c[i] < best[0]:
-            best = (float(c[i]), int(k), float(t[i]))
+        c, t = _deepest(zone, a[k], b[k])
+        if c < best[0]:
+            best = (c, int(k), t)
     return best
 
 

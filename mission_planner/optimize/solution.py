@@ -9,6 +9,7 @@ position ``trajectory_m[n]`` at power ``power_w[n-1]`` to GN ``schedule[n-1]``.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -17,7 +18,7 @@ from numpy.typing import NDArray
 from validator.channel import hover_upper_bound, spectral_efficiency
 from validator.geometry import expanded_radius, leg_clearances
 from validator.site import Site
-from validator.zones import leg_clearance_m
+from validator.zones import path_clearances_m
 
 # The zone rule: proposed = Theorem 1's expanded radius (6-1), conventional = waypoints only (5),
 # tangent = each leg beyond a tangent line of the circle (research); polygons: separating lines.
@@ -85,21 +86,25 @@ class Solution:
     def polygon_clearance_m(self) -> NDArray[np.float64]:
         """(N, P): signed clearance of each leg from each polygon zone as published (buffer not
         included; negative: the depth the leg reaches inside)."""
-        q = self.trajectory_m
-        return np.array(
-            [[leg_clearance_m(z, a, b) for z in self.site.polygon_zones]
-             for a, b in zip(q[:-1], q[1:], strict=True)]
-        ).reshape(len(q) - 1, len(self.site.polygon_zones))
+        return path_clearances_m(self.site.polygon_zones, self.trajectory_m)
+
+    @cached_property
+    def zone_clearance_m(self) -> NDArray[np.float64]:
+        """(N, Z): clearance of each leg from each zone, in ``site.zone_names`` order (circles,
+        then polygons), as published. Cached: a solution is never changed, and the report and
+        Fig. 3 (once per inset) ask for it again; a polygon's clearance costs shapely calls."""
+        return np.hstack([self.nfz_clearance_m.reshape(len(self.trajectory_m) - 1, -1),
+                          self.polygon_clearance_m])
 
     @property
     def nfz_clearance_min_m(self) -> float:
         """The least clearance of any leg from any zone, circle or polygon (m)."""
-        c = np.concatenate([self.nfz_clearance_m.ravel(), self.polygon_clearance_m.ravel()])
+        c = self.zone_clearance_m
         return float(np.min(c)) if c.size else float("inf")
 
     def _zone_clearance_min_m(self) -> dict[str, float]:
         """Each zone's least leg clearance (m), circles then polygons, by name."""
-        c = np.hstack([self.nfz_clearance_m, self.polygon_clearance_m])
+        c = self.zone_clearance_m
         return {n: float(v) for n, v in zip(self.site.zone_names, np.min(c, axis=0), strict=True)}
 
     def report(self) -> dict[str, Any]:

@@ -90,25 +90,16 @@ def _draw_trajectory(ax: Axes, sol: Solution, gn_colors: Sequence[Any], marker_s
     colors = [gn_colors[k] if k >= 0 else "white" for k in sol.schedule]
     ax.scatter(q[1:, 0], q[1:, 1], c=colors, marker=style["marker"], s=marker_size,
                edgecolors="k", linewidths=0.5, zorder=3)
-    c = _zone_clearance_m(sol)
+    c = sol.zone_clearance_m
     inside = np.any(c < 0.0, axis=1) if c.size else []
     for n in np.flatnonzero(inside):
         ax.plot(q[n:n + 2, 0], q[n:n + 2, 1], color=VIOLATION_COLOR, lw=2.5, zorder=4)
 
 
-def _zone_clearance_m(sol: Solution) -> NDArray[np.float64]:
-    """(N, Z): each leg's clearance from each zone as published, in ``site.zone_names`` order
-    (circles, then polygons)."""
-    parts = [sol.nfz_clearance_m] if sol.site.num_nfzs else []
-    if sol.site.polygon_zones:
-        parts.append(sol.polygon_clearance_m)
-    return np.hstack(parts) if parts else np.zeros((len(sol.trajectory_m) - 1, 0))
-
-
 def _intrusions(sol: Solution) -> list[tuple[int, int, float]]:
     """(leg n, zone m, clearance m) of every leg that enters a zone, deepest first (m indexes
     ``site.zone_names``)."""
-    c = _zone_clearance_m(sol)
+    c = sol.zone_clearance_m
     if not c.size:
         return []
     legs, zones = np.nonzero(c < 0.0)
