@@ -311,13 +311,6 @@ class _Zone:
     radius_m: float = 0.0
     polygon: PolygonZone | None = None  # ... or a polygon
 
-    @property
-    def shape(self) -> shapely.Geometry:
-        if self.polygon is not None:
-            return self.polygon.shape
-        assert self.centre_m is not None
-        return shapely.Point(self.centre_m).buffer(self.radius_m, quad_segs=64)
-
 
 def _site_zones(model: SiteModel, frame: LocalFrame, source: str,
                 base_file: str | Path | None) -> list[_Zone]:
@@ -354,18 +347,10 @@ def _check_zones(zones: list[_Zone], model: SiteModel, gn_xy: NDArray[np.float64
         if z.name in seen:
             raise InputError(f"{z.where}: duplicate zone name (also {seen[z.name]})")
         seen[z.name] = z.where
-    shapes = [z.shape for z in zones]
     for j, zj in enumerate(zones):
         for i in range(j):
-            zi = zones[i]
-            if zi.polygon is None and zj.polygon is None:
-                assert zi.centre_m is not None and zj.centre_m is not None
-                overlap = bool(np.linalg.norm(zi.centre_m - zj.centre_m) < zi.radius_m
-                               + zj.radius_m)
-            else:
-                overlap = bool(shapely.intersection(shapes[i], shapes[j]).area > 0.0)
-            if overlap:
-                raise InputError(f"{zj.where}: overlaps {zi.name}")
+            if _overlap(zones[i], zj):
+                raise InputError(f"{zj.where}: overlaps {zones[i].name}")
     for k, g in enumerate(model.ground_nodes):
         for z in zones:
             if z.polygon is not None:
@@ -375,6 +360,19 @@ def _check_zones(zones: list[_Zone], model: SiteModel, gn_xy: NDArray[np.float64
                 inside = bool(np.linalg.norm(gn_xy[k] - z.centre_m) < z.radius_m)
             if inside:
                 raise InputError(f"{source}: ground_nodes[{k}] ({g.name}): lies inside {z.name}")
+
+
+def _overlap(a: _Zone, b: _Zone) -> bool:
+    """Whether two zones share interior (touching is allowed), exactly for circles too."""
+    if a.polygon is not None and b.polygon is not None:
+        return bool(shapely.intersection(a.polygon.shape, b.polygon.shape).area > 0.0)
+    if a.polygon is None and b.polygon is None:
+        assert a.centre_m is not None and b.centre_m is not None
+        return bool(np.linalg.norm(a.centre_m - b.centre_m) < a.radius_m + b.radius_m)
+    poly, circle = (a, b) if a.polygon is not None else (b, a)
+    assert poly.polygon is not None and circle.centre_m is not None
+    return float(shapely.distance(poly.polygon.shape, shapely.Point(circle.centre_m))) \
+        < circle.radius_m
 
 
 def parse_site(data: Any, source: str = "site", *, base_file: str | Path | None = None) -> Site:
