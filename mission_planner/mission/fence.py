@@ -116,8 +116,9 @@ ARC_STEPS_DEG: tuple[float | None, ...] = (FENCE_ARC_STEP_DEG, 45.0, 90.0, None)
 def _exclusion_polygons(site: Site, margin_m: float, circles: int,
                         ardupilot: bool) -> list[FencePolygon]:
     """An exclusion polygon per polygon zone, with the finest corners whose fence (beside
-    ``circles`` circles, an inclusion polygon counted by the caller's area and the return
-    point) ArduCopter can store; the coarsest when none fits (the gate then says so)."""
+    ``circles`` circles and the return point) ArduCopter can store; the coarsest when none fits
+    (the gate then says so). An inclusion polygon (``--operating-area polygon``) is not counted
+    here: when it tips the fence over, the gate refuses the mission."""
     fences: list[FencePolygon] = []
     for step in ARC_STEPS_DEG:
         fences = [FencePolygon(exclusion_outline(z, margin_m, site.frame, step), inclusion=False)
