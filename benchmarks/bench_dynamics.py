@@ -42,7 +42,9 @@ from validator.site import Site, load_site
 SAMPLES = Path(__file__).resolve().parents[1] / "samples"
 SAMPLE = SAMPLES / "paper-default.yaml"
 REALISTIC = SAMPLES / "realistic.yaml"
-DYNAMICS = ("none", "vehicle")
+# "vehicle" passes through the corners whose turn keeps the buffer; "stops" is the vehicle
+# plan that stops at every waypoint (--stop-at-every-waypoint), as plans were before
+MODES = ("none", "stops", "vehicle")
 REALISTIC_SPEED_MPS = (8.0, 15.0)
 REALISTIC_PERIOD_S = (120.0, 240.0)
 
@@ -78,15 +80,16 @@ class Row:
         return self.replayed_rate / self.planned_rate if self.planned_rate else float("nan")
 
 
-def measure(name: str, site: Site, dynamics: str) -> Row:
+def measure(name: str, site: Site, mode: str) -> Row:
     started = time.perf_counter()
-    mission = plan_and_build(site, dynamics=dynamics)
+    mission = plan_and_build(site, dynamics="none" if mode == "none" else "vehicle",
+                             pass_through_corners=mode != "stops")
     solve_s = time.perf_counter() - started
     check = replay_mission(mission)
     nan = float("nan")
     return Row(
         site=name,
-        dynamics=dynamics,
+        dynamics=mode,
         solve_s=solve_s,
         waypoints=len(mission.steps),
         merged=mission.merged_waypoints,
@@ -135,7 +138,7 @@ def main() -> None:
     print(f"{'':>50}{'min rate bps/Hz':^24}")
     rows: dict[tuple[str, str], Row] = {}
     for name, site in sites:
-        for dyn in DYNAMICS:
+        for dyn in MODES:
             try:
                 row = measure(name, site, dyn)
             except Exception as err:  # a figure, not a verdict: report it and go on
@@ -145,19 +148,26 @@ def main() -> None:
             print_row(row)
 
     print("\nmin rate with dynamics / without (same site; replayed = per flown second):")
-    print(f"{'site':>14} {'planned':>8} {'replayed':>9}")
-    ratios_planned, ratios_flown = [], []
+    print(f"{'site':>14} {'stops planned':>13} {'replayed':>9} {'vehicle planned':>15} "
+          f"{'replayed':>9}")
+    ratios: dict[str, tuple[list[float], list[float]]] = {"stops": ([], []), "vehicle": ([], [])}
     for name, _ in sites:
-        if (name, "vehicle") not in rows or (name, "none") not in rows:
+        if (name, "none") not in rows:
             continue
-        v, n = rows[name, "vehicle"], rows[name, "none"]
-        rp, rf = v.planned_rate / n.planned_rate, v.replayed_rate / n.replayed_rate
-        ratios_planned.append(rp)
-        ratios_flown.append(rf)
-        print(f"{name:>14} {rp:>8.3f} {rf:>9.3f}")
+        n = rows[name, "none"]
+        cells = []
+        for mode, (planned, flown) in ratios.items():
+            if (name, mode) not in rows:
+                cells.append(f"{'-':>{13 if mode == 'stops' else 15}} {'-':>9}")
+                continue
+            v = rows[name, mode]
+            planned.append(v.planned_rate / n.planned_rate)
+            flown.append(v.replayed_rate / n.replayed_rate)
+            cells.append(f"{planned[-1]:>{13 if mode == 'stops' else 15}.3f} {flown[-1]:>9.3f}")
+        print(f"{name:>14} {' '.join(cells)}")
 
     print("\nsummary (mean over sites; min-max):")
-    for dyn in DYNAMICS:
+    for dyn in MODES:
         rs = [rows[name, dyn] for name, _ in sites if (name, dyn) in rows]
         if not rs:
             continue
@@ -175,14 +185,13 @@ def main() -> None:
               f"solve {statistics.mean(r.solve_s for r in rs):.1f} s; "
               f"waypoints {statistics.mean(r.waypoints for r in rs):.1f} "
               f"({statistics.mean(r.merged for r in rs):.1f} merged)")
-    if not ratios_planned:
-        return
-    print(f"  vehicle / none min rate: planned {statistics.mean(ratios_planned):.3f} "
-          f"({min(ratios_planned):.3f}-{max(ratios_planned):.3f}), replayed "
-          f"{statistics.mean(ratios_flown):.3f} ({min(ratios_flown):.3f}-"
-          f"{max(ratios_flown):.3f}); replayed vehicle >= none on "
-          f"{sum(r >= 1.0 for r in ratios_flown)}/{len(ratios_flown)} sites")
-
+    for mode, (planned, flown) in ratios.items():
+        if not planned:
+            continue
+        print(f"  {mode} / none min rate: planned {statistics.mean(planned):.3f} "
+              f"({min(planned):.3f}-{max(planned):.3f}), replayed "
+              f"{statistics.mean(flown):.3f} ({min(flown):.3f}-{max(flown):.3f}); "
+              f"replayed {mode} >= none on {sum(r >= 1.0 for r in flown)}/{len(flown)} sites")
 
 if __name__ == "__main__":
     main()

@@ -4,17 +4,19 @@
         [--report R.json] [--dynamics vehicle|none] [--buffer-m B] [--autopilot ardupilot|px4]
         [--cycles C]
         [--fence-margin-m M] [--operating-area polygon|circle] [--operating-area-margin-m A]
-        [--format plan|waypoints] [--params F.param] [--no-merge] [--geojson F.geojson]
-        [--plot F.png] [--force] [--quiet]
+        [--format plan|waypoints] [--params F.param] [--no-merge] [--stop-at-every-waypoint]
+        [--geojson F.geojson] [--plot F.png] [--force] [--quiet]
 
 ``--dynamics vehicle`` (default) keeps speed changes within the site's ``uav.max_accel`` and
 ``uav.max_jerk``; ``--dynamics none`` is the paper's kinematic model (top speed only) and
-reproduces its results. Beside the mission goes the parameter file the autopilot needs
-(``OUT.param`` or ``--params``; :mod:`mission_planner.autopilot_params`). The mission is then
-replayed with the validator's model of the autopilot set to those parameters
-(:mod:`mission_planner.flight_report`): the report gets a ``"flight"`` section and stderr a
-one-line warning when the flown cycle is more than 10 % longer (or shorter) than T, and
-another when the site's ``uav.max_speed`` is above the vehicle's real top speed
+reproduces its results. With ``--dynamics vehicle`` an ArduCopter plan flies through the
+corners whose blended turn keeps the buffer (:mod:`mission_planner.optimize.corners`);
+``--stop-at-every-waypoint`` makes it stop at each. Beside the mission goes the parameter file
+the autopilot needs (``OUT.param`` or ``--params``; :mod:`mission_planner.autopilot_params`).
+The mission is then replayed with the validator's model of the autopilot set to those
+parameters (:mod:`mission_planner.flight_report`): the report gets a ``"flight"`` section and
+stderr a one-line warning when the flown cycle is more than 10 % longer (or shorter) than T,
+and another when the site's ``uav.max_speed`` is above the vehicle's real top speed
 (:func:`speed_warning`).
 
 Exit status: 0 written; 1 refused by the safety gate (some leg inside an NFZ plus its buffer,
@@ -40,7 +42,6 @@ from mission_planner.autopilot_params import (
     AutopilotParams,
     dumps_params,
     recommended_params,
-    waypoint_radius_m,
 )
 from mission_planner.flight_report import FlightCheck, replay_mission
 from mission_planner.mission import (
@@ -50,10 +51,10 @@ from mission_planner.mission import (
     MissionOptions,
     build_mission,
     check_options,
-    fence_margin_for,
     mission_summary,
 )
 from mission_planner.optimize.retime import top_speed_mps
+from mission_planner.waypoint_radius import radius_params
 from validator.errors import CommandParser, InputError, UserError, report_error
 from validator.fileio import write_all_atomic
 from validator.geojson_format import dumps_geojson, plan_geojson
@@ -155,12 +156,15 @@ def plan_and_build(
     *,
     dynamics: str = "vehicle",
     progress: Progress | None = None,
+    pass_through_corners: bool = True,
 ) -> Mission:
     """Optimise ``site`` with the paper's Algorithm 1 and lay out its mission.
 
     ``dynamics`` "vehicle" keeps speed changes within the site's acceleration and jerk
-    limits; "none" is the paper's kinematic model. Options are checked before the (slow)
-    optimisation. The safety verdict is in ``Mission.problems``; nothing is written here.
+    limits; "none" is the paper's kinematic model. ``pass_through_corners`` False stops the
+    vehicle at every waypoint (:class:`~mission_planner.optimize.PlannerOptions`). Options
+    are checked before the (slow) optimisation. The safety verdict is in ``Mission.problems``;
+    nothing is written here.
     """
     opt = options or MissionOptions()
     check_options(site, opt)
@@ -168,12 +172,12 @@ def plan_and_build(
         raise InputError(f"dynamics: expected one of {', '.join(DYNAMICS)}, got {dynamics!r}")
     from mission_planner.optimize import PlannerOptions, plan  # cvxpy is slow to import
 
-    # PX4 counts a waypoint reached at NAV_ACC_RAD and starts its hold there: legs are timed
-    # with the radius the parameter file will set
-    timing = ({"NAV_ACC_RAD": waypoint_radius_m(site, fence_margin_for(site, opt))}
-              if opt.autopilot == "px4" else {})
+    # Corners (ArduCopter's blends, PX4's acceptance) are timed with the waypoint radius the
+    # parameter file will set
+    timing = radius_params(site, opt.autopilot, opt.fence_margin_m)
     planner_options = PlannerOptions(dynamics=dynamics, autopilot=opt.autopilot,
-                                     timing_params=timing)
+                                     timing_params=timing,
+                                     pass_through_corners=pass_through_corners)
     solution = plan(site, scheme, options=planner_options, progress=progress)
     return build_mission(solution, opt)
 
@@ -211,6 +215,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="vehicle = speed changes within the site's uav.max_accel and "
                    "uav.max_jerk (default); none = the paper's kinematic model (top speed "
                    "only), which reproduces the paper's results")
+    p.add_argument("--stop-at-every-waypoint", action="store_true",
+                   help="with --dynamics vehicle, stop at every waypoint instead of flying "
+                   "through the corners whose blended turn keeps the buffer (ArduPilot)")
     p.add_argument("--report", type=Path,
                    help="write the solution, mission, autopilot-parameter and replayed-flight "
                    "report (JSON)")
@@ -301,7 +308,8 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
         progress = None if args.quiet else _ProgressLine()
         try:
             mission = plan_and_build(site, args.scheme, options, dynamics=args.dynamics,
-                                     progress=progress)
+                                     progress=progress,
+                                     pass_through_corners=not args.stop_at_every_waypoint)
         finally:
             if progress is not None and progress.tty:
                 print(file=sys.stderr)

@@ -27,6 +27,7 @@ from mission_planner.mission.steps import (
     scurve_legs,
     service_steps,
     timing_of,
+    waypoint_steps,
 )
 from mission_planner.optimize.retime import cruise_speed_mps
 from mission_planner.optimize.solution import Solution
@@ -117,7 +118,10 @@ def _service_cycle(solution: Solution, opt: MissionOptions) -> _Cycle:
     radii = site.planning_radius_m
     target_m = leg_margin_m(site, opt)
     per_slot = len(steps)
-    if opt.merge_legs:
+    waypoint_slots = solution.notes.get("waypoint_slots")
+    if isinstance(waypoint_slots, list):
+        steps = waypoint_steps(steps, waypoint_slots, timed_speed)
+    elif opt.merge_legs:
         steps = merge_straight_steps(
             steps, q, angle_deg=opt.merge_angle_deg, speed_rel=opt.merge_speed_rel,
             offset_m=opt.merge_offset_m, min_speed_mps=opt.min_speed_mps,

@@ -5,13 +5,16 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from mission_planner.transit import DEFAULT_ARC_STEP_DEG
-from validator.autopilot.rules import ARDUPILOT_MIN_SPEED_MPS, STATIONARY_M, acceptance_radius_m
+from mission_planner.waypoint_radius import fence_margin_m, waypoint_radius_m
+from validator.autopilot.rules import ARDUPILOT_MIN_SPEED_MPS, STATIONARY_M
 from validator.errors import InputError
 from validator.plan_format import Autopilot
 from validator.site import Site
 
 AUTOPILOTS = {"ardupilot": Autopilot.ARDUPILOTMEGA, "px4": Autopilot.PX4}
 OPERATING_AREAS = ("polygon", "circle")
+__all__ = ["AUTOPILOTS", "OPERATING_AREAS", "MissionOptions", "check_options", "corner_margin_m",
+           "fence_margin_for", "leg_margin_m", "waypoint_radius_m"]
 
 
 @dataclass(frozen=True)
@@ -81,22 +84,9 @@ def check_options(site: Site, options: MissionOptions) -> None:
 
 
 def fence_margin_for(site: Site, options: MissionOptions) -> float:
-    """The fence margin (m) outside each NFZ radius: the option, else half the buffer."""
-    return site.buffer_m / 2.0 if options.fence_margin_m is None else float(options.fence_margin_m)
-
-
-def waypoint_radius_m(site: Site, fence_margin_m: float) -> float:
-    """Waypoint (acceptance) radius (m) for a site: buffer − fence margin, within [0.05, 2].
-
-    Autopilots round a corner inside this radius, and the rounded track leaves the planned
-    legs by up to about the radius (measured in ArduCopter SITL and in the replay), on the
-    inside of the turn. The planned legs keep the full safety buffer from each NFZ and the
-    exclusion fence sits ``fence_margin_m`` outside the NFZ, so a radius of at most the slack
-    between them keeps rounded corners off the fence. Never above the autopilot's default 2 m
-    (wider corners save little time) nor below its 5 cm minimum
-    (:func:`validator.autopilot.rules.acceptance_radius_m`).
-    """
-    return acceptance_radius_m(site.buffer_m - fence_margin_m)
+    """The fence margin (m) outside each NFZ radius: the option, else half the buffer
+    (:func:`mission_planner.waypoint_radius.fence_margin_m`)."""
+    return fence_margin_m(site, options.fence_margin_m)
 
 
 def leg_margin_m(site: Site, options: MissionOptions) -> float:

@@ -17,7 +17,7 @@ same slots.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -267,6 +267,46 @@ def merge_straight_steps(
                                  speed_mps=scurve_speed_mps if is_scurve else None,
                                  moving_slots=len(moving), scurve=is_scurve))
         i = j
+    return out
+
+
+def waypoint_steps(steps: list[CycleStep], waypoint_slots: Sequence[int],
+                   speed_mps: float) -> list[CycleStep]:
+    """The steps merged into the waypoints a dynamics-aware plan was timed with.
+
+    ``waypoint_slots`` are the trajectory indices at which the planner's cycle reaches each of
+    its waypoints (``solution.notes["waypoint_slots"]``); the moving slots up to one of them
+    become one leg flown at ``speed_mps`` (the autopilot's own motion, which the planner laid
+    the slots along: ``scurve``). A waypoint the plan passes through has no hold, so the
+    autopilot blends it as the planner timed it (:mod:`mission_planner.optimize.corners`).
+    Timing is unchanged, as in :func:`merge_straight_steps`.
+    """
+    marks = set(int(i) for i in waypoint_slots)
+    out: list[CycleStep] = []
+    run: list[CycleStep] = []
+
+    def flush() -> None:
+        if not run:
+            return
+        if len(run) == 1 and run[0].leg_s <= 0:
+            out.append(run[0])
+        else:
+            moving = tuple(s.slots[0] for s in run)
+            out.append(CycleStep(run[-1].index, (*moving, *run[-1].slots[1:]),
+                                 float(sum(s.leg_s for s in run)), run[-1].hold_s,
+                                 speed_mps=speed_mps, moving_slots=len(run), scurve=True))
+        run.clear()
+
+    for s in steps:
+        if s.leg_s <= 0:  # a hold at q[0] before the first move
+            flush()
+            run.append(s)
+            flush()
+            continue
+        run.append(s)
+        if s.slots[0] in marks or s.hold_s > 0:
+            flush()
+    flush()
     return out
 
 

@@ -13,7 +13,9 @@ path but flies it honestly, with the validator's own model of the autopilot
    vehicle's real top speed: ArduCopter's jerk-limited S-curve (WPNAV_ACCEL capped by the lean
    angle, WPNAV_JERK with its jerk ramp), or PX4's braking rule and velocity smoothing, a leg
    ending when the vehicle is within NAV_ACC_RAD of the waypoint (PX4 starts the hold there);
-3. every ArduCopter stop costs its stop lag (:data:`validator.motion.arducopter.STOP_LAG_S`: it
+3. ArduCopter flies through the corners that are not hover points where its blended turn keeps
+   the buffer (:mod:`.corners`, the validator's corner model) and stops at the others;
+   every ArduCopter stop costs its stop lag (:data:`validator.motion.arducopter.STOP_LAG_S`: it
    reaches the waypoint that long after the S-curve ends), counted as hover at the waypoint
    just reached (the exporter programs holds net of it); the time left in T goes to the hover
    points in proportion to the optimiser's holds;
@@ -34,6 +36,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from shapely.geometry import LineString
 
+from mission_planner.optimize.corners import CycleMotion, blended_motion, stop_everywhere
+from mission_planner.waypoint_radius import radius_params
 from validator.autopilot.rules import STATIONARY_M, stored_hold_s
 from validator.geometry import min_leg_clearance
 from validator.motion.arducopter import (
@@ -188,10 +192,13 @@ def _indices_of(line: LineString, pts: NDArray[np.float64]) -> list[int]:
 def motion_profile(site: Site, autopilot: str = "ardupilot",
                    params: Mapping[str, float] | None = None) -> Profile:
     """The validator's model of ``autopilot`` ("ardupilot": ``arducopter``, "px4": ``px4``)
-    at the site's defaults and the parameters ``params`` (autopilot units) the plan will set:
-    the one model legs are timed with."""
+    at the site's defaults and the parameters ``params`` (autopilot units) the plan will set
+    (the waypoint radius, when not among them, as the exporter sets it by default:
+    :func:`mission_planner.waypoint_radius.radius_params`): the one model legs are timed with."""
     name = "px4" if autopilot == "px4" else "arducopter"
-    return make_profile(name, site_limits(site), flown_params(name, params or {}))
+    chosen = {**radius_params(site, "px4" if autopilot == "px4" else "ardupilot"),
+              **(params or {})}
+    return make_profile(name, site_limits(site), flown_params(name, chosen))
 
 
 def top_speed_mps(site: Site, autopilot: str = "ardupilot") -> float:
@@ -248,20 +255,42 @@ def arrival_lag_s(profiles: LegMotion, autopilot: str = "ardupilot") -> NDArray[
 
 def time_cycle(
     site: Site, sk: Skeleton, period_s: float, slots: int, autopilot: str = "ardupilot",
-    params: Mapping[str, float] | None = None,
+    params: Mapping[str, float] | None = None, pass_through: bool = True,
 ) -> tuple[float, tuple[NDArray[np.float64], NDArray[np.float64]] | None]:
     """The vehicle's total move time (s) round ``sk``, and its timeline of ``slots`` slots
     filling ``period_s`` (trajectory (N+1, 2), slot lengths (N,)); None when it cannot.
 
-    On the timeline each waypoint's hover begins with the stop lag (:func:`arrival_lag_s`)
-    and then holds as :func:`fit_holds` says (whole seconds but one, at least a second)."""
+    With ``pass_through`` (ArduCopter only) the vehicle flies through every corner that is not
+    a hover point where its turn keeps the buffer (:mod:`.corners`); it stops at the rest. On
+    the timeline each stop's hover begins with the stop lag (:func:`arrival_lag_s`) and then
+    holds as :func:`fit_holds` says (whole seconds but one, at least a second)."""
     profiles = leg_profiles(site, sk.leg_lengths_m, autopilot=autopilot, params=params)
-    move_s = float(np.sum(move_times(profiles)))
-    lag = arrival_lag_s(profiles, autopilot)
-    holds = fit_holds(sk.hold_s, move_s + float(np.sum(lag)), period_s)
+    motion = cycle_motion(site, sk, profiles, autopilot, params, pass_through)
+    lag = motion.arrival_lag_s
+    holds = fit_holds(sk.hold_s, motion.move_s + float(np.sum(lag)), period_s,
+                      stops=motion.stops)
     if holds is None:
-        return move_s, None
-    return move_s, resample(sk, holds + lag, profiles, slots, lag)
+        return motion.move_s, None
+    return motion.move_s, resample(sk, holds + lag, profiles, slots, motion)
+
+
+def cycle_motion(site: Site, sk: Skeleton, profiles: LegMotion, autopilot: str = "ardupilot",
+                 params: Mapping[str, float] | None = None,
+                 pass_through: bool = True) -> CycleMotion:
+    """Which waypoints of ``sk`` the vehicle stops at and how long each leg moves
+    (:class:`~.corners.CycleMotion`): every one a stop for PX4 or without ``pass_through``,
+    else the hover points, waypoint 0 and the corners whose blended turn would cut into a
+    zone's buffer (:func:`~.corners.blended_motion`). ``profiles``: the legs' rest-to-rest
+    motion (:func:`leg_profiles`)."""
+    lengths = sk.leg_lengths_m
+    if autopilot == "px4" or not pass_through or len(sk.points_m) < 2:
+        return stop_everywhere(profiles.total_s, lengths, arrival_lag_s(profiles, autopilot))
+    profile = motion_profile(site, autopilot, params)
+    lim = scurve_limits(profile)
+    speed = min(lim.default_speed_mps, lim.top_speed_mps)
+    return blended_motion(sk.points_m, profiles.total_s, sk.hold_s > 0, speed, profile,
+                          site.nfz_xy_m, site.planning_radius_m, site.polygon_zones,
+                          site.buffer_m)
 
 
 def move_times(profiles: LegMotion) -> NDArray[np.float64]:
@@ -270,27 +299,31 @@ def move_times(profiles: LegMotion) -> NDArray[np.float64]:
 
 
 def fit_holds(
-    hold_s: NDArray[np.float64], move_s: float, period_s: float, min_hold_s: float = MIN_HOLD_S
+    hold_s: NDArray[np.float64], move_s: float, period_s: float, min_hold_s: float = MIN_HOLD_S,
+    stops: NDArray[np.bool_] | None = None,
 ) -> NDArray[np.float64] | None:
     """Holds so that moves plus holds last exactly the period; None if they cannot.
 
-    Every waypoint holds at least ``min_hold_s`` (the first, where the cycle starts and ends,
-    twice that): a hold makes ArduCopter stop there, so its
-    legs are the rest-to-rest S-curves this module times (with no hold it blends the corner and
-    arrives early). The spare time goes to the optimiser's hover points in proportion to their
-    holds. All holds but the longest are whole seconds, as ArduCopter stores them, so that
-    exporting the plan does not shift its timing.
+    Every waypoint in ``stops`` (default: all) holds at least ``min_hold_s`` (the first, where
+    the cycle starts and ends, twice that): a hold makes ArduCopter stop there, so its legs are
+    the rest-to-rest S-curves this module times (with no hold it blends the corner, as the
+    others do, see :mod:`.corners`). The spare time goes to the optimiser's hover points in
+    proportion to their holds (to the stops alike when there are none). All holds but the
+    longest are whole seconds, as ArduCopter stores them, so that exporting the plan does not
+    shift its timing.
     """
     hold = np.asarray(hold_s, dtype=float)
+    stop = np.ones(len(hold), dtype=bool) if stops is None else np.asarray(stops, dtype=bool)
     # The first waypoint both starts and ends the cycle (see resample): it stops twice.
-    least = np.full(len(hold), min_hold_s)
+    least = np.where(stop, min_hold_s, 0.0)
     if len(hold) > 1:
         least[0] = 2 * min_hold_s
     spare = period_s - move_s - float(np.sum(least))
     if spare < 0:
         return None
     total = float(np.sum(hold))
-    share = hold * (spare / total) if total > 0 else np.full(len(hold), spare / len(hold))
+    share = (hold * (spare / total) if total > 0
+             else np.where(stop, spare / max(int(np.count_nonzero(stop)), 1), 0.0))
     out = least + share
     longest = int(np.argmax(out))
     whole = np.array([stored_hold_s(h) for h in out])
@@ -304,14 +337,20 @@ def resample(
     hold_s: NDArray[np.float64],
     profiles: LegMotion,
     slots: int,
-    arrival_lag_s: NDArray[np.float64] | None = None,
+    motion: CycleMotion | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
     """N slots over the re-timed cycle: (trajectory (N+1, 2), slot lengths (N,)); None when
-    the waypoints need more slots than there are. ``hold_s`` is each waypoint's time there,
-    ``arrival_lag_s`` (default none) the part of it spent arriving (see :func:`time_cycle`)."""
+    the waypoints need more slots than there are. ``hold_s`` is each waypoint's time there
+    (0: passed through), ``motion`` how each leg moves and the part of each hold spent
+    arriving (default: every leg whole from rest to rest, no lag; see :func:`time_cycle`).
+
+    A leg's slots end where its own motion puts the vehicle along the leg, the last one at
+    its waypoint (inside a blended turn the vehicle is off the legs by the corner cut)."""
     w = len(sk.points_m)
-    lag0 = 0.0 if arrival_lag_s is None else float(arrival_lag_s[0])
-    move = move_times(profiles)
+    if motion is None:
+        motion = stop_everywhere(profiles.total_s, profiles.length_m, np.zeros(w))
+    lag0 = float(motion.arrival_lag_s[0])
+    move = motion.duration_s
     # Intervals in time order: hold at waypoint k (if any), then the move of leg k.
     kinds: list[tuple[str, int, float]] = []
     for k in range(w):
@@ -349,10 +388,12 @@ def resample(
             deltas.extend([d / c] * c)
             points.extend([sk.points_m[k]] * c)
             continue
-        tau = _move_boundaries(profiles, k, d, c)
+        offset = float(motion.offset_s[k])
+        tau = _move_boundaries(profiles, k, offset, d, c)
         deltas.extend(np.diff(np.r_[0.0, tau]))
-        along, _, _ = profiles.state(np.full(c, k), tau)
+        along, _, _ = profiles.state(np.full(c, k), offset + tau)
         length = float(profiles.length_m[k])
+        along[-1] = length  # the waypoint itself, reached or passed through
         unit = (nxt[k] - sk.points_m[k]) / length
         points.extend(sk.points_m[k] + along[:, None] * unit[None, :])
     traj = np.array(points)
@@ -361,18 +402,19 @@ def resample(
 
 
 def _move_boundaries(
-    profiles: LegMotion, leg: int, duration_s: float, count: int
+    profiles: LegMotion, leg: int, offset_s: float, duration_s: float, count: int
 ) -> NDArray[np.float64]:
-    """End times (s) of ``count`` slots over a move: equal in time, except that every slot
-    moves at least :data:`MIN_SLOT_MOVE_M` (an S-curve starts and ends so slowly that an equal
-    share of time may move less than a hover's wobble, and the exporter would read the slot as
-    a hold)."""
+    """End times (s, from the move's start) of ``count`` slots over the part of a leg's motion
+    from ``offset_s`` lasting ``duration_s``: equal in time, except that every slot moves at
+    least :data:`MIN_SLOT_MOVE_M` (an S-curve starts and ends so slowly that an equal share of
+    time may move less than a hover's wobble, and the exporter would read the slot as a
+    hold)."""
     tau = duration_s * np.arange(1, count + 1) / count
     length = float(profiles.length_m[leg])
     if count < 2 or length < (count + 1) * MIN_SLOT_MOVE_M:
         return np.asarray(tau, dtype=float)
     grid = np.linspace(0.0, duration_s, 4096)
-    pos, _, _ = profiles.state(np.full(grid.size, leg), grid)
+    pos, _, _ = profiles.state(np.full(grid.size, leg), offset_s + grid)
     pos = np.maximum.accumulate(pos)
     step = MIN_SLOT_MOVE_M * 1.01  # a little over, against the grid's interpolation
     ahead = np.interp(step * np.arange(1, count + 1), pos, grid)  # i+1 steps from the start

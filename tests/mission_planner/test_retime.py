@@ -8,7 +8,9 @@ import pytest
 from mission_planner.optimize import PlannerOptions, Solution, plan
 from mission_planner.optimize.retime import (
     MIN_HOLD_S,
+    Skeleton,
     cruise_speed_mps,
+    cycle_motion,
     fit_holds,
     leg_profiles,
     move_times,
@@ -144,13 +146,31 @@ def test_flyable_plan_fills_the_period_and_respects_the_top_speed(
     assert flyable.notes["planning_speed_mps"] <= top
 
 
-def test_flyable_moves_take_as_long_as_the_s_curves(site: Site, flyable: Solution) -> None:
+def test_flyable_moves_take_as_long_as_the_vehicle_flies_them(
+    site: Site, flyable: Solution
+) -> None:
+    """The moving slots last exactly what the ArduCopter model takes to fly the waypoints,
+    stopping where the plan hovers and passing through the other corners."""
     idx = flyable.notes["waypoint_slots"]
     pts = flyable.trajectory_m[idx]
+    still = flyable.leg_length_m <= 1e-6
+    hover = np.array([still[i % len(still)] for i in idx])  # a hover starts on arrival
+    sk = Skeleton(pts, hover.astype(float))
+    profiles = leg_profiles(site, sk.leg_lengths_m)
+    motion = cycle_motion(site, sk, profiles)
+    assert not motion.stops.all()  # it passes through some corners
+    assert float(flyable.delta_s[~still].sum()) == pytest.approx(motion.move_s, rel=1e-6)
+
+
+def test_pass_through_corners_can_be_turned_off(site: Site) -> None:
+    """Without pass-through every corner stops, and the moves are the rest-to-rest S-curves."""
+    sol = plan(site, "proposed", options=PlannerOptions(
+        dynamics="vehicle", max_iterations=10, pass_through_corners=False))
+    pts = sol.trajectory_m[sol.notes["waypoint_slots"]]
     lengths = np.linalg.norm(np.roll(pts, -1, axis=0) - pts, axis=1)
     move = float(leg_profiles(site, lengths[lengths > 1e-6]).total_s.sum())
-    moving = flyable.leg_length_m > 1e-6
-    assert float(flyable.delta_s[moving].sum()) == pytest.approx(move, rel=1e-6)
+    moving = sol.leg_length_m > 1e-6
+    assert float(sol.delta_s[moving].sum()) == pytest.approx(move, rel=1e-6)
 
 
 def test_flyable_plan_keeps_clear_of_every_zone(flyable: Solution) -> None:
@@ -176,7 +196,9 @@ def test_flyable_plan_is_flown_on_time_by_the_arducopter_replay(flyable: Solutio
     assert len(in_cycle) >= 2
     assert max(abs(x) for x in in_cycle) < 1.5
     assert report.throughput is not None
-    assert report.throughput.flown_min == pytest.approx(report.throughput.planned_min, rel=0.05)
+    # 12 slots in 50 s, most of them moving: the paper model rates a moving slot at its end
+    # point, the flown track averages over it (24 slots: within 1 %)
+    assert report.throughput.flown_min == pytest.approx(report.throughput.planned_min, rel=0.08)
 
 
 def test_arducopter_holds_are_written_net_of_the_stop_lag(flyable: Solution) -> None:
@@ -191,7 +213,10 @@ def test_arducopter_holds_are_written_net_of_the_stop_lag(flyable: Solution) -> 
 
     mission = build_mission(flyable)
     stops = [s for s in mission.steps if s.stop_lag_s > 0]
-    assert len(stops) >= 2 and all(s.stop_lag_s == STOP_LAG_S for s in stops)
+    assert len(stops) >= 1 and all(s.stop_lag_s == STOP_LAG_S for s in stops)
+    # the corners it flies through hold nothing and arrive without a lag
+    passed = [s for s in mission.steps if s.leg_s > 0 and s.hold_s == 0]
+    assert passed and all(s.stop_lag_s == 0 for s in passed)
     summary = mission_summary(mission)
     assert summary["stop_lag_s"] == pytest.approx(STOP_LAG_S * len(stops))
     assert summary["hold_written_s"] + summary["stop_lag_s"] == pytest.approx(
@@ -239,4 +264,6 @@ def test_px4_plans_are_timed_with_px4s_own_rules(site: Site, flyable_px4: Soluti
     report = replay_mission(mission, params).report
     assert report.cycle is not None and report.throughput is not None
     assert report.cycle.ratio == pytest.approx(1.0, abs=0.03)
-    assert report.throughput.flown_min == pytest.approx(report.throughput.planned_min, rel=0.05)
+    # 12 slots in 50 s, most of them moving: the paper model rates a moving slot at its end
+    # point, the flown track averages over it (24 slots: within 1 %)
+    assert report.throughput.flown_min == pytest.approx(report.throughput.planned_min, rel=0.08)

@@ -1,0 +1,141 @@
+"""Pass-through corners: where the vehicle flies through a waypoint instead of stopping at it.
+
+ArduCopter 4.x blends a waypoint that has no hold into the next leg: the next S-curve starts
+while this one brakes, and the vehicle turns inside WPNAV_RADIUS without stopping. Each stop
+costs the braking and re-acceleration of two S-curves and the stop lag; a path with many
+corners (round a zone, or a winding tour) spends much of T stopping. A blended turn cuts the
+corner on its inside, which is where the zone lies when the path bends round one, so a corner
+is passed through only where the flown turn keeps the site's buffer from every zone; the
+optimiser's hover points and the cycle's first waypoint always stop.
+
+The turn is timed and placed by the validator's own ArduCopter model
+(:func:`validator.dynamics.fly`, the corner rule of :mod:`validator.motion.arducopter`), so the
+plan and its replay agree by construction. PX4 plans stop at every waypoint (its corner
+acceptance is not calibrated for pass-through flight yet).
+
+Positions are metres east/north; times seconds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from validator.dynamics import fly
+from validator.flight import Flight, Leg
+from validator.geometry import min_leg_clearance
+from validator.motion.path import FlownPath
+from validator.motion.profile import Profile
+from validator.plan_format import Autopilot
+from validator.zones import PolygonZone, polyline_clearance_m
+
+CLEARANCE_TOL_M = 1e-3  # a blended turn may touch the buffer to this much (model precision)
+TURN_SAMPLE_S = 0.02  # the turn is checked along its path sampled this often
+
+
+@dataclass(frozen=True)
+class CycleMotion:
+    """How the vehicle flies a closed skeleton of W waypoints (leg k: waypoint k → k+1).
+
+    ``stops`` (W,): the vehicle stops at waypoint k (else it passes through). Leg k is flown
+    along its own rest-to-rest motion from ``offset_s[k]`` for ``duration_s[k]`` seconds: from
+    0 when it starts at a stop, from the moment the previous corner counts as reached when it
+    starts blended; to its end before a stop, to the moment its corner counts as reached before
+    a pass-through. ``arrival_lag_s`` (W,): time between the end of the motion into waypoint k
+    and the vehicle's arrival there (ArduCopter's stop lag at stops, 0 when passed through).
+    """
+
+    stops: NDArray[np.bool_]
+    offset_s: NDArray[np.float64]
+    duration_s: NDArray[np.float64]
+    arrival_lag_s: NDArray[np.float64]
+
+    @property
+    def move_s(self) -> float:
+        """Time (s) the vehicle moves in one cycle, lags not counted."""
+        return float(np.sum(self.duration_s))
+
+
+def stop_everywhere(total_s: NDArray[np.float64], lengths_m: NDArray[np.float64],
+                    arrival_lag_s: NDArray[np.float64]) -> CycleMotion:
+    """Every waypoint a stop: each leg that moves flown whole from rest to rest (its motion
+    lasting ``total_s``), waypoint k reached ``arrival_lag_s[k]`` after that motion ends."""
+    moving = np.asarray(lengths_m) > 0
+    return CycleMotion(np.ones(len(total_s), dtype=bool), np.zeros(len(total_s)),
+                       np.where(moving, total_s, 0.0), np.asarray(arrival_lag_s, dtype=float))
+
+
+def blended_motion(
+    points_m: NDArray[np.float64],
+    total_s: NDArray[np.float64],
+    must_stop: NDArray[np.bool_],
+    speed_mps: float,
+    profile: Profile,
+    centres_m: NDArray[np.float64],
+    radii_m: NDArray[np.float64],
+    polygons: tuple[PolygonZone, ...] = (),
+    polygon_clear_m: float = 0.0,
+) -> CycleMotion:
+    """The cycle round ``points_m`` (W, 2) flown by an ``arducopter`` ``profile`` at
+    ``speed_mps`` (each leg's rest-to-rest motion lasting ``total_s``), passing through every
+    waypoint not in ``must_stop`` whose blended turn stays at least ``radii_m`` from the circle
+    centres ``centres_m`` and ``polygon_clear_m`` from the ``polygons``; waypoint 0 always
+    stops (the cycle starts and ends there at rest)."""
+    w = len(points_m)
+    stops = np.asarray(must_stop, dtype=bool).copy()
+    stops[0] = True
+    path = _fly_cycle(points_m, stops, speed_mps, profile)
+    cut = [k for k in np.flatnonzero(~stops)
+           if _turn_clearance(path, int(k), centres_m, radii_m, polygons, polygon_clear_m)
+           < -CLEARANCE_TOL_M]
+    if cut:  # a turn's overlap depends on its two legs alone: one more flight settles it
+        stops[cut] = True
+        path = _fly_cycle(points_m, stops, speed_mps, profile)
+    end = path.start_s + np.asarray(total_s, dtype=float)
+    offset = np.zeros(w)
+    duration = np.zeros(w)
+    lag = np.zeros(w)
+    for k in range(w):
+        nxt = (k + 1) % w
+        begin = 0.0 if stops[k] else float(path.reached_s[k - 1] - path.start_s[k])
+        finish = float(end[k] if stops[nxt] else path.reached_s[k]) - float(path.start_s[k])
+        offset[k], duration[k] = begin, max(finish - begin, 0.0)
+        if stops[nxt]:
+            lag[nxt] = float(path.reached_s[k] - end[k])
+    return CycleMotion(stops, offset, duration, lag)
+
+
+def _fly_cycle(points_m: NDArray[np.float64], stops: NDArray[np.bool_], speed_mps: float,
+               profile: Profile) -> FlownPath:
+    """One cycle from rest at waypoint 0 back to it, without holds (a stop is a leg that does
+    not pass through: :class:`~validator.flight.Leg`'s ``pass_through``)."""
+    w = len(points_m)
+    legs = tuple(
+        Leg(item=k, first_item=k, kind="waypoint", start_xy_m=points_m[k],
+            end_xy_m=points_m[(k + 1) % w], start_alt_m=0.0, end_alt_m=0.0,
+            speed_mps=speed_mps, hold_s=0.0, pass_through=not stops[(k + 1) % w])
+        for k in range(w)
+    )
+    flight = Flight(legs=legs, home_xy_m=points_m[0], firmware_type=int(Autopilot.ARDUPILOTMEGA),
+                    findings=(), cycle=None, service=None)
+    return fly(flight, profile, dt_s=TURN_SAMPLE_S)
+
+
+def _turn_clearance(path: FlownPath, corner: int, centres_m: NDArray[np.float64],
+                    radii_m: NDArray[np.float64], polygons: tuple[PolygonZone, ...],
+                    polygon_clear_m: float) -> float:
+    """Least clearance (m) of the flown turn through waypoint ``corner`` >= 1: while both legs
+    move (leg ``corner`` starts before leg ``corner - 1`` ends; the corner counts as reached
+    half-way), elsewhere the vehicle flies the straight legs themselves."""
+    lo = float(path.start_s[corner])
+    hi = 2.0 * float(path.reached_s[corner - 1]) - lo
+    sel = (path.t_s >= lo - TURN_SAMPLE_S) & (path.t_s <= hi + TURN_SAMPLE_S)
+    pts = path.xyz_m[sel, :2]
+    if len(pts) < 2:
+        return float("inf")
+    c = min_leg_clearance(pts, centres_m, radii_m)
+    if polygons:  # signed: a turn into a zone without a buffer counts too
+        c = min(c, *(polyline_clearance_m(z, pts)[0] - polygon_clear_m for z in polygons))
+    return c

@@ -1,0 +1,70 @@
+"""Pass-through corners: the vehicle flies through a corner unless its turn would cut a zone."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mission_planner.optimize.corners import blended_motion
+from mission_planner.optimize.retime import Skeleton, leg_profiles, motion_profile
+from mission_planner.study.sites import random_site
+from validator.motion.arducopter import STOP_LAG_S, scurve_limits
+from validator.site import Site
+from validator.zones import PolygonZone, polygon_zone
+
+SQUARE = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [0.0, 100.0]])
+
+
+@pytest.fixture(scope="module")
+def site() -> Site:
+    return random_site(2, slots=12, buffer_m=3.0)  # a 1.5 m waypoint radius
+
+
+def _motion(site: Site, centres: list[list[float]] = (), radii: list[float] = (),
+            polygons: tuple[PolygonZone, ...] = (), hover: tuple[int, ...] = (0,)):
+    sk = Skeleton(SQUARE, np.array([1.0 if k in hover else 0.0 for k in range(4)]))
+    profiles = leg_profiles(site, sk.leg_lengths_m)
+    profile = motion_profile(site)
+    lim = scurve_limits(profile)
+    return profiles, blended_motion(
+        SQUARE, profiles.total_s, sk.hold_s > 0, min(lim.default_speed_mps, lim.top_speed_mps),
+        profile, np.array(centres, dtype=float).reshape(-1, 2), np.array(radii, dtype=float),
+        polygons, 0.0)
+
+
+def test_clear_corners_are_flown_through_and_save_time(site: Site) -> None:
+    profiles, m = _motion(site, [[50.0, 50.0]], [45.0])  # 5 m inside every leg
+    assert m.stops.tolist() == [True, False, False, False]
+    assert m.move_s < float(profiles.total_s.sum()) - 1.0  # three stops saved
+    # a lag only where it stops (the return to waypoint 0)
+    assert m.arrival_lag_s.tolist() == pytest.approx([STOP_LAG_S, 0.0, 0.0, 0.0])
+
+
+def test_hover_points_stop(site: Site) -> None:
+    _, m = _motion(site, hover=(0, 2))
+    assert m.stops.tolist() == [True, False, True, False]
+
+
+@pytest.mark.parametrize(("centre", "radius"), [([96.5, 3.5], 3.4), ([99.0, 1.0], 0.9)])
+def test_a_turn_that_would_cut_a_circle_stops(site: Site, centre: list[float],
+                                              radius: float) -> None:
+    # The legs clear the circle by 10 cm; the turn at (100, 0), cutting the corner by the
+    # 1.5 m waypoint radius, would not.
+    _, m = _motion(site, [centre], [radius])
+    assert m.stops.tolist() == [True, True, False, False]
+
+
+def test_a_turn_that_would_cut_a_polygon_stops(site: Site) -> None:
+    inside = polygon_zone("P", [[99.9, 0.1], [99.9, 40.0], [60.0, 0.1]], "test")
+    _, m = _motion(site, polygons=(inside,))
+    assert m.stops.tolist() == [True, True, False, False]
+
+
+def test_the_moves_tile_the_flight(site: Site) -> None:
+    """Offsets and durations come from one flight: the first leg leaves from rest, a blended
+    leg starts where the previous corner counted as reached, and the moves plus the lags add
+    up to the flight's length."""
+    profiles, m = _motion(site)
+    assert m.offset_s[0] == 0.0 and np.all(m.offset_s[1:] > 0)
+    assert np.all(m.duration_s <= profiles.total_s - m.offset_s + 1e-9)
+    assert m.duration_s[-1] == pytest.approx(profiles.total_s[-1] - m.offset_s[-1])
