@@ -66,6 +66,8 @@ def mission_summary(mission: Mission) -> dict[str, Any]:
         "service_waypoints": len(mission.steps),
         "service_waypoints_merged": mission.merged_waypoints,
         "scurve_legs": sum(s.scurve for s in mission.steps),
+        # no hold, so the autopilot blends the corner (ArduPilot) instead of stopping there
+        "waypoints_flown_through": sum(s.leg_s > 0 and s.hold_s <= 0 for s in mission.steps),
         "merge_offset_max_m": mission.merge_offset_m,
         "speed_changes": len(speeds),
         "cycle_items": [first, last],

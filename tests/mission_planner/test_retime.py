@@ -218,6 +218,7 @@ def test_arducopter_holds_are_written_net_of_the_stop_lag(flyable: Solution) -> 
     passed = [s for s in mission.steps if s.leg_s > 0 and s.hold_s == 0]
     assert passed and all(s.stop_lag_s == 0 for s in passed)
     summary = mission_summary(mission)
+    assert summary["waypoints_flown_through"] == len(passed)
     assert summary["stop_lag_s"] == pytest.approx(STOP_LAG_S * len(stops))
     assert summary["hold_written_s"] + summary["stop_lag_s"] == pytest.approx(
         summary["hold_planned_s"], abs=0.5)
