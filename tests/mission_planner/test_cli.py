@@ -249,6 +249,16 @@ def test_dynamics_reaches_the_planner_vehicle_by_default(tmp_path, capsys, squar
     assert [o.dynamics for o in square_planner] == [dynamics]
 
 
+@pytest.mark.parametrize("args, through", [([], True), (["--stop-at-every-waypoint"], False)])
+def test_corners_are_flown_through_unless_told_to_stop(tmp_path, capsys, square_planner, args,
+                                                       through):
+    code, err = _run([_write_site(tmp_path, SLOW), "-o", tmp_path / "m.plan", *args], capsys)
+    assert code == 0, err
+    assert [o.pass_through_corners for o in square_planner] == [through]
+    # the planner gets the waypoint radius the .param sets, to time the corners with
+    assert "WPNAV_RADIUS" in square_planner[0].timing_params
+
+
 def test_help_says_dynamics_none_reproduces_the_paper(capsys):
     with pytest.raises(SystemExit):
         plan_mission_main(["--help"])
