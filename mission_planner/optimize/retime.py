@@ -7,8 +7,8 @@ path but flies it honestly, with the validator's own model of the autopilot
 (:func:`motion_profile`), so that the plan and its replay agree by construction:
 
 1. :func:`skeleton`: the path's corners and hover points become waypoints; straight stretches
-   between them (Douglas-Peucker within ``tolerance_m``, never closer to an NFZ than before)
-   become single legs;
+   between them (Douglas-Peucker within ``tolerance_m``, chord by chord never closer to an
+   NFZ than before) become single legs;
 2. :func:`leg_profiles`: each leg is timed at :func:`cruise_speed_mps`, never above the
    vehicle's real top speed: ArduCopter's jerk-limited S-curve (WPNAV_ACCEL capped by the lean
    angle, WPNAV_JERK with its jerk ramp), or PX4's braking rule and velocity smoothing, a leg
@@ -39,7 +39,7 @@ from shapely.geometry import LineString
 from mission_planner.optimize.corners import CycleMotion, blended_motion, stop_everywhere
 from mission_planner.waypoint_radius import radius_params
 from validator.autopilot.rules import STATIONARY_M, stored_hold_s
-from validator.geometry import min_leg_clearance
+from validator.geometry import min_leg_clearance, segment_point_distance
 from validator.motion.arducopter import (
     STOP_LAG_S,
     arducopter_top_speed_mps,
@@ -56,7 +56,7 @@ from validator.zones import PolygonZone
 HOVER_SLOT_DISCOUNT = 0.25
 MIN_SLOT_MOVE_M = 0.1  # the first and last slot of a move travel at least this far
 MIN_HOLD_S = 1.0  # every waypoint of a flyable plan holds this long at least (whole seconds)
-SIMPLIFY_STEPS_M = (50.0, 25.0, 10.0, 5.0, 2.0, 1.0, 0.5, 0.2, 0.0)
+SIMPLIFY_TOLERANCE_M = 50.0  # a bend smaller than this between hover points is flown straight
 
 
 class LegMotion(Protocol):
@@ -94,17 +94,17 @@ def skeleton(
     delta_s: NDArray[np.float64],
     centres_m: NDArray[np.float64],
     radii_m: NDArray[np.float64],
-    tolerance_m: float = SIMPLIFY_STEPS_M[0],
+    tolerance_m: float = SIMPLIFY_TOLERANCE_M,
     polygons: tuple[PolygonZone, ...] = (),
     polygon_clear_m: float = 0.0,
 ) -> Skeleton:
     """Corners and hover points of a closed slot trajectory (N+1, 2) with slot lengths (N,).
 
     Runs of stationary slots become one waypoint holding their total time. Between hover
-    points the path is simplified (Douglas-Peucker, shapely) with the largest tolerance in
-    :data:`SIMPLIFY_STEPS_M` up to ``tolerance_m`` that keeps every leg at least as clear of
-    the circles (``centres_m``, ``radii_m``) as the original, or clear of them, and of the
-    ``polygons`` by ``polygon_clear_m``.
+    points the path is simplified (:func:`douglas_peucker` within ``tolerance_m``), a chord
+    replacing the points it skips only when it stays at least as clear of the circles
+    (``centres_m``, ``radii_m``) as they were, or clear of them, and of the ``polygons`` by
+    ``polygon_clear_m``: every corner costs the vehicle time, a short leg most of all.
     """
     q = np.asarray(trajectory_m, dtype=float)
     n = len(delta_s)
@@ -161,32 +161,43 @@ def _simplify(
     for a, b in zip(anchors, [*anchors[1:], anchors[0] + len(verts)], strict=True):
         stretch = [verts[k % len(verts)] for k in range(a, b + 1)]
         pts = q[stretch]
-        before = clearance(pts)
-        chosen = list(range(len(stretch)))
-        for tol in (t for t in SIMPLIFY_STEPS_M if t <= tolerance_m):
-            simple = LineString(pts).simplify(tol, preserve_topology=False)
-            idx = _indices_of(simple, pts)
-            if clearance(pts[idx]) >= min(before, 0.0) - 1e-9:
-                chosen = idx
-                break
+
+        def keeps_clearance(i: int, j: int, pts: NDArray[np.float64] = pts) -> bool:
+            return clearance(pts[[i, j]]) >= min(clearance(pts[i:j + 1]), 0.0) - 1e-9
+
+        def tightest(i: int, j: int, pts: NDArray[np.float64] = pts) -> int:
+            return i + 1 + int(np.argmin([clearance(pts[[k, k]]) for k in range(i + 1, j)]))
+
+        chosen = douglas_peucker(pts, tolerance_m, keeps_clearance, tightest)
         keep.extend(stretch[i] for i in chosen[:-1])
     return keep
 
 
-def _indices_of(line: LineString, pts: NDArray[np.float64]) -> list[int]:
-    """Indices into ``pts`` of a simplified line's vertices (simplify keeps original points)."""
-    out: list[int] = []
-    start = 0
-    for c in np.asarray(line.coords):
-        hits = np.flatnonzero(np.all(np.abs(pts[start:] - c) < 1e-9, axis=1))
-        if hits.size:
-            start += int(hits[0])
-            out.append(start)
-    if not out or out[0] != 0:
-        out.insert(0, 0)
-    if out[-1] != len(pts) - 1:
-        out.append(len(pts) - 1)
-    return out
+def douglas_peucker(pts: NDArray[np.float64], tolerance_m: float,
+                    keeps: Callable[[int, int], bool],
+                    tightest: Callable[[int, int], int]) -> list[int]:
+    """Indices of the polyline ``pts`` (P, 2) kept by Douglas-Peucker within ``tolerance_m``,
+    where a chord i→j also replaces the points between only if ``keeps(i, j)`` (here: no
+    closer to a zone than they were); a chord refused for that alone is split at
+    ``tightest(i, j)`` (the point between them closest to a zone), not at the farthest one.
+    Deciding chord by chord lets a stretch far from every zone lose its wiggles while one
+    hugging a zone keeps its vertices (a whole-path check would keep them all)."""
+    last = len(pts) - 1
+    kept = {0, last}
+    todo = [(0, last)]
+    while todo:
+        i, j = todo.pop()
+        if j <= i + 1:
+            continue
+        off = segment_point_distance(pts[i], pts[j], pts[i + 1:j])
+        k = i + 1 + int(np.argmax(off))
+        if float(off[k - i - 1]) <= tolerance_m:
+            if keeps(i, j):
+                continue
+            k = tightest(i, j)
+        kept.add(k)
+        todo += [(i, k), (k, j)]
+    return sorted(kept)
 
 
 def motion_profile(site: Site, autopilot: str = "ardupilot",

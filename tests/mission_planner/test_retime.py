@@ -19,6 +19,7 @@ from mission_planner.optimize.retime import (
     top_speed_mps,
 )
 from mission_planner.study.sites import random_site
+from validator.geometry import min_leg_clearance
 from validator.motion.arducopter import STOP_LAG_S
 from validator.site import Site
 
@@ -47,6 +48,24 @@ def test_skeleton_keeps_a_corner_that_would_cut_a_zone() -> None:
     centres, radii = np.array([[50.0, 5.0]]), np.array([10.0])
     sk = skeleton(traj, delta, centres, radii)
     assert any(np.allclose(p, [50.0, 40.0]) for p in sk.points_m)
+
+
+def test_skeleton_straightens_wiggles_far_from_zones_and_keeps_a_zone_hugging_arc() -> None:
+    """Judged chord by chord: a loop wrapping half of a circle and wiggling by a metre away
+    from it keeps the arc's vertices (a chord would cut the circle) and loses the wiggles but
+    the one the path needs to come back round the circle (a whole-loop judgement kept them
+    all, each a corner the vehicle slows for)."""
+    arc = [20.2 * np.array([np.cos(a), np.sin(a)]) for a in np.radians(np.arange(90, 271, 15))]
+    top = [np.array([20.0 * k, 20.2 + k % 2]) for k in range(1, 10)]
+    bottom = [np.array([20.0 * k, -20.2 - k % 2]) for k in range(9, 0, -1)]
+    loop = [*arc, *bottom, np.array([200.0, -20.2]), np.array([200.0, 20.2]), *top[::-1]]
+    traj = np.array([*loop, loop[0]])
+    sk = skeleton(traj, np.ones(len(loop)), np.zeros((1, 2)), np.array([20.0]))
+    kept = {tuple(np.round(p, 6)) for p in sk.points_m}
+    assert all(tuple(np.round(p, 6)) in kept for p in arc)
+    assert sum(tuple(np.round(p, 6)) in kept for p in top + bottom) <= 1
+    assert min_leg_clearance(np.vstack([sk.points_m, sk.points_m[:1]]), np.zeros((1, 2)),
+                             np.array([20.0])) >= 0.0
 
 
 def test_fit_holds_fills_the_period_in_whole_seconds_but_one() -> None:
