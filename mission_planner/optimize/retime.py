@@ -57,6 +57,7 @@ HOVER_SLOT_DISCOUNT = 0.25
 MIN_SLOT_MOVE_M = 0.1  # the first and last slot of a move travel at least this far
 MIN_HOLD_S = 1.0  # every waypoint of a flyable plan holds this long at least (whole seconds)
 SIMPLIFY_TOLERANCE_M = 50.0  # a bend smaller than this between hover points is flown straight
+WHOLE_STRETCH_STEPS_M = (50.0, 25.0, 10.0, 5.0, 2.0, 1.0, 0.5, 0.2, 0.0)  # chordwise=False
 
 
 class LegMotion(Protocol):
@@ -97,6 +98,7 @@ def skeleton(
     tolerance_m: float = SIMPLIFY_TOLERANCE_M,
     polygons: tuple[PolygonZone, ...] = (),
     polygon_clear_m: float = 0.0,
+    chordwise: bool = True,
 ) -> Skeleton:
     """Corners and hover points of a closed slot trajectory (N+1, 2) with slot lengths (N,).
 
@@ -105,6 +107,8 @@ def skeleton(
     replacing the points it skips only when it stays at least as clear of the circles
     (``centres_m``, ``radii_m``) as they were, or clear of them, and of the ``polygons`` by
     ``polygon_clear_m``: every corner costs the vehicle time, a short leg most of all.
+    ``chordwise`` False judges each whole stretch instead, with the largest tolerance of
+    :data:`WHOLE_STRETCH_STEPS_M` that keeps it as clear (PX4 plans, see the planner).
     """
     q = np.asarray(trajectory_m, dtype=float)
     n = len(delta_s)
@@ -131,7 +135,7 @@ def skeleton(
             c = min(c, *(float(z.shape.distance(line)) - polygon_clear_m for z in polygons))
         return c
 
-    keep = _simplify(q[:n], verts, hover, clearance, tolerance_m)
+    keep = _simplify(q[:n], verts, hover, clearance, tolerance_m, chordwise)
     hold_of = dict(zip(verts, holds, strict=True))
     # Waypoints closer than a hover's wobble are one waypoint (no zero-length legs).
     points: list[NDArray[np.float64]] = []
@@ -154,8 +158,10 @@ def _simplify(
     hover: set[int],
     clearance: Callable[[NDArray[np.float64]], float],
     tolerance_m: float,
+    chordwise: bool,
 ) -> list[int]:
-    """Vertices kept after simplifying each stretch between hover points."""
+    """Vertices kept after simplifying each stretch between hover points (see
+    :func:`skeleton`)."""
     anchors = [k for k, v in enumerate(verts) if v in hover] or [0]
     keep: list[int] = []
     for a, b in zip(anchors, [*anchors[1:], anchors[0] + len(verts)], strict=True):
@@ -168,7 +174,16 @@ def _simplify(
         def tightest(i: int, j: int, pts: NDArray[np.float64] = pts) -> int:
             return i + 1 + int(np.argmin([clearance(pts[[k, k]]) for k in range(i + 1, j)]))
 
-        chosen = douglas_peucker(pts, tolerance_m, keeps_clearance, tightest)
+        if chordwise:
+            chosen = douglas_peucker(pts, tolerance_m, keeps_clearance, tightest)
+        else:  # the largest of the steps whose whole simplified stretch keeps its clearance
+            before = min(clearance(pts), 0.0)
+            chosen = list(range(len(pts)))
+            for tol in (t for t in WHOLE_STRETCH_STEPS_M if t <= tolerance_m):
+                idx = douglas_peucker(pts, tol, lambda i, j: True, tightest)
+                if clearance(pts[idx]) >= before - 1e-9:
+                    chosen = idx
+                    break
         keep.extend(stretch[i] for i in chosen[:-1])
     return keep
 
