@@ -255,6 +255,15 @@ class _Flyable:
     min_rate: float
 
 
+def _as_calibrated(opt: PlannerOptions) -> bool:
+    """Whether plans keep to the shapes the autopilot's replay was calibrated on: PX4's (SIH
+    flights, issue 16): every waypoint a stop (:mod:`.corners`), the skeleton judged a whole
+    stretch at a time, no planning speed above the vehicle's. Simplified chord by chord, PX4
+    plans stopped at more corners, which SIH flew 3-5 % faster than the px4 model predicts
+    (about 0.7 s a stop)."""
+    return opt.autopilot == "px4"
+
+
 def _retimed(
     site: Site, scheme: str, speed: float, opt: PlannerOptions, progress: Progress | None
 ) -> tuple[_Flyable | None, float]:
@@ -272,16 +281,13 @@ def _retimed(
     sk = retime.skeleton(
         paper.trajectory_m, paper.delta_s, site.nfz_xy_m, site.planning_radius_m + opt.nfz_margin_m,
         polygons=site.polygon_zones, polygon_clear_m=site.buffer_m + opt.nfz_margin_m,
-        # PX4 keeps the whole-stretch simplification its replay is calibrated on: its plans
-        # simplified chord by chord stop at more corners, which PX4 SIH flew 3-5 % faster
-        # than the px4 model (0.7 s a stop); ArduPilot's blended corners gain from it
-        chordwise=opt.autopilot != "px4",
+        chordwise=not _as_calibrated(opt),
     )
     paper_move_s = max(site.period_s - float(np.sum(sk.hold_s)), 1e-9)
     # Passing through corners leaves the time saved to the hover points; with fewer than two
     # it would all pool at one, so stopping at every corner is tried as well (stops that pay).
     modes = [opt.pass_through_corners]
-    if (opt.pass_through_corners and opt.autopilot != "px4"  # PX4 stops anyway (.corners)
+    if (opt.pass_through_corners and not _as_calibrated(opt)
             and np.count_nonzero(sk.hold_s > 0) < 2):
         modes.append(False)
     best: _Flyable | None = None
@@ -354,8 +360,8 @@ def _plan_flyable(
         if fits_at is None:
             speed *= float(np.clip(0.9 / overrun, 0.2, 0.9))
             continue
-        if over_at is None and opt.autopilot == "px4":
-            break  # (PX4: only plan shapes its replay is calibrated on, see _retimed)
+        if over_at is None and _as_calibrated(opt):
+            break
         if over_at is None:
             # The vehicle flies this path within T with time to spare: planning for a faster
             # UAV than it is (a path reaching further, or hovering longer) may still fit.
