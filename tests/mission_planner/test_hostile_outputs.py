@@ -87,8 +87,11 @@ def test_killed_plan_mission_leaves_no_partial_file(tmp_path: Path) -> None:
 # the atomic writer killed while it writes
 
 _WRITER = """
-import sys
+import signal, sys
 from pathlib import Path
+# Python leaves SIGINT ignored when it starts with it ignored (a job a shell started in the
+# background without job control): take the default KeyboardInterrupt, as at a terminal.
+signal.signal(signal.SIGINT, signal.default_int_handler)
 from validator.fileio import write_all_atomic
 folder = Path(sys.argv[1])
 print("ready", flush=True)
