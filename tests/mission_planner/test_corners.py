@@ -83,9 +83,13 @@ def test_the_realistic_sample_gives_more_per_flown_second_than_the_paper_plan() 
     site = load_site(Path(__file__).resolve().parents[2] / "samples" / "realistic.yaml")
     flown = {}
     for dynamics in ("none", "vehicle"):
-        check = replay_mission(plan_and_build(site, dynamics=dynamics))
+        mission = plan_and_build(site, dynamics=dynamics)
+        check = replay_mission(mission)
         assert check.replayed_min_rate_bps_hz is not None and check.replayed_cycle_s is not None
         flown[dynamics] = (check.replayed_min_rate_bps_hz, check.replayed_cycle_s)
+    # it flies through corners, and the replayed track (turns included) keeps the buffer
+    assert mission.steps and any(s.leg_s > 0 and s.hold_s <= 0 for s in mission.steps)
+    assert min(check.clearance_by_nfz_m.values()) >= site.buffer_m - 0.01
     assert flown["none"][1] > 1.2 * site.period_s  # the paper plan overruns T when flown
     assert flown["vehicle"][1] == pytest.approx(site.period_s, rel=0.02)
     assert flown["vehicle"][0] > flown["none"][0]
