@@ -42,6 +42,7 @@ from dataclasses import dataclass, field
 from mission_planner.mission import Mission
 from mission_planner.mission.options import waypoint_radius_m
 from mission_planner.optimize.retime import top_speed_mps
+from mission_planner.waypoint_radius import radius_params
 from validator.autopilot.fence import FENCE_RULES
 from validator.autopilot.param_file import format_params
 from validator.autopilot.tables import param_table, range_notes
@@ -87,7 +88,6 @@ def recommended_params(mission: Mission) -> AutopilotParams:
     site = mission.solution.site
     autopilot = mission.options.autopilot
     speed = min(fastest_leg_mps(mission), top_speed_mps(site, autopilot))
-    radius = waypoint_radius_m(site, mission.fence_margin_m)
     table = param_table(autopilot)
     if autopilot == "px4":
         values = {
@@ -95,15 +95,14 @@ def recommended_params(mission: Mission) -> AutopilotParams:
             "MPC_XY_VEL_MAX": round(_ceil(speed, 0.01), 2),
             "MPC_ACC_HOR": site.max_accel_mps2,
             "MPC_JERK_AUTO": site.max_jerk_mps3,
-            "NAV_ACC_RAD": radius,
         }
     else:
         values = {
             "WPNAV_SPEED": _ceil(table["WPNAV_SPEED"].from_si(speed), 1.0),
             "WPNAV_ACCEL": round(table["WPNAV_ACCEL"].from_si(site.max_accel_mps2), 6),
             "WPNAV_JERK": table["WPNAV_JERK"].from_si(site.max_jerk_mps3),
-            "WPNAV_RADIUS": round(table["WPNAV_RADIUS"].from_si(radius), 6),
         }
+    values.update(radius_params(site, autopilot, mission.fence_margin_m))
     values.update(FENCE_RULES[autopilot].recommended)
     return AutopilotParams(autopilot, values, range_notes(autopilot, values))
 
