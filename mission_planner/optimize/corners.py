@@ -135,7 +135,16 @@ def _turn_clearance(path: FlownPath, corner: int, centres_m: NDArray[np.float64]
     pts = path.xyz_m[sel, :2]
     if len(pts) < 2:
         return float("inf")
-    c = min_leg_clearance(pts, centres_m, radii_m)
-    if polygons:  # signed: a turn into a zone without a buffer counts too
-        c = min(c, *(polyline_clearance_m(z, pts)[0] - polygon_clear_m for z in polygons))
+    return path_clearance_m(pts, centres_m, radii_m, polygons, polygon_clear_m)
+
+
+def path_clearance_m(pts_m: NDArray[np.float64], centres_m: NDArray[np.float64],
+                     radii_m: NDArray[np.float64], polygons: tuple[PolygonZone, ...] = (),
+                     polygon_clear_m: float = 0.0) -> float:
+    """Least signed clearance (m) of the polyline ``pts_m`` (P >= 2, 2) from the circles
+    (beyond ``radii_m``) and the polygons (beyond ``polygon_clear_m``): negative inside, so a
+    path into a zone without a buffer counts too; +inf with no zones."""
+    c = min_leg_clearance(pts_m, centres_m, radii_m)
+    if polygons:
+        c = min(c, *(polyline_clearance_m(z, pts_m)[0] - polygon_clear_m for z in polygons))
     return c

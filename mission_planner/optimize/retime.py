@@ -34,12 +34,16 @@ from typing import Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from shapely.geometry import LineString
 
-from mission_planner.optimize.corners import CycleMotion, blended_motion, stop_everywhere
+from mission_planner.optimize.corners import (
+    CycleMotion,
+    blended_motion,
+    path_clearance_m,
+    stop_everywhere,
+)
 from mission_planner.waypoint_radius import radius_params
 from validator.autopilot.rules import STATIONARY_M, stored_hold_s
-from validator.geometry import min_leg_clearance, segment_point_distance
+from validator.geometry import segment_point_distance
 from validator.motion.arducopter import (
     STOP_LAG_S,
     arducopter_top_speed_mps,
@@ -128,12 +132,7 @@ def skeleton(
         verts, holds = verts[:-1], holds[:-1]
     hover = {v for v, h in zip(verts, holds, strict=True) if h > 0}
     def clearance(pts: NDArray[np.float64]) -> float:
-        """Least clearance of a polyline from the circles and the polygons (plus their clear)."""
-        c = min_leg_clearance(pts, centres_m, radii_m)
-        if polygons and len(pts) > 1:
-            line = LineString(pts)
-            c = min(c, *(float(z.shape.distance(line)) - polygon_clear_m for z in polygons))
-        return c
+        return path_clearance_m(pts, centres_m, radii_m, polygons, polygon_clear_m)
 
     keep = _simplify(q[:n], verts, hover, clearance, tolerance_m, chordwise)
     hold_of = dict(zip(verts, holds, strict=True))
