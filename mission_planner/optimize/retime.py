@@ -46,6 +46,7 @@ from validator.autopilot.rules import STATIONARY_M, stored_hold_s
 from validator.geometry import segment_point_distance
 from validator.motion.arducopter import (
     STOP_LAG_S,
+    ScurveLimits,
     arducopter_top_speed_mps,
     jerk_ramp_s,
     scurve_limits,
@@ -258,8 +259,7 @@ def leg_profiles(site: Site, lengths_m: ArrayLike, speed_mps: float | None = Non
         return px4_rest_to_rest(profile, lengths, speed)
     lim = scurve_limits(profile)
     jerk = np.full(lengths.shape, lim.jerk_mps3)
-    top = min(lim.default_speed_mps, lim.top_speed_mps)
-    speed = top if speed_mps is None else min(speed_mps, top)
+    speed = _scurve_speed_mps(lim, speed_mps)
     return scurve_rest_to_rest(
         lengths,
         np.full(lengths.shape, float(speed)),
@@ -267,6 +267,13 @@ def leg_profiles(site: Site, lengths_m: ArrayLike, speed_mps: float | None = Non
         jerk,
         jerk_ramp_s(profile, jerk),
     )
+
+
+def _scurve_speed_mps(lim: ScurveLimits, speed_mps: float | None = None) -> float:
+    """The speed (m/s) ArduCopter's S-curve legs are timed at: ``speed_mps`` (default
+    WPNAV_SPEED), never above WPNAV_SPEED or the vehicle's top speed."""
+    top = min(lim.default_speed_mps, lim.top_speed_mps)
+    return top if speed_mps is None else min(speed_mps, top)
 
 
 def arrival_lag_s(profiles: LegMotion, autopilot: str = "ardupilot") -> NDArray[np.float64]:
@@ -311,16 +318,10 @@ def cycle_motion(site: Site, sk: Skeleton, profiles: LegMotion, autopilot: str =
     if autopilot == "px4" or not pass_through or len(sk.points_m) < 2:
         return stop_everywhere(profiles.total_s, lengths, arrival_lag_s(profiles, autopilot))
     profile = motion_profile(site, autopilot, params)
-    lim = scurve_limits(profile)
-    speed = min(lim.default_speed_mps, lim.top_speed_mps)
+    speed = _scurve_speed_mps(scurve_limits(profile))
     return blended_motion(sk.points_m, profiles.total_s, sk.hold_s > 0, speed, profile,
                           site.nfz_xy_m, site.planning_radius_m, site.polygon_zones,
                           site.buffer_m)
-
-
-def move_times(profiles: LegMotion) -> NDArray[np.float64]:
-    """Duration (s) of each leg's move; a zero-length leg (a one-waypoint cycle) takes none."""
-    return np.asarray(np.where(profiles.length_m > 0, profiles.total_s, 0.0), dtype=float)
 
 
 def fit_holds(

@@ -13,7 +13,6 @@ from mission_planner.optimize.retime import (
     cycle_motion,
     fit_holds,
     leg_profiles,
-    move_times,
     skeleton,
     time_cycle,
     top_speed_mps,
@@ -129,7 +128,7 @@ def test_every_stop_hovers_the_autopilots_stop_lag_before_its_whole_second_hold(
     site: Site,
 ) -> None:
     sk = skeleton(*_hover_dash(), np.zeros((0, 2)), np.zeros(0))
-    move = float(np.sum(move_times(leg_profiles(site, sk.leg_lengths_m))))
+    move = float(leg_profiles(site, sk.leg_lengths_m).total_s.sum())
     _, out = time_cycle(site, sk, move + 20.0, 40)
     assert out is not None
     q, d = out
