@@ -151,6 +151,7 @@ def main() -> None:
     print(f"{'site':>14} {'stops planned':>13} {'replayed':>9} {'vehicle planned':>15} "
           f"{'replayed':>9}")
     ratios: dict[str, tuple[list[float], list[float]]] = {"stops": ([], []), "vehicle": ([], [])}
+    width = {"stops": 13, "vehicle": 15}  # the header's column widths
     for name, _ in sites:
         if (name, "none") not in rows:
             continue
@@ -158,12 +159,12 @@ def main() -> None:
         cells = []
         for mode, (planned, flown) in ratios.items():
             if (name, mode) not in rows:
-                cells.append(f"{'-':>{13 if mode == 'stops' else 15}} {'-':>9}")
+                cells.append(f"{'-':>{width[mode]}} {'-':>9}")
                 continue
             v = rows[name, mode]
             planned.append(v.planned_rate / n.planned_rate)
             flown.append(v.replayed_rate / n.replayed_rate)
-            cells.append(f"{planned[-1]:>{13 if mode == 'stops' else 15}.3f} {flown[-1]:>9.3f}")
+            cells.append(f"{planned[-1]:>{width[mode]}.3f} {flown[-1]:>9.3f}")
         print(f"{name:>14} {' '.join(cells)}")
 
     print("\nsummary (mean over sites; min-max):")
@@ -192,6 +193,7 @@ def main() -> None:
               f"({min(planned):.3f}-{max(planned):.3f}), replayed "
               f"{statistics.mean(flown):.3f} ({min(flown):.3f}-{max(flown):.3f}); "
               f"replayed {mode} >= none on {sum(r >= 1.0 for r in flown)}/{len(flown)} sites")
+
 
 if __name__ == "__main__":
     main()
