@@ -256,16 +256,11 @@ def merge_straight_steps(
             while j < len(steps) and (r := run_at(i, j + 1)) is not None and one_speed(r):
                 j += 1
         run = steps[i:j]
-        if len(run) == 1:
-            # A single slot timed as a rest-to-rest S-curve is still flown at V, not at L/δ.
-            out.append(replace(run[0], speed_mps=scurve_speed_mps, scurve=True) if is_scurve
-                       else run[0])
+        if len(run) == 1 and not is_scurve:
+            out.append(run[0])
         else:
-            moving = tuple(s.slots[0] for s in run)
-            out.append(CycleStep(run[-1].index, (*moving, *run[-1].slots[1:]),
-                                 float(sum(s.leg_s for s in run)), run[-1].hold_s,
-                                 speed_mps=scurve_speed_mps if is_scurve else None,
-                                 moving_slots=len(moving), scurve=is_scurve))
+            # (a single slot timed as a rest-to-rest S-curve is still flown at V, not at L/δ)
+            out.append(_one_leg(run, scurve_speed_mps if is_scurve else None, is_scurve))
         i = j
     return out
 
@@ -291,10 +286,7 @@ def waypoint_steps(steps: list[CycleStep], waypoint_slots: Sequence[int],
         if len(run) == 1 and run[0].leg_s <= 0:
             out.append(run[0])
         else:
-            moving = tuple(s.slots[0] for s in run)
-            out.append(CycleStep(run[-1].index, (*moving, *run[-1].slots[1:]),
-                                 float(sum(s.leg_s for s in run)), run[-1].hold_s,
-                                 speed_mps=speed_mps, moving_slots=len(run), scurve=True))
+            out.append(_one_leg(run, speed_mps, True))
         run.clear()
 
     for s in steps:
@@ -308,6 +300,15 @@ def waypoint_steps(steps: list[CycleStep], waypoint_slots: Sequence[int],
             flush()
     flush()
     return out
+
+
+def _one_leg(run: list[CycleStep], speed_mps: float | None, scurve: bool) -> CycleStep:
+    """Consecutive moving steps as one leg to the last one's waypoint: their slots flown along
+    it, its hold after, their leg times summed (timing unchanged)."""
+    moving = tuple(s.slots[0] for s in run)
+    return CycleStep(run[-1].index, (*moving, *run[-1].slots[1:]),
+                     float(sum(s.leg_s for s in run)), run[-1].hold_s, speed_mps=speed_mps,
+                     moving_slots=len(run), scurve=scurve)
 
 
 def place_on_legs(trajectory_m: ArrayLike, delta_s: ArrayLike,
