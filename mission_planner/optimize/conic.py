@@ -27,7 +27,7 @@ if TYPE_CHECKING:
 # An SCA step needs no more than 1e-7: the exact objective judges it afterwards, and NFZ
 # constraints carry a 2 cm margin. (Clarabel's default 1e-8 costs ~10 % more iterations.)
 # Iterative refinement of each KKT solve buys accuracy far below that at 30 % of the solve
-# time: without it 22 paper-model plans kept their min rate to 1e-5 (benchmarks/README).
+# time: without it the sample and ten benchmark sites kept every paper-model min rate.
 _TOLERANCE: dict[str, Any] = {"tol_gap_abs": 1e-7, "tol_gap_rel": 1e-7, "tol_feas": 1e-7,
                               "iterative_refinement_enable": False}
 _ATTEMPTS: tuple[dict[str, Any], ...] = (
