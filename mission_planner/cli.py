@@ -5,19 +5,20 @@
         [--cycles C]
         [--fence-margin-m M] [--operating-area polygon|circle] [--operating-area-margin-m A]
         [--format plan|waypoints] [--params F.param] [--no-merge] [--stop-at-every-waypoint]
-        [--geojson F.geojson] [--plot F.png] [--force] [--quiet]
+        [--second-start] [--geojson F.geojson] [--plot F.png] [--force] [--quiet]
 
 ``--dynamics vehicle`` (default) keeps speed changes within the site's ``uav.max_accel`` and
 ``uav.max_jerk``; ``--dynamics none`` is the paper's kinematic model (top speed only) and
-reproduces its results. With ``--dynamics vehicle`` an ArduCopter plan flies through the
-corners whose blended turn keeps the buffer (:mod:`mission_planner.optimize.corners`);
-``--stop-at-every-waypoint`` makes it stop at each. Beside the mission goes the parameter file
-the autopilot needs (``OUT.param`` or ``--params``; :mod:`mission_planner.autopilot_params`).
-The mission is then replayed with the validator's model of the autopilot set to those
-parameters (:mod:`mission_planner.flight_report`): the report gets a ``"flight"`` section and
-stderr a one-line warning when the flown cycle is more than 10 % longer (or shorter) than T,
-and another when the site's ``uav.max_speed`` is above the vehicle's real top speed
-(:func:`speed_warning`).
+reproduces its results. With ``--dynamics vehicle`` an ArduCopter plan flies through the corners
+whose blended turn keeps the buffer (:mod:`mission_planner.optimize.corners`);
+``--stop-at-every-waypoint`` makes it stop at each. ``--second-start`` runs Algorithm 1 from a
+second starting schedule and keeps the better plan (twice the time). Beside the mission goes the
+parameter file the autopilot needs (``OUT.param`` or ``--params``;
+:mod:`mission_planner.autopilot_params`). The mission is then replayed with the validator's
+model of the autopilot set to those parameters (:mod:`mission_planner.flight_report`): the
+report gets a ``"flight"`` section and stderr a one-line warning when the flown cycle is more
+than 10 % longer (or shorter) than T, and another when the site's ``uav.max_speed`` is above the
+vehicle's real top speed (:func:`speed_warning`).
 
 Exit status: 0 written; 1 refused by the safety gate (some leg inside an NFZ plus its buffer,
 or another problem of :func:`mission_planner.mission.plan_problems`), nothing written unless
@@ -157,12 +158,14 @@ def plan_and_build(
     dynamics: str = "vehicle",
     progress: Progress | None = None,
     pass_through_corners: bool = True,
+    second_start: bool = False,
 ) -> Mission:
     """Optimise ``site`` with the paper's Algorithm 1 and lay out its mission.
 
     ``dynamics`` "vehicle" keeps speed changes within the site's acceleration and jerk
     limits; "none" is the paper's kinematic model. ``pass_through_corners`` False stops the
-    vehicle at every waypoint (:class:`~mission_planner.optimize.PlannerOptions`). Options
+    vehicle at every waypoint; ``second_start`` also runs Algorithm 1 from 1/K schedule
+    shares and keeps the better (:class:`~mission_planner.optimize.PlannerOptions`). Options
     are checked before the (slow) optimisation. The safety verdict is in ``Mission.problems``;
     nothing is written here.
     """
@@ -170,14 +173,16 @@ def plan_and_build(
     check_options(site, opt)
     if dynamics not in DYNAMICS:
         raise InputError(f"dynamics: expected one of {', '.join(DYNAMICS)}, got {dynamics!r}")
-    from mission_planner.optimize import PlannerOptions, plan  # cvxpy is slow to import
+    from mission_planner.optimize import PlannerOptions, plan  # the solver is slow to import
+    from mission_planner.optimize.bcd import START_SCHEDULES
 
     # Corners (ArduCopter's blends, PX4's acceptance) are timed with the waypoint radius the
     # parameter file will set
     timing = radius_params(site, opt.autopilot, opt.fence_margin_m)
     planner_options = PlannerOptions(dynamics=dynamics, autopilot=opt.autopilot,
                                      timing_params=timing,
-                                     pass_through_corners=pass_through_corners)
+                                     pass_through_corners=pass_through_corners,
+                                     start_schedules=START_SCHEDULES[:2 if second_start else 1])
     solution = plan(site, scheme, options=planner_options, progress=progress)
     return build_mission(solution, opt)
 
@@ -218,6 +223,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--stop-at-every-waypoint", action="store_true",
                    help="with --dynamics vehicle, stop at every waypoint instead of flying "
                    "through the corners whose blended turn keeps the buffer (ArduPilot)")
+    p.add_argument("--second-start", action="store_true",
+                   help="also run the optimiser from every node sharing every slot and keep "
+                   "the better plan: a better optimum on some sites, twice the time")
     p.add_argument("--report", type=Path,
                    help="write the solution, mission, autopilot-parameter and replayed-flight "
                    "report (JSON)")
@@ -309,7 +317,8 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
         try:
             mission = plan_and_build(site, args.scheme, options, dynamics=args.dynamics,
                                      progress=progress,
-                                     pass_through_corners=not args.stop_at_every_waypoint)
+                                     pass_through_corners=not args.stop_at_every_waypoint,
+                                     second_start=args.second_start)
         finally:
             if progress is not None and progress.tty:
                 print(file=sys.stderr)

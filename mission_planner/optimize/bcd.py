@@ -41,6 +41,8 @@ SEARCH_ITERATIONS = 15  # Algorithm 1 iterations per candidate top speed with dy
 BRACKET_REL = 0.05  # the top-speed search stops bisecting within 5 % of the overrunning speed
 RAISE_FACTOR = 1.25  # a path that fits at the vehicle's top speed is planned again this much faster
 RAISE_LIMIT = 2.0  # ... up to this multiple of the top speed
+# Algorithm 1's starting schedules: each slot to its nearest GN, or every GN a 1/K share.
+START_SCHEDULES = ("nearest", "shares")
 
 
 @dataclass(frozen=True)
@@ -58,6 +60,10 @@ class PlannerOptions:
     moves then overrun T, the path is planned again for a lower effective top speed, up to
     ``retime_attempts`` times. ``pass_through_corners``: ArduCopter flies through the corners
     whose turn keeps the buffer instead of stopping at every waypoint (:mod:`.corners`).
+    ``start_schedules``: Algorithm 1 runs from each of these starting schedules
+    (:data:`START_SCHEDULES`) and the best min rate is kept; the schedule a start gives locks
+    in early (once power equalises the rates, no slot can change GN alone), so a second start
+    finds better optima on some sites at twice the time.
     "none" is the paper's kinematic model (top speed only): the
     studies reproducing the paper's figures use it (:data:`PAPER_OPTIONS`).
     """
@@ -76,6 +82,7 @@ class PlannerOptions:
     autopilot: str = "ardupilot"
     timing_params: Mapping[str, float] = field(default_factory=dict)
     pass_through_corners: bool = True
+    start_schedules: tuple[str, ...] = ("nearest",)
 
 
 PAPER_OPTIONS = PlannerOptions(dynamics="none")  # the paper's model, for its figures
@@ -97,14 +104,19 @@ def _binary_gap(s: NDArray[np.float64]) -> float:
     return float(np.max(np.minimum(s, 1.0 - s)))
 
 
-def _initial_schedule(sc: Scaled, q: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Each slot to the nearest GN: the tour's natural service order.
+def _initial_schedule(
+    sc: Scaled, q: NDArray[np.float64], start: str = "nearest"
+) -> NDArray[np.float64]:
+    """Each slot to the nearest GN: the tour's natural service order (``start`` "shares":
+    every GN a 1/K share of every slot instead).
 
     A GN left with (almost) no slot would pin the min rate at zero, and the scheduling penalty
     then outweighs the gain of giving all starved GNs slots at once; so if nearest-GN leaves
     any GN fewer than N/(4K) slots, the cycle is cut into K equal blocks instead.
     """
     k, n = sc.num_gns, sc.num_slots
+    if start == "shares":
+        return np.full((k, n), 1.0 / k)
     nearest = np.argmin(distance_sq(sc, q), axis=0)
     if np.min(np.bincount(nearest, minlength=k)) < max(1, n // (4 * k)):
         nearest = np.minimum(np.arange(n) * k // n, k - 1)
@@ -133,21 +145,43 @@ def plan(
         raise InputError(f"eta_scale: expected 'per-period' or 'literal', got {opt.eta_scale!r}")
     if opt.dynamics not in DYNAMICS:
         raise InputError(f"dynamics: expected one of {', '.join(DYNAMICS)}, got {opt.dynamics!r}")
+    if not opt.start_schedules or set(opt.start_schedules) - set(START_SCHEDULES):
+        raise InputError(f"start_schedules: expected some of {', '.join(START_SCHEDULES)}, "
+                         f"got {opt.start_schedules!r}")
     started = time.perf_counter()
     if opt.dynamics == "none":
         sc = scale_site(site, opt.nfz_margin_m, opt.gamma)
-        state = _algorithm1(sc, scheme, opt, progress)
-        return _solution(site, scheme, sc, _finish(sc, state), started, {})
+        return _solution(site, scheme, sc, _best_start(sc, scheme, opt, progress), started, {})
     return _plan_flyable(site, scheme, opt, progress, started)
 
 
-def _algorithm1(sc: Scaled, scheme: str, opt: PlannerOptions, progress: Progress | None) -> _State:
-    """The BCD loop of Algorithm 1 from the initial tour; returns the relaxed final state."""
+def _best_start(
+    sc: Scaled, scheme: str, opt: PlannerOptions, progress: Progress | None
+) -> _State:
+    """Algorithm 1 from each of ``opt.start_schedules``, finished (:func:`_finish`); the best
+    min rate (the first start on a tie)."""
+    best: _State | None = None
+    best_rate = -np.inf
+    for start in opt.start_schedules:
+        state = _finish(sc, _algorithm1(sc, scheme, opt, progress, start))
+        rate = min_rate(sc, state.q, state.delta, state.power, state.s)
+        if rate > best_rate:
+            best, best_rate = state, rate
+    assert best is not None  # plan() refuses an empty start_schedules
+    return best
+
+
+def _algorithm1(
+    sc: Scaled, scheme: str, opt: PlannerOptions, progress: Progress | None,
+    start: str = "nearest",
+) -> _State:
+    """The BCD loop of Algorithm 1 from the initial tour and the ``start`` schedule; returns
+    the relaxed final state."""
     n = sc.num_slots
     q, delta = initial_tour(sc)
     # Uniform power just inside the budget: (7) then leaves (P3-2) free to move δ at first, and
     # it does not coincide with Σδ = T (which would leave the solver no interior point).
-    state = _State(q, delta, _initial_schedule(sc, q), np.full(n, 1.0 - 1e-3))
+    state = _State(q, delta, _initial_schedule(sc, q, start), np.full(n, 1.0 - 1e-3))
 
     def trajectory_step(st: _State) -> None:
         terms = 1 if _binary_gap(st.s) < 1e-6 else RELAXED_TERMS
@@ -274,7 +308,7 @@ def _retimed(
     psc = scale_site(planning_site, opt.nfz_margin_m, opt.gamma)
     # The re-timing, not Algorithm 1's slow tail, decides these candidates: fewer iterations.
     search = replace(opt, max_iterations=min(opt.max_iterations, SEARCH_ITERATIONS))
-    state = _finish(psc, _algorithm1(psc, scheme, search, progress))
+    state = _best_start(psc, scheme, search, progress)
     paper = _solution(planning_site, scheme, psc, state, 0.0, {})
     # Simplified legs keep the planner's margin too, so the exporter need not nudge them (a
     # nudged waypoint no longer lies on the S-curve it was timed with).

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -146,3 +148,20 @@ def test_conventional_scheme_cuts_through_an_nfz_the_proposed_one_avoids() -> No
 def test_unknown_scheme_is_refused() -> None:
     with pytest.raises(InputError, match="scheme"):
         plan(random_site(1, slots=8), "shortest")
+
+
+def _with_starts(site: Site, *starts: str) -> Solution:
+    return plan(site, "proposed", options=replace(FAST, start_schedules=starts))
+
+
+def test_a_second_start_keeps_the_better_of_the_two_plans() -> None:
+    site = random_site(33, slots=16)
+    nearest, shares = _with_starts(site, "nearest"), _with_starts(site, "shares")
+    both = _with_starts(site, "nearest", "shares")
+    assert nearest.min_rate_bps_hz != shares.min_rate_bps_hz  # else nothing is chosen
+    assert both.min_rate_bps_hz == max(nearest.min_rate_bps_hz, shares.min_rate_bps_hz)
+
+
+def test_an_unknown_start_schedule_is_refused() -> None:
+    with pytest.raises(InputError, match="start_schedules"):
+        _with_starts(random_site(1, slots=8), "random")
