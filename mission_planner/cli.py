@@ -173,7 +173,7 @@ def plan_and_build(
     check_options(site, opt)
     if dynamics not in DYNAMICS:
         raise InputError(f"dynamics: expected one of {', '.join(DYNAMICS)}, got {dynamics!r}")
-    from mission_planner.optimize import PlannerOptions, plan  # the solver is slow to import
+    from mission_planner.optimize import PlannerOptions, plan  # the solver, only to plan
     from mission_planner.optimize.bcd import START_SCHEDULES
 
     # Corners (ArduCopter's blends, PX4's acceptance) are timed with the waypoint radius the

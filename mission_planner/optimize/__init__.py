@@ -1,7 +1,7 @@
 """The paper's optimiser: Algorithm 1 with (P1-2) scheduling, (P2) power, (P3-2) trajectory.
 
-``plan`` and ``PlannerOptions`` load lazily: importing cvxpy takes about a second, which code
-that only reads a :class:`Solution` (mission export, reports) should not pay.
+``plan`` and ``PlannerOptions`` load lazily: code that only reads a :class:`Solution` (mission
+export, reports) needs neither Clarabel nor the subproblems (cvxpy only in the test oracles).
 """
 
 from __future__ import annotations
