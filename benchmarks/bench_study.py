@@ -5,6 +5,9 @@
 
 1. Trials per minute of a Fig. 4 style study at the paper's size (N = 50, K = 4, M = 3, R = 30 m)
    with 1 and 2 local workers (``run_trials``; 1 worker runs in this process).
+   ``--fig4 T``: the wall time of a real Fig. 4 study (``run_fig4``, the paper's grid of
+   5 radii and 5 zone counts, both schemes) with T trials per point on 2 workers, and the full
+   study's (100 per point, 2000 trials) projected from it, beside today's.
 2. Solve time of ``plan`` on random paper sites as N, K and M grow one at a time from the
    paper's defaults, with the growth exponent b of time ~ N^b fitted by least squares on logs.
    Each row is the median over ``--seeds`` sites; the first site of each size also pays cvxpy's
@@ -32,6 +35,8 @@ from mission_planner.study.trials import TrialSpec, run_trial
 QUICK = {"N": (25, 50, 100), "K": (2, 4, 8), "M": (1, 3, 6)}
 FULL = {"N": (25, 50, 75, 100, 150, 200), "K": (2, 4, 6, 8, 10), "M": (1, 2, 4, 6, 8, 10)}
 PAPER = {"N": 50, "K": 4, "M": 3}
+# Before issue 15: 35-45 trials a minute on 2 workers, a full Fig. 4 study close to an hour.
+TODAY_FIG4_MIN = 50.0
 
 
 def throughput(workers: int, trials: int, slots: int, seed: int) -> float:
@@ -48,6 +53,24 @@ def throughput(workers: int, trials: int, slots: int, seed: int) -> float:
     if run.failed:
         print(f"  note: {len(run.failed)} of {trials} trials failed: {run.failed[0]['error']}")
     return 60.0 * trials / elapsed
+
+
+def fig4_wall_time(trials_per_point: int) -> None:
+    """Run a Fig. 4 study with ``trials_per_point`` on 2 workers; print its wall time and the
+    full study's (100 trials per point) projected at the same rate."""
+    from mission_planner.study.config import Fig4Config
+    from mission_planner.study.fig4 import run_fig4
+
+    config = Fig4Config(trials=trials_per_point)
+    total = len(config.specs())
+    with tempfile.TemporaryDirectory() as tmp:
+        start = time.perf_counter()
+        run_fig4(tmp, config, workers=2, progress=False)
+        elapsed = time.perf_counter() - start
+    full = elapsed * len(Fig4Config().specs()) / total
+    print(f"fig4: {total} trials ({trials_per_point} per point) on 2 workers in {elapsed:.0f} s "
+          f"({60 * total / elapsed:.0f} trials/minute); full study (100 per point) "
+          f"{full / 60:.1f} min; today about {TODAY_FIG4_MIN:.0f} min", flush=True)
 
 
 def _spec(vary: str, value: int, seed: int, scheme: str) -> TrialSpec:
@@ -100,6 +123,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help="cap on Algorithm 1's iterations (planner default)")
     parser.add_argument("--skip-throughput", action="store_true")
     parser.add_argument("--skip-scaling", action="store_true")
+    parser.add_argument("--fig4", type=int, default=0, metavar="T",
+                        help="also time a Fig. 4 study with T trials per point on 2 workers")
     args = parser.parse_args(argv)
     warnings.simplefilter("ignore")  # cvxpy's per-solve accuracy warnings would drown the table
     options = (PlannerOptions(dynamics="none") if args.max_iterations is None
@@ -112,6 +137,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             tpm = throughput(workers, args.trials, args.slots, seed=0)
             print(f"  {workers} worker{'s' if workers > 1 else ' '}: {tpm:6.1f} trials/minute",
                   flush=True)
+    if args.fig4:
+        fig4_wall_time(args.fig4)
     if not args.skip_scaling:
         sizes = FULL if args.full else QUICK
         print(f"scaling ({args.scheme}, {args.seeds} sites per size, others at N=50 K=4 M=3):")
