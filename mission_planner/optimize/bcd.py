@@ -159,8 +159,16 @@ def plan(
 def _best_start(
     sc: Scaled, scheme: str, opt: PlannerOptions, progress: Progress | None
 ) -> _State:
-    """Algorithm 1 from each of ``opt.start_schedules``, finished (:func:`_finish`); the best
-    min rate (the first start on a tie).
+    """Of :func:`_start_states`, the best min rate (the first start on a tie)."""
+    states = _start_states(sc, scheme, opt, progress)
+    rates = [min_rate(sc, st.q, st.delta, st.power, st.s) for st in states]
+    return states[int(np.argmax(rates))]  # argmax: the first of equal rates
+
+
+def _start_states(
+    sc: Scaled, scheme: str, opt: PlannerOptions, progress: Progress | None
+) -> list[_State]:
+    """Algorithm 1 from each of ``opt.start_schedules``, finished (:func:`_finish`).
 
     Several starts run in threads: Clarabel, most of a run's time, releases the GIL, so a
     second start costs little wall time where a second core is free (the runs share nothing,
@@ -172,12 +180,9 @@ def _best_start(
         return _finish(sc, _algorithm1(sc, scheme, opt, progress if i == 0 else None, starts[i]))
 
     if len(starts) == 1:
-        states = [run(0)]
-    else:
-        with ThreadPoolExecutor(max_workers=len(starts)) as pool:
-            states = list(pool.map(run, range(len(starts))))
-    rates = [min_rate(sc, st.q, st.delta, st.power, st.s) for st in states]
-    return states[int(np.argmax(rates))]  # argmax: the first of equal rates
+        return [run(0)]
+    with ThreadPoolExecutor(max_workers=len(starts)) as pool:
+        return list(pool.map(run, range(len(starts))))
 
 
 def _algorithm1(
@@ -312,12 +317,28 @@ def _retimed(
 ) -> tuple[_Flyable | None, float]:
     """Plan with top speed ``speed`` (paper model), re-time it for the vehicle, and optimise
     schedule and power on the new timing. Returns the candidate (None if its moves overrun T)
-    and the ratio of the vehicle's move time to the paper's."""
+    and the ratio of the vehicle's move time to the paper's. With several start schedules
+    each start's path is re-timed and the best flyable one kept: the best paper-model path
+    is not always the best flown one."""
     planning_site = site.with_limits(max_speed_mps=speed)
     psc = scale_site(planning_site, opt.nfz_margin_m, opt.gamma)
     # The re-timing, not Algorithm 1's slow tail, decides these candidates: fewer iterations.
     search = replace(opt, max_iterations=min(opt.max_iterations, SEARCH_ITERATIONS))
-    state = _best_start(psc, scheme, search, progress)
+    best: _Flyable | None = None
+    overrun = np.inf
+    for state in _start_states(psc, scheme, search, progress):
+        cand, ratio = _retimed_path(site, scheme, speed, opt, planning_site, psc, state)
+        overrun = min(overrun, ratio)
+        if cand is not None and (best is None or cand.min_rate > best.min_rate):
+            best = cand
+    return best, float(overrun)
+
+
+def _retimed_path(
+    site: Site, scheme: str, speed: float, opt: PlannerOptions, planning_site: Site,
+    psc: Scaled, state: _State,
+) -> tuple[_Flyable | None, float]:
+    """:func:`_retimed` for one finished paper-model state planned on ``planning_site``."""
     paper = _solution(planning_site, scheme, psc, state, 0.0, {})
     # Simplified legs keep the planner's margin too, so the exporter need not nudge them (a
     # nudged waypoint no longer lies on the S-curve it was timed with).
