@@ -165,3 +165,12 @@ def test_a_second_start_keeps_the_better_of_the_two_plans() -> None:
 def test_an_unknown_start_schedule_is_refused() -> None:
     with pytest.raises(InputError, match="start_schedules"):
         _with_starts(random_site(1, slots=8), "random")
+
+
+def test_two_starts_run_in_threads_give_the_same_vehicle_plan_every_time() -> None:
+    options = PlannerOptions(max_iterations=15, start_schedules=("nearest", "shares"))
+    site = random_site(2, slots=16)
+    a, b = plan(site, "proposed", options=options), plan(site, "proposed", options=options)
+    assert np.array_equal(a.trajectory_m, b.trajectory_m)
+    assert np.array_equal(a.delta_s, b.delta_s)
+    assert np.array_equal(a.power_w, b.power_w)
