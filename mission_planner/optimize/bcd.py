@@ -62,9 +62,10 @@ class PlannerOptions:
     ``retime_attempts`` times. ``pass_through_corners``: ArduCopter flies through the corners
     whose turn keeps the buffer instead of stopping at every waypoint (:mod:`.corners`).
     ``start_schedules``: Algorithm 1 runs from each of these starting schedules
-    (:data:`START_SCHEDULES`) and the best min rate is kept; the schedule a start gives locks
-    in early (once power equalises the rates, no slot can change GN alone), so a second start
-    finds better optima on some sites at twice the time.
+    (:data:`START_SCHEDULES`) and the best min rate is kept (with dynamics "vehicle", the best
+    after re-timing); the schedule a start gives locks in early (once power equalises the
+    rates, no slot can change GN alone), so a second start finds better optima on some sites
+    at twice the CPU time.
     "none" is the paper's kinematic model (top speed only): the
     studies reproducing the paper's figures use it (:data:`PAPER_OPTIONS`).
     """
