@@ -153,9 +153,8 @@ class ConicForm:
             (self._height, self.num_vars),
         )
         b = np.concatenate(self._b)
-        empty = np.zeros(0, dtype=np.int64)
-        p = Csc(np.zeros(0), empty, np.zeros(self.num_vars + 1, dtype=np.int64),
-                (self.num_vars, self.num_vars))
+        none = np.zeros(0, dtype=np.int64)  # no quadratic term: P = 0
+        p = Csc.from_entries(none, none, np.zeros(0), (self.num_vars, self.num_vars))
         for attempt in _ATTEMPTS:
             settings = clarabel.DefaultSettings()
             settings.verbose = False
