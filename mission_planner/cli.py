@@ -179,10 +179,11 @@ def plan_and_build(
     # Corners (ArduCopter's blends, PX4's acceptance) are timed with the waypoint radius the
     # parameter file will set
     timing = radius_params(site, opt.autopilot, opt.fence_margin_m)
+    starts = START_SCHEDULES if second_start else START_SCHEDULES[:1]
     planner_options = PlannerOptions(dynamics=dynamics, autopilot=opt.autopilot,
                                      timing_params=timing,
                                      pass_through_corners=pass_through_corners,
-                                     start_schedules=START_SCHEDULES[:2 if second_start else 1])
+                                     start_schedules=starts)
     solution = plan(site, scheme, options=planner_options, progress=progress)
     return build_mission(solution, opt)
 
