@@ -7,7 +7,8 @@
    with 1 and 2 local workers (``run_trials``; 1 worker runs in this process).
    ``--fig4 T``: the wall time of a real Fig. 4 study (``run_fig4``, the paper's grid of
    5 radii and 5 zone counts, both schemes) with T trials per point on 2 workers, and the full
-   study's (100 per point, 2000 trials) projected from it, beside today's.
+   study's (100 per point: 1800 trials, the radius and count sweeps share one point)
+   projected from it, beside today's.
 2. Solve time of ``plan`` on random paper sites as N, K and M grow one at a time from the
    paper's defaults, with the growth exponent b of time ~ N^b fitted by least squares on logs.
    Each row is the median over ``--seeds`` sites; the first site of each size also pays cvxpy's
