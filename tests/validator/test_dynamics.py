@@ -73,6 +73,21 @@ def test_distance_needed_to_reach_v_is_v2_over_A_plus_vA_over_J():
     assert scurve_peak_speed(30.0, 10.0, 5.0, 5.0)[0] == pytest.approx(10.0, rel=1e-9)
 
 
+def test_a_leg_too_short_for_its_speed_peaks_with_no_cruise_left():
+    # The peak speed is the largest whose rest-to-rest distance fits the leg: any lower and
+    # the profile would cruise, any higher and it would overrun (jerk ramps or not).
+    rng = np.random.default_rng(5)
+    n = 200
+    L, V = rng.uniform(0.5, 300.0, n), rng.uniform(1.0, 20.0, n)
+    A, J, tj = rng.uniform(0.5, 5.0, n), rng.uniform(0.5, 10.0, n), rng.uniform(0.0, 0.5, n)
+    peak = scurve_peak_speed(L, V, A, J, tj)
+    short = peak < V
+    assert 0 < np.count_nonzero(short) < n  # both kinds of leg are in the sample
+    cruise_s = scurve_rest_to_rest(L, V, A, J, tj).dur_s[:, 7]
+    assert np.all(cruise_s[short] < 1e-6)
+    assert np.all(cruise_s[~short] > 0.0)
+
+
 def test_corner_overlap_keeps_the_blend_inside_the_waypoint_radius():
     # 90° corner between two long legs, R = 2 m, J = 1, A = 2.5, no jerk ramps. The blended
     # target at mid-overlap sits at sqrt(2)·D(τ/2) from the corner with D(t) = J t³/6, so the

@@ -110,16 +110,33 @@ def _bisect(
     lo: NDArray[np.float64], hi: NDArray[np.float64],
 ) -> NDArray[np.float64]:
     """The largest speed (m/s) in [lo, hi] whose ``distance`` stays within ``length_m``
-    (``distance`` increasing), to 1e-10 of ``hi``: far below any tolerance of a plan, in 34
-    halvings where running to machine precision took 60 (the export times dozens of legs)."""
+    (``distance`` increasing), to 1e-10 of ``hi``: far below any tolerance of a plan.
+
+    Regula falsi with the Illinois rule (the end kept twice in a row has its residual halved),
+    which keeps a bracket like bisection but converges superlinearly on these smooth curves:
+    about 10 evaluations where halving took 34 (the export times dozens of legs)."""
     tol = 1e-10 * hi
-    for _ in range(60):
-        mid = (lo + hi) / 2.0
-        longer = distance(mid) > length_m
-        hi = np.where(longer, mid, hi)
-        lo = np.where(longer, lo, mid)
+    f_lo = distance(lo) - length_m
+    f_hi = distance(hi) - length_m
+    # Outside the bracket's assumptions the answer is an end: all of [lo, hi] fits (hi), or
+    # nothing does (lo), as halving would have returned.
+    lo = np.where(f_hi <= 0.0, hi, lo)
+    hi = np.where(f_lo > 0.0, lo, hi)
+    kept = np.zeros(lo.shape, dtype=np.int8)  # the end kept last time: -1 lo, +1 hi
+    for _ in range(100):
         if np.all(hi - lo <= tol):
             break
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mid = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
+        # Fall back to halving where the secant leaves the open bracket.
+        mid = np.where((mid > lo) & (mid < hi), mid, (lo + hi) / 2.0)
+        f_mid = distance(mid) - length_m
+        longer = f_mid > 0.0
+        f_lo = np.where(longer, np.where(kept == -1, f_lo / 2.0, f_lo), f_mid)
+        f_hi = np.where(longer, f_mid, np.where(kept == 1, f_hi / 2.0, f_hi))
+        kept = np.where(longer, -1, 1).astype(np.int8)
+        hi = np.where(longer, mid, hi)
+        lo = np.where(longer, lo, mid)
     return lo
 
 
