@@ -12,9 +12,10 @@ and prints one row per site:
 
 - seed; our min rate and the reference's (bps/Hz, exact, rounded schedule, recomputed here with
   ``average_rates``); ours/ref − 1 in %; our iterations and seconds; the reference's;
-- ours again with ``max_iterations`` 40 and 60 (``--more-iterations``), and with a second
-  start (``start_schedules=("nearest", "shares")``, ``plan-mission --second-start``), as
-  ours/ref − 1 in %;
+- ours again with ``max_iterations`` 40 and 60 (``--more-iterations``), with a second
+  start (``start_schedules=("nearest", "shares")``, ``plan-mission --second-start``), and
+  plain (``overrelax=False``: Algorithm 1 without the line search along each step, as before
+  it), as ours/ref − 1 in %;
 - "infeasible" beside a reference plan that breaks a constraint (leg inside an NFZ, Σδ ≠ T,
   a leg longer than Vδ, power above P_avg on average or P_peak).
 
@@ -136,7 +137,8 @@ def main() -> None:
     parser.add_argument("--diagnose-all", action="store_true")
     args = parser.parse_args()
 
-    more = " ".join(f"{'ours@' + str(m):>8}" for m in args.more_iterations) + f" {'2 starts':>8}"
+    more = (" ".join(f"{'ours@' + str(m):>8}" for m in args.more_iterations)
+            + f" {'2 starts':>8} {'plain':>8}")
     print(f"{'seed':>4} {'ours':>7} {'ref':>7} {'ours/ref':>8} {'our it':>6} {'our s':>6} "
           f"{'ref it':>6} {'ref s':>6} {more}")
     gaps: list[float] = []
@@ -144,6 +146,7 @@ def main() -> None:
     more_gaps: dict[int, list[float]] = {m: [] for m in args.more_iterations}
     two_starts: list[float] = []
     two_starts_s: list[float] = []
+    plain: list[float] = []
     to_diagnose = []
     for seed in range(args.first_seed, args.first_seed + args.sites):
         site = random_site(seed)
@@ -164,6 +167,8 @@ def main() -> None:
         two_starts.append(pct(second.min_rate_bps_hz, ref_rate))
         two_starts_s.append(second_s)
         cols.append(f"{two_starts[-1]:+7.2f}%")
+        plain.append(pct(ours(site, overrelax=False)[0].min_rate_bps_hz, ref_rate))
+        cols.append(f"{plain[-1]:+7.2f}%")
         print(f"{seed:4d} {mine.min_rate_bps_hz:7.4f} {ref_rate:7.4f} {gap:+7.2f}% "
               f"{mine.iterations:6d} {our_s:6.1f} {ref['iterations']:6d} {ref['seconds']:6.1f} "
               + " ".join(cols) + ("  infeasible" if worst < -FEASIBLE_TOL else ""), flush=True)
@@ -180,6 +185,7 @@ def main() -> None:
     for m in args.more_iterations:
         summary(f"ours ({m} it)", more_gaps[m])
     summary("ours (2 starts)", two_starts)
+    summary("ours (plain)", plain)
     print(f"{'':>16}  seconds per site: one start {statistics.median(our_times):.2f}, "
           f"two starts {statistics.median(two_starts_s):.2f} (medians)")
     if to_diagnose:
