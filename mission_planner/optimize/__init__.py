@@ -11,13 +11,18 @@ from typing import TYPE_CHECKING, Any
 from mission_planner.optimize.solution import SCHEMES, Solution
 
 if TYPE_CHECKING:
-    from mission_planner.optimize.bcd import PAPER_OPTIONS, PlannerOptions, plan
+    from mission_planner.optimize.bcd import PAPER_OPTIONS, PlannerOptions
+    from mission_planner.optimize.planner import plan
 
 __all__ = ["PAPER_OPTIONS", "SCHEMES", "PlannerOptions", "Solution", "plan"]
 
 
 def __getattr__(name: str) -> Any:
-    if name in ("plan", "PlannerOptions", "PAPER_OPTIONS"):
+    if name == "plan":
+        from mission_planner.optimize.planner import plan
+
+        return plan
+    if name in ("PlannerOptions", "PAPER_OPTIONS"):
         from mission_planner.optimize import bcd
 
         return getattr(bcd, name)

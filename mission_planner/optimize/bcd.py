@@ -8,7 +8,8 @@ slot), power is re-optimised for it, and the min rate is recomputed from the exa
 formula.
 
 With ``dynamics="vehicle"`` the optimised path is then re-timed as a multicopter flies it
-(:mod:`.retime`), and schedule and power are optimised again on that timing.
+(:mod:`.retime`), and schedule and power are optimised again on that timing; :mod:`.flyable`
+searches the planning top speed for that.
 """
 
 from __future__ import annotations
@@ -16,12 +17,11 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
-from mission_planner.optimize import retime
 from mission_planner.optimize.initial import initial_tour
 from mission_planner.optimize.overrelax import overrelax
 from mission_planner.optimize.power import power_problem
@@ -34,17 +34,12 @@ from mission_planner.optimize.scaled import (
     slot_rates,
 )
 from mission_planner.optimize.scheduling import scheduling_problem
-from mission_planner.optimize.solution import SCHEMES, Solution
+from mission_planner.optimize.solution import Solution
 from mission_planner.optimize.trajectory import RELAXED_TERMS, trajectory_problem
-from validator.errors import InputError
 from validator.site import Site
 
 Progress = Callable[[int, float], None]
 DYNAMICS = ("none", "vehicle")
-SEARCH_ITERATIONS = 15  # Algorithm 1 iterations per candidate top speed with dynamics on
-BRACKET_REL = 0.05  # the top-speed search stops bisecting within 5 % of the overrunning speed
-RAISE_FACTOR = 1.25  # a path that fits at the vehicle's top speed is planned again this much faster
-RAISE_LIMIT = 2.0  # ... up to this multiple of the top speed
 # Algorithm 1's starting schedules: each slot to its nearest GN, or every GN a 1/K share.
 START_SCHEDULES = ("nearest", "shares")
 
@@ -72,6 +67,8 @@ class PlannerOptions:
     along it on the exact objective (:mod:`.overrelax`); the paper's γ makes the steps in δ
     tiny, and without it Algorithm 1 ends its iterations still gaining. It applies to the
     paper's model ("none"); the "vehicle" search plans its candidates without it.
+    ``search_ahead``: the "vehicle" search evaluates its likely next candidate in a spare
+    thread while the current one runs (:mod:`.flyable`); the plan is the same either way.
     "none" is the paper's kinematic model (top speed only): the
     studies reproducing the paper's figures use it (:data:`PAPER_OPTIONS`).
     """
@@ -92,6 +89,7 @@ class PlannerOptions:
     pass_through_corners: bool = True
     start_schedules: tuple[str, ...] = ("nearest",)
     overrelax: bool = True
+    search_ahead: bool = True
 
 
 PAPER_OPTIONS = PlannerOptions(dynamics="none")  # the paper's model, for its figures
@@ -134,34 +132,12 @@ def _initial_schedule(
     return s
 
 
-def plan(
-    site: Site,
-    scheme: str = "proposed",
-    *,
-    options: PlannerOptions | None = None,
-    progress: Progress | None = None,
+def plan_paper(
+    site: Site, scheme: str, opt: PlannerOptions, progress: Progress | None, started: float
 ) -> Solution:
-    """Optimise a service cycle for ``site`` with the ``proposed``, ``conventional`` or
-    ``tangent`` zone rule (:data:`~.solution.SCHEMES`; polygons: every leg under proposed and
-    tangent, waypoints under conventional).
-
-    Deterministic: the same site and options give the same solution.
-    """
-    if scheme not in SCHEMES:
-        raise InputError(f"scheme: expected one of {', '.join(SCHEMES)}, got {scheme!r}")
-    opt = options or PlannerOptions()
-    if opt.eta_scale not in ("per-period", "literal"):
-        raise InputError(f"eta_scale: expected 'per-period' or 'literal', got {opt.eta_scale!r}")
-    if opt.dynamics not in DYNAMICS:
-        raise InputError(f"dynamics: expected one of {', '.join(DYNAMICS)}, got {opt.dynamics!r}")
-    if not opt.start_schedules or set(opt.start_schedules) - set(START_SCHEDULES):
-        raise InputError(f"start_schedules: expected some of {', '.join(START_SCHEDULES)}, "
-                         f"got {opt.start_schedules!r}")
-    started = time.perf_counter()
-    if opt.dynamics == "none":
-        sc = scale_site(site, opt.nfz_margin_m, opt.gamma)
-        return _solution(site, scheme, sc, _best_start(sc, scheme, opt, progress), started, {})
-    return _plan_flyable(site, scheme, opt, progress, started)
+    """Algorithm 1 on the paper's kinematic model (``dynamics="none"``), from each start."""
+    sc = scale_site(site, opt.nfz_margin_m, opt.gamma)
+    return _solution(site, scheme, sc, _best_start(sc, scheme, opt, progress), started, {})
 
 
 def _best_start(
@@ -302,187 +278,6 @@ def _solution(
         history=state.history,
         notes=notes,
     )
-
-
-@dataclass
-class _Flyable:
-    """A re-timed candidate: the planning top speed, the trajectory indices of its waypoints,
-    the vehicle's move time (s), and the optimised state on that timeline."""
-
-    speed_mps: float
-    waypoint_slots: list[int]
-    move_s: float
-    state: _State
-    min_rate: float
-
-
-def _as_calibrated(opt: PlannerOptions) -> bool:
-    """Whether plans keep to the shapes the autopilot's replay was calibrated on: PX4's (SIH
-    flights, issue 16): every waypoint a stop (:mod:`.corners`), the skeleton judged a whole
-    stretch at a time, no planning speed above the vehicle's. Simplified chord by chord, PX4
-    plans stopped at more corners, which SIH flew 3-5 % faster than the px4 model predicts
-    (about 0.7 s a stop)."""
-    return opt.autopilot == "px4"
-
-
-def _retimed(
-    site: Site, scheme: str, speed: float, opt: PlannerOptions, progress: Progress | None
-) -> tuple[_Flyable | None, float]:
-    """Plan with top speed ``speed`` (paper model), re-time it for the vehicle, and optimise
-    schedule and power on the new timing. Returns the candidate (None if its moves overrun T)
-    and the ratio of the vehicle's move time to the paper's. With several start schedules
-    each start's path is re-timed and the best flyable one kept: the best paper-model path
-    is not always the best flown one."""
-    planning_site = site.with_limits(max_speed_mps=speed)
-    psc = scale_site(planning_site, opt.nfz_margin_m, opt.gamma)
-    # The re-timing, not Algorithm 1's slow tail, decides these candidates: fewer iterations,
-    # and no over-relaxation, which sharpens that tail (over 24 vehicle plans it left 20 within
-    # 0.1 % and moved the rest by -9.7 % to +0.6 %: the best paper path is not the best flown).
-    search = replace(opt, max_iterations=min(opt.max_iterations, SEARCH_ITERATIONS),
-                     overrelax=False)
-    best: _Flyable | None = None
-    overrun = np.inf
-    for state in _start_states(psc, scheme, search, progress):
-        cand, ratio = _retimed_path(site, scheme, speed, opt, planning_site, psc, state)
-        overrun = min(overrun, ratio)
-        if cand is not None and (best is None or cand.min_rate > best.min_rate):
-            best = cand
-    return best, float(overrun)
-
-
-def _retimed_path(
-    site: Site, scheme: str, speed: float, opt: PlannerOptions, planning_site: Site,
-    psc: Scaled, state: _State,
-) -> tuple[_Flyable | None, float]:
-    """:func:`_retimed` for one finished paper-model state planned on ``planning_site``."""
-    paper = _solution(planning_site, scheme, psc, state, 0.0, {})
-    # Simplified legs keep the planner's margin too, so the exporter need not nudge them (a
-    # nudged waypoint no longer lies on the S-curve it was timed with).
-    sk = retime.skeleton(
-        paper.trajectory_m, paper.delta_s, site.nfz_xy_m, site.planning_radius_m + opt.nfz_margin_m,
-        polygons=site.polygon_zones, polygon_clear_m=site.buffer_m + opt.nfz_margin_m,
-        chordwise=not _as_calibrated(opt),
-    )
-    paper_move_s = max(site.period_s - float(np.sum(sk.hold_s)), 1e-9)
-    # Passing through corners leaves the time saved to the hover points; with fewer than two
-    # it would all pool at one, so stopping at every corner is tried as well (stops that pay).
-    modes = [opt.pass_through_corners]
-    if (opt.pass_through_corners and not _as_calibrated(opt)
-            and np.count_nonzero(sk.hold_s > 0) < 2):
-        modes.append(False)
-    best: _Flyable | None = None
-    fastest_move_s = np.inf
-    for pass_through in modes:
-        move_s, timed = retime.time_cycle(site, sk, site.period_s, site.slots, opt.autopilot,
-                                          opt.timing_params, pass_through)
-        fastest_move_s = min(fastest_move_s, move_s)
-        if timed is None:
-            continue
-        cand = _on_timeline(site, sk, timed, move_s, speed, state.iterations, opt)
-        if best is None or cand.min_rate > best.min_rate:
-            best = cand
-    return best, fastest_move_s / paper_move_s
-
-
-def _on_timeline(
-    site: Site, sk: retime.Skeleton, timed: tuple[NDArray[np.float64], NDArray[np.float64]],
-    move_s: float, speed: float, iterations: int, opt: PlannerOptions,
-) -> _Flyable:
-    """Schedule and power optimised on a re-timed trajectory (``timed``: (N+1, 2) positions,
-    (N,) slot lengths) of skeleton ``sk``, planned at ``speed``."""
-    sc = scale_site(site, opt.nfz_margin_m, opt.gamma)
-    trajectory_m, delta_s = timed
-    q = trajectory_m[1:] / LENGTH_UNIT_M
-    delta = _renormalise(delta_s / sc.slot_s, sc.num_slots)
-    timed_state = _State(
-        q,
-        delta,
-        _initial_schedule(sc, q),
-        np.full(sc.num_slots, 1.0 - 1e-3),
-        iterations=iterations,
-    )
-    _descend(sc, timed_state, opt, None, None)
-    _finish(sc, timed_state)
-    rate = min_rate(sc, timed_state.q, timed_state.delta, timed_state.power, timed_state.s)
-    return _Flyable(speed, _waypoint_slots(trajectory_m, sk), move_s, timed_state, rate)
-
-
-def _plan_flyable(
-    site: Site, scheme: str, opt: PlannerOptions, progress: Progress | None, started: float
-) -> Solution:
-    """Algorithm 1 at the highest top speed whose path the vehicle flies within T.
-
-    The vehicle's moves take longer than the paper's; planning for a lower top speed gives a
-    shorter path. The search starts at the site's V or the vehicle's real top speed, whichever
-    is lower; the speed falls until the re-timed moves fit (or, when they fit at once, rises
-    by :data:`RAISE_FACTOR` while they fit, up to :data:`RAISE_LIMIT` times the start),
-    else bisects between the fastest speed that fit and the slowest that overran (each speed
-    once, ``retime_attempts`` candidates at most). The candidate with the best min rate is
-    kept. The planning speed only shapes Algorithm 1's path: every candidate is timed at the
-    vehicle's real speed.
-    """
-    start = speed = retime.cruise_speed_mps(site, opt.autopilot)
-    fits_at: float | None = None  # the fastest speed whose moves fit T
-    over_at: float | None = None  # the slowest speed whose moves overran T
-    best: _Flyable | None = None
-    tried: set[float] = set()
-    iterations = 0
-    for _ in range(opt.retime_attempts):
-        cand, overrun = _retimed(site, scheme, speed, opt, progress)
-        tried.add(round(speed, 3))
-        iterations += 1
-        if cand is None:
-            over_at = speed if over_at is None else min(over_at, speed)
-        else:
-            fits_at = speed if fits_at is None else max(fits_at, speed)
-            if best is None or cand.min_rate > best.min_rate:
-                best = cand
-        if fits_at is None:
-            speed *= float(np.clip(0.9 / overrun, 0.2, 0.9))
-            continue
-        if over_at is None and _as_calibrated(opt):
-            break
-        if over_at is None:
-            # The vehicle flies this path within T with time to spare: planning for a faster
-            # UAV than it is (a path reaching further, or hovering longer) may still fit.
-            speed *= RAISE_FACTOR
-            if speed > RAISE_LIMIT * start:
-                break
-            continue
-        if over_at - fits_at < BRACKET_REL * over_at or fits_at >= start:
-            break  # (above the start, a raise that overruns ends the search: no bisection)
-        # Bisect between the fastest fit and the slowest overrun. A fitting candidate with a
-        # lower min rate than the best still moves the bracket: the min rate is not monotonic
-        # in the planning speed (each speed gives Algorithm 1 another path).
-        speed = (fits_at + over_at) / 2
-        if round(speed, 3) in tried:
-            break
-    if best is None:
-        raise InputError(
-            f"uav: no flyable cycle of {site.period_s:g} s found within max_accel "
-            f"{site.max_accel_mps2:g} m/s² and max_jerk {site.max_jerk_mps3:g} m/s³ "
-            f"(tried top speeds down to {speed:.2f} m/s)"
-        )
-    sc = scale_site(site, opt.nfz_margin_m, opt.gamma)
-    notes: dict[str, object] = {
-        "dynamics": "vehicle",
-        "autopilot": opt.autopilot,
-        "timing_params": dict(opt.timing_params),
-        "planning_speed_mps": best.speed_mps,
-        "speeds_tried": iterations,
-        "waypoint_slots": best.waypoint_slots,
-        "move_s": best.move_s,
-    }
-    return _solution(site, scheme, sc, best.state, started, notes)
-
-
-def _waypoint_slots(trajectory_m: NDArray[np.float64], sk: retime.Skeleton) -> list[int]:
-    """Trajectory indices (0..N) at which the re-timed cycle reaches a skeleton waypoint."""
-    out = []
-    for p in sk.points_m:
-        d = np.linalg.norm(trajectory_m - p, axis=1)
-        out.append(int(np.flatnonzero(d < 1e-6)[0]))
-    return sorted(set(out))
 
 
 def _renormalise(delta: NDArray[np.float64], n: int) -> NDArray[np.float64]:

@@ -1,0 +1,47 @@
+"""The planner's entry point: options checked, then the paper's model (:mod:`.bcd`) or the
+vehicle-aware search built on it (:mod:`.flyable`)."""
+
+from __future__ import annotations
+
+import time
+
+from mission_planner.optimize.bcd import (
+    DYNAMICS,
+    START_SCHEDULES,
+    PlannerOptions,
+    Progress,
+    plan_paper,
+)
+from mission_planner.optimize.flyable import plan_flyable
+from mission_planner.optimize.solution import SCHEMES, Solution
+from validator.errors import InputError
+from validator.site import Site
+
+
+def plan(
+    site: Site,
+    scheme: str = "proposed",
+    *,
+    options: PlannerOptions | None = None,
+    progress: Progress | None = None,
+) -> Solution:
+    """Optimise a service cycle for ``site`` with the ``proposed``, ``conventional`` or
+    ``tangent`` zone rule (:data:`~.solution.SCHEMES`; polygons: every leg under proposed and
+    tangent, waypoints under conventional).
+
+    Deterministic: the same site and options give the same solution.
+    """
+    if scheme not in SCHEMES:
+        raise InputError(f"scheme: expected one of {', '.join(SCHEMES)}, got {scheme!r}")
+    opt = options or PlannerOptions()
+    if opt.eta_scale not in ("per-period", "literal"):
+        raise InputError(f"eta_scale: expected 'per-period' or 'literal', got {opt.eta_scale!r}")
+    if opt.dynamics not in DYNAMICS:
+        raise InputError(f"dynamics: expected one of {', '.join(DYNAMICS)}, got {opt.dynamics!r}")
+    if not opt.start_schedules or set(opt.start_schedules) - set(START_SCHEDULES):
+        raise InputError(f"start_schedules: expected some of {', '.join(START_SCHEDULES)}, "
+                         f"got {opt.start_schedules!r}")
+    started = time.perf_counter()
+    if opt.dynamics == "none":
+        return plan_paper(site, scheme, opt, progress, started)
+    return plan_flyable(site, scheme, opt, progress, started)

@@ -1,0 +1,123 @@
+"""The vehicle search's top-speed sequence, and the spare thread that runs its likely next
+candidate ahead: a guess must be exactly the speed the search then asks for, a guess it does
+not need is cancelled, and the plan is the same with or without it."""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+import pytest
+
+from mission_planner.optimize import PlannerOptions, plan
+from mission_planner.optimize.flyable import _Ahead, _Cancelled, _Search
+from mission_planner.study.sites import random_site
+
+
+class _Fit:
+    def __init__(self, rate: float) -> None:
+        self.min_rate = rate
+
+
+def test_after_an_overrun_with_no_fit_yet_the_speed_falls_by_the_overrun() -> None:
+    search = _Search(10.0, calibrated=False)
+    search.record(10.0, None)
+    assert search.next_speed(10.0, 1.5) == pytest.approx(10.0 * 0.6)
+    assert search.next_speed(10.0, None) is None  # it depends on the overrun
+
+
+def test_a_path_that_fits_at_the_start_is_planned_again_faster() -> None:
+    search = _Search(10.0, calibrated=False)
+    search.record(10.0, _Fit(1.0))  # type: ignore[arg-type]
+    assert search.next_speed(10.0, 0.8) == pytest.approx(12.5)
+
+
+def test_px4_ends_the_search_at_the_first_speed_that_fits() -> None:
+    search = _Search(10.0, calibrated=True)
+    search.record(10.0, _Fit(1.0))  # type: ignore[arg-type]
+    assert search.next_speed(10.0, 0.8) is None
+
+
+def test_between_a_fit_and_an_overrun_the_search_bisects() -> None:
+    search = _Search(10.0, calibrated=False)
+    search.record(10.0, None)
+    search.record(6.0, _Fit(1.0))  # type: ignore[arg-type]
+    assert search.next_speed(6.0, 0.9) == pytest.approx(8.0)
+
+
+def test_a_guess_is_exactly_the_speed_the_search_tries_after_the_guessed_outcome() -> None:
+    # Random searches (fits and overruns drawn at random, PX4's rule on some): wherever the
+    # outcome is the one a guess assumed, the guess is the very float the search tries next.
+    checked = 0
+    for seed in range(50):
+        rng = np.random.default_rng(seed)
+        search = _Search(10.0, calibrated=bool(seed % 5 == 0))
+        speed: float | None = 10.0
+        while speed is not None:
+            guess = search.likely_next(speed)
+            fits = bool(rng.random() < 0.4)
+            overrun = float(rng.uniform(0.6, 0.99) if fits else rng.uniform(1.01, 1.8))
+            assumed_fit = search.fits_at is None  # the outcome a guess assumes
+            search.record(speed, _Fit(float(rng.random())) if fits else None)  # type: ignore[arg-type]
+            after = search.next_speed(speed, overrun)
+            if fits == assumed_fit:
+                assert guess == after
+                checked += int(after is not None)
+            speed = after if len(search.tried) < 8 else None
+    assert checked > 30
+
+
+def _counting(calls: list[float], started: threading.Event | None = None) -> Any:
+    def evaluate(speed: float, progress: Any) -> tuple[Any, float]:
+        calls.append(speed)
+        if started is not None and threading.current_thread() is not threading.main_thread():
+            started.set()
+            for i in range(2000):  # an Algorithm 1 that reports every iteration
+                progress(i, 0.0)
+                threading.Event().wait(0.001)
+        return None, speed
+
+    return evaluate
+
+
+def test_a_guess_the_search_asks_for_is_not_run_twice() -> None:
+    calls: list[float] = []
+    with _Ahead(_counting(calls), enabled=True) as ahead:
+        ahead.guess(7.0)
+        ahead.run(9.0, None)
+        ahead.keep_only(7.0)
+        assert ahead.run(7.0, None) == (None, 7.0)
+    assert sorted(calls) == [7.0, 9.0]
+
+
+def test_a_guess_the_search_does_not_need_is_cancelled() -> None:
+    calls: list[float] = []
+    started = threading.Event()
+    with _Ahead(_counting(calls, started), enabled=True) as ahead:
+        ahead.guess(7.0)
+        assert started.wait(5.0)
+        pending = ahead._guess
+        assert pending is not None
+        ahead.keep_only(8.0)
+        with pytest.raises(_Cancelled):
+            pending[1].result(timeout=5.0)
+
+
+def test_disabled_nothing_runs_ahead() -> None:
+    calls: list[float] = []
+    with _Ahead(_counting(calls), enabled=False) as ahead:
+        ahead.guess(7.0)
+        ahead.run(9.0, None)
+    assert calls == [9.0]
+
+
+def test_running_ahead_gives_the_same_vehicle_plan() -> None:
+    site = random_site(2, slots=24)  # a search of several candidates, guesses used and not
+    ahead = plan(site, "proposed", options=PlannerOptions())
+    alone = plan(site, "proposed", options=replace(PlannerOptions(), search_ahead=False))
+    assert ahead.notes["speeds_tried"] >= 3
+    assert np.array_equal(ahead.trajectory_m, alone.trajectory_m)
+    assert np.array_equal(ahead.delta_s, alone.delta_s)
+    assert np.array_equal(ahead.power_w, alone.power_w)
