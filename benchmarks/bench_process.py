@@ -41,7 +41,9 @@ def main() -> None:
                        "--dynamics", dynamics]
                 started = time.perf_counter()
                 before = resource.getrusage(resource.RUSAGE_CHILDREN)
-                done = subprocess.run(cmd, capture_output=True, text=True, check=False)
+                # From the temporary directory: run from a checkout, ``-c`` would put that
+                # checkout first on sys.path, ahead of PYTHONPATH.
+                done = subprocess.run(cmd, capture_output=True, text=True, check=False, cwd=tmp)
                 times.append(time.perf_counter() - started)
                 after = resource.getrusage(resource.RUSAGE_CHILDREN)
                 cpu.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
