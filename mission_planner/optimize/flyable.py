@@ -13,10 +13,10 @@ speed.
 Each candidate is a whole run of Algorithm 1, most of it inside Clarabel, which releases the
 GIL. So while one candidate runs, the one the search will most likely try next is evaluated in
 a spare thread (:class:`_Ahead`, ``PlannerOptions.search_ahead``); a guess is used only for
-exactly the speed it was made for, so the plan is the same as without it. On this 2-core
-machine, over the two samples and six random sites, 13 of 25 guesses were used and the wall
-time fell 11-19 % (22.5-24.9 -> 20.0 s; realistic.yaml, the quick start's site, 1.8 -> 1.1-1.4
-s) for about 40 % more CPU time.
+exactly the speed it was made for, so the plan is the same as without it; and only while a
+core is idle (:func:`_spare_core`). On this 2-core machine, over the two samples and six
+random sites, 13 of 25 guesses were used and the wall time fell 11-19 % (22.5-24.9 -> 20.0 s;
+realistic.yaml, the quick start's site, 1.8 -> 1.1-1.4 s) for about 40 % more CPU time.
 """
 
 from __future__ import annotations
@@ -271,6 +271,21 @@ class _Ahead:
             self._guess = None
 
 
+def _spare_core() -> bool:
+    """Whether a core is free for a guess: two CPUs or more, and the load average (1 min, which
+    counts this process once it has run a while) leaves at least half a CPU idle.
+
+    On a busy machine (parallel plans, a test suite, a simulator) a guess only takes CPU from
+    the others and from the current candidate; PX4 SIH, which is not lockstepped, then flies
+    late."""
+    try:
+        load = os.getloadavg()[0]
+    except (AttributeError, OSError):  # no load average (Windows): assume an idle machine
+        load = 0.0
+    cpus = os.cpu_count() or 1
+    return cpus >= 2 and cpus - load >= 0.5
+
+
 def plan_flyable(
     site: Site, scheme: str, opt: PlannerOptions, progress: Progress | None, started: float
 ) -> Solution:
@@ -283,7 +298,7 @@ def plan_flyable(
     def evaluate(v: float, report: Progress | None) -> tuple[_Flyable | None, float]:
         return _retimed(site, scheme, v, opt, report)
 
-    with _Ahead(evaluate, opt.search_ahead and (os.cpu_count() or 1) > 1) as ahead:
+    with _Ahead(evaluate, opt.search_ahead and _spare_core()) as ahead:
         for attempt in range(opt.retime_attempts):
             if attempt + 1 < opt.retime_attempts:
                 ahead.guess(search.likely_next(speed))

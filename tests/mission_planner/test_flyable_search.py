@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from mission_planner.optimize import PlannerOptions, plan
+from mission_planner.optimize import PlannerOptions, flyable, plan
 from mission_planner.optimize.flyable import _Ahead, _Cancelled, _Search
 from mission_planner.study.sites import random_site
 
@@ -113,11 +113,32 @@ def test_disabled_nothing_runs_ahead() -> None:
     assert calls == [9.0]
 
 
-def test_running_ahead_gives_the_same_vehicle_plan() -> None:
+def test_running_ahead_gives_the_same_vehicle_plan(monkeypatch: pytest.MonkeyPatch) -> None:
     site = random_site(2, slots=24)  # a search of several candidates, guesses used and not
+    monkeypatch.setattr(flyable, "_spare_core", lambda: True)  # even on a busy test machine
+    ran_ahead: list[float] = []
+    retimed = flyable._retimed
+
+    def spy(site: Any, scheme: str, speed: float, opt: Any, progress: Any) -> Any:
+        if threading.current_thread() is not threading.main_thread():
+            ran_ahead.append(speed)
+        return retimed(site, scheme, speed, opt, progress)
+
+    monkeypatch.setattr(flyable, "_retimed", spy)
     ahead = plan(site, "proposed", options=PlannerOptions())
+    assert ran_ahead  # the spare thread did run candidates
     alone = plan(site, "proposed", options=replace(PlannerOptions(), search_ahead=False))
     assert ahead.notes["speeds_tried"] >= 3
     assert np.array_equal(ahead.trajectory_m, alone.trajectory_m)
     assert np.array_equal(ahead.delta_s, alone.delta_s)
     assert np.array_equal(ahead.power_w, alone.power_w)
+
+
+@pytest.mark.parametrize(("cpus", "load", "spare"), [(2, 0.3, True), (2, 1.0, True),
+                                                     (2, 1.7, False), (1, 0.0, False),
+                                                     (8, 7.4, True), (8, 7.8, False)])
+def test_a_guess_runs_only_while_a_core_is_idle(monkeypatch: pytest.MonkeyPatch, cpus: int,
+                                                 load: float, spare: bool) -> None:
+    monkeypatch.setattr(flyable.os, "cpu_count", lambda: cpus)
+    monkeypatch.setattr(flyable.os, "getloadavg", lambda: (load, load, load))
+    assert flyable._spare_core() is spare
