@@ -169,13 +169,16 @@ class _Search:
     best: _Flyable | None = None
 
     def record(self, speed: float, cand: _Flyable | None) -> None:
-        self.tried.add(round(speed, 3))
-        if cand is None:
-            self.over_at = speed if self.over_at is None else min(self.over_at, speed)
-            return
-        self.fits_at = speed if self.fits_at is None else max(self.fits_at, speed)
-        if self.best is None or cand.min_rate > self.best.min_rate:
+        self._bracket(speed, fits=cand is not None)
+        if cand is not None and (self.best is None or cand.min_rate > self.best.min_rate):
             self.best = cand
+
+    def _bracket(self, speed: float, fits: bool) -> None:
+        self.tried.add(round(speed, 3))
+        if fits:
+            self.fits_at = speed if self.fits_at is None else max(self.fits_at, speed)
+        else:
+            self.over_at = speed if self.over_at is None else min(self.over_at, speed)
 
     def next_speed(self, speed: float, overrun: float | None) -> float | None:
         """The speed to try after ``speed`` (recorded), whose moves took ``overrun`` times the
@@ -203,11 +206,7 @@ class _Search:
         it depends on by how much); afterwards the one after an overrun (in the bisection the
         upper half overran on 12 of 16 candidates over six sites)."""
         guess = replace(self, tried=set(self.tried))
-        if self.fits_at is None:
-            guess.fits_at = speed
-            guess.tried.add(round(speed, 3))
-        else:
-            guess.record(speed, None)
+        guess._bracket(speed, fits=self.fits_at is None)
         return guess.next_speed(speed, None)
 
 

@@ -80,7 +80,7 @@ def feasible(
         return False
     if sc.num_nfzs and scheme in ("proposed", "conventional"):
         dist_sq = np.sum((q[None, :, :] - sc.nfz[:, None, :]) ** 2, axis=-1)  # (M, N)
-        need = (sc.radius**2)[:, None] * np.ones((1, n))
+        need = (sc.radius**2)[:, None]  # (M, 1), or (M, N) below
         if scheme == "proposed":  # (6-1) at q[n] and q[n−1] with leg n's length Ṽ δ̃[n]
             need = need + ((sc.speed * delta / 2) ** 2)[None, :]
             if np.any(dist_sq[:, prev] < need):
