@@ -20,7 +20,7 @@ import re
 import socket
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -143,15 +143,6 @@ def _map_dask(fn: Callable[[TrialSpec], dict[str, Any]], specs: Sequence[TrialSp
         client.close()
 
 
-def worker_options(options: Any, parallel: bool) -> Any:
-    """The planner options a trial runs with: where trials run in parallel processes, which
-    already fill every core, the vehicle search runs no candidate ahead in a spare thread
-    (``search_ahead``; the plans are the same, the cores are not oversubscribed)."""
-    if parallel and getattr(options, "search_ahead", False):
-        return replace(options, search_ahead=False)
-    return options
-
-
 def run_trials(
     specs: Sequence[TrialSpec],
     directory: str | Path,
@@ -189,17 +180,16 @@ def run_trials(
         s for s in wanted
         if s.key not in done or (retry_errors and is_failed(done[s.key]))
     ]
+    fn = functools.partial(run_trial, options=options)
     if manifest is not None:
         check_manifest(directory, manifest)
-    n = min(workers or default_workers(), max(len(todo), 1))
-    parallel = scheduler is not None or n > 1
-    fn = functools.partial(run_trial, options=worker_options(options, parallel))
     rows: Iterator[dict[str, Any]]
     if not todo:
         rows = iter(())
     elif scheduler is not None:
         rows = _map_dask(fn, todo, _connect(scheduler))
     else:
+        n = min(workers or default_workers(), max(len(todo), 1))
         rows = _map_inline(fn, todo) if n == 1 else _map_processes(fn, todo, n)
 
     executed = 0

@@ -9,7 +9,7 @@ from typing import Any
 import pytest
 
 from mission_planner.optimize import PlannerOptions
-from mission_planner.study.executors import run_trials, worker_options
+from mission_planner.study.executors import run_trials
 from mission_planner.study.store import LOG_NAME
 from mission_planner.study.trials import WALL_TIME_COLUMNS, TrialSpec
 
@@ -91,10 +91,3 @@ def test_failed_trials_are_retried_only_when_asked(tmp_path: Path) -> None:
     run_trials([bad], tmp_path, workers=1, progress=False)
     assert run_trials([bad], tmp_path, workers=1, progress=False).executed == 0
     assert run_trials([bad], tmp_path, workers=1, progress=False, retry_errors=True).executed == 1
-
-
-def test_parallel_workers_run_no_vehicle_candidate_ahead() -> None:
-    vehicle = PlannerOptions()
-    assert worker_options(vehicle, parallel=True).search_ahead is False
-    assert worker_options(vehicle, parallel=False) is vehicle
-    assert worker_options(None, parallel=True) is None  # the paper's model: nothing to change
