@@ -25,6 +25,9 @@ from shapely.geometry.polygon import orient
 from validator.errors import InputError
 
 MAX_VERTICES = 1_000  # per zone: published airspace polygons hold tens to hundreds
+# A polygon of less than a square millimetre is a line or a point drawn as one: shapely calls
+# a sliver of 1e-48 m² valid, but its convex parts and clearances are not meaningful.
+MIN_AREA_M2 = 1e-6
 # Depth sampling along a leg that enters a polygon: the sign of a clearance is exact (shapely),
 # the depth of a violation is measured to within half this step.
 DEPTH_STEP_M = 0.05
@@ -80,7 +83,7 @@ def polygon_zone(name: str, vertices_xy_m: ArrayLike, where: str) -> PolygonZone
     if len(v) < 3:
         raise InputError(f"{where}: a polygon needs at least 3 distinct vertices, got {len(v)}")
     poly = shapely.Polygon(v)
-    if not poly.is_valid or poly.area <= 0.0:
+    if not poly.is_valid or poly.area <= MIN_AREA_M2:
         reason = shapely.is_valid_reason(poly)
         flat = np.linalg.matrix_rank(v - v[0], tol=1e-9) < 2
         what = "has no area (its vertices lie on one line)" if flat else "intersects itself"

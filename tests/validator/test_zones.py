@@ -5,11 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import shapely
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from validator.errors import InputError
 from validator.zones import (
+    MIN_AREA_M2,
     convex_parts,
     fence_outline_m,
     leg_clearance_m,
@@ -97,9 +98,10 @@ def test_fence_outline_holds_every_point_within_the_margin(verts, margin_m):
 
 @settings(max_examples=60, deadline=None)
 @given(st.lists(st.tuples(st.floats(-50, 50), st.floats(-50, 50)), min_size=3, max_size=9))
+@example(points=[(1.0, 0.0), (1.0, 2.6486263667899944e-48), (0.0, 1.0), (0.0, 1.0)])
 def test_convex_parts_cover_any_simple_polygon(points):
     poly = shapely.Polygon(points)
-    if not poly.is_valid or poly.area <= 0.0:
+    if not poly.is_valid or poly.area <= MIN_AREA_M2:
         with pytest.raises(InputError):
             polygon_zone("Z", points, "z")
         return
