@@ -84,11 +84,15 @@ def polygon_zone(name: str, vertices_xy_m: ArrayLike, where: str) -> PolygonZone
         raise InputError(f"{where}: a polygon needs at least 3 distinct vertices, got {len(v)}")
     poly = shapely.Polygon(v)
     if not poly.is_valid or poly.area <= MIN_AREA_M2:
-        reason = shapely.is_valid_reason(poly)
-        flat = np.linalg.matrix_rank(v - v[0], tol=1e-9) < 2
-        what = "has no area (its vertices lie on one line)" if flat else "intersects itself"
-        raise InputError(f"{where}: the polygon {what} ({reason}); give its vertices in order "
-                         "round the boundary")
+        if np.linalg.matrix_rank(v - v[0], tol=1e-9) < 2:
+            what = "has no area (its vertices lie on one line)"
+        elif poly.is_valid:  # a sliver shapely accepts: it has no reason to give
+            what = f"has no area (less than {MIN_AREA_M2:g} m²)"
+        else:
+            what = "intersects itself"
+        reason = "" if poly.is_valid else f" ({shapely.is_valid_reason(poly)})"
+        raise InputError(f"{where}: the polygon {what}{reason}; give its vertices in order round "
+                         "the boundary")
     poly = orient(poly, 1.0)
     verts = np.asarray(poly.exterior.coords, dtype=float)[:-1]
     return PolygonZone(name, verts, convex_parts(verts))

@@ -35,6 +35,7 @@ def test_vertices_are_oriented_counter_clockwise_without_the_closing_repeat():
     ([(0, 0), (1, 0), (1, 0), (0, 0)], "at least 3"),
     ([(0, 0), (10, 10), (10, 0), (0, 10)], "intersects itself"),
     ([(0, 0), (1, 1), (2, 2)], "no area"),
+    ([(0, 0), (5e-4, 0), (5e-4, 5e-4), (0, 5e-4)], r"no area \(less than 1e-06 m²\)"),
 ])
 def test_bad_polygons_are_refused_naming_the_field(verts, words):
     with pytest.raises(InputError, match=words) as err:
