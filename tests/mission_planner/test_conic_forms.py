@@ -21,10 +21,10 @@ from mission_planner.optimize.trajectory import (
     LN2,
     MIN_SLOT,
     TRUST_REGION,
-    TrajectoryModel,
     TrajectoryProblem,
     sca_point,
 )
+from mission_planner.optimize.trajectory_model import TrajectoryModel
 from mission_planner.study.sites import random_polygon_site, random_site
 
 TOL = 2e-6  # both optima to Clarabel's 1e-7 gap, on objectives of order 1
