@@ -32,7 +32,8 @@ table, each variant as its min rate / the reference's − 1 in %:
 - ours<-ref: ours started from the reference's final trajectory and slot lengths;
 - ours noTR: ours without its trust region (100 m per axis per step);
 - ours S0=1/K: ours starting from 1/K schedule shares (its own tour and power);
-- ours γ=30: ours with γ1 = γ2 = 30 instead of the paper's 100 (a flatter QT surrogate);
+- ours γ=100: ours with the paper's fixed γ1 = γ2 = 100 instead of per-term shifts (the
+  default, ``trajectory.qt_shifts``), as the reference has them;
 - ref<-ourtour: the reference from our initial tour;
 - ref S0=near: the reference starting from each slot's nearest GN (as ours does);
 - ref +(7): the reference with the power budget (7) in (P3-2) (as ours has; the paper omits it);
@@ -105,7 +106,7 @@ def diagnose(site: Site, mine: Solution, ref: dict[str, Any]) -> tuple[str, list
         ours_patched(site, bcd, "initial_tour", start_from_ref, nfz_margin_m=1e-3),
         ours_patched(site, trajectory, "TRUST_REGION", 1e3),
         ours(site, start_schedules=("shares",))[0].min_rate_bps_hz,
-        ours(site, gamma=30.0)[0].min_rate_bps_hz,
+        ours(site, gamma=100.0)[0].min_rate_bps_hz,
         reference_plan(site, initial_m=our_start_m(site))["min_rate_bps_hz"],
         reference_plan(site, schedule0="nearest")["min_rate_bps_hz"],
         reference_plan(site, keep_power_budget=True)["min_rate_bps_hz"],
@@ -120,7 +121,7 @@ def diagnose(site: Site, mine: Solution, ref: dict[str, Any]) -> tuple[str, list
             + " ".join(f"{v:+12.2f}" for v in rel)), rel
 
 
-VARIANTS = ("ours<-ref", "ours noTR", "ours S0=1/K", "ours γ=30", "ref<-ourtour", "ref S0=near",
+VARIANTS = ("ours<-ref", "ours noTR", "ours S0=1/K", "ours γ=100", "ref<-ourtour", "ref S0=near",
             "ref +(7)")
 DIAG_HEADER = (f"{'site':>10} {'init':>6} {'init':>6} {'stop':>6} {'last':>8} {'round':>6} "
                f"{'round':>6} " + " ".join(f"{v:>12}" for v in VARIANTS) + "\n"

@@ -48,6 +48,11 @@ START_SCHEDULES = ("nearest", "shares")
 class PlannerOptions:
     """Algorithm 1's constants (paper defaults) and our numerical choices.
 
+    ``gamma``: the quadratic transform's γ1 = γ2 in SI units, 100.0 as in the paper; None (the
+    default) shifts each rate term's square roots to :data:`.trajectory.QT_HEADROOM` at each
+    SCA point instead (:func:`.trajectory.qt_shifts`), which leaves (P0) as it is and moves
+    the slot lengths much further per step.
+
     ``eta_scale`` "per-period" weighs the scheduling penalty against T·r_min (η/T), "literal"
     uses the paper's η as written. ``nfz_margin_m`` is added to every (buffered) NFZ radius so
     that solver tolerance and MAVLink's int32 1e-7° rounding (≤ 0.8 cm) never cost clearance.
@@ -64,16 +69,16 @@ class PlannerOptions:
     after re-timing); the schedule a start gives locks in early (once power equalises the
     rates, no slot can change GN alone), so a second start finds better optima on some sites
     at twice the CPU time. ``overrelax``: each accepted (P3-2) step is followed by a line search
-    along it on the exact objective (:mod:`.overrelax`); the paper's γ makes the steps in δ
-    tiny, and without it Algorithm 1 ends its iterations still gaining. It applies to the
-    paper's model ("none"); the "vehicle" search plans its candidates without it.
+    along it on the exact objective (:mod:`.overrelax`): the surrogate bends down in δ, so a
+    step stops short of where the exact rate still rises. It applies to the paper's model
+    ("none"); the "vehicle" search plans its candidates without it.
     ``search_ahead``: the "vehicle" search evaluates its likely next candidate in a spare
     thread while the current one runs (:mod:`.flyable`); the plan is the same either way.
     "none" is the paper's kinematic model (top speed only): the
     studies reproducing the paper's figures use it (:data:`PAPER_OPTIONS`).
     """
 
-    gamma: float = 100.0
+    gamma: float | None = None
     eta_initial: float = 1.0
     kappa: float = 1.2
     eta_max: float = 1e6

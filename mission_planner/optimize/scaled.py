@@ -9,8 +9,10 @@ Polygon zones enter as their convex parts (``parts``) in the same length unit, e
 tagged with its zone (``part_zone``); a leg keeps ``clearance`` (buffer + planning margin) from
 every part.
 
-The paper's γ1 = γ2 = 100 are shifted by the constant that normalisation moves out of each
-logarithm, so the quadratic-transform surrogate is exactly the paper's (see ``gamma1``).
+With a fixed ``gamma`` (the paper's γ1 = γ2 = 100), the shifts are moved by the constant that
+normalisation takes out of each logarithm, so the quadratic-transform surrogate is exactly the
+paper's; by default they are set per rate term at each SCA point instead
+(:func:`.trajectory.qt_shifts`).
 """
 
 from __future__ import annotations
@@ -40,8 +42,8 @@ class Scaled:
     speed: float  # Ṽ: distance per unit slot length at top speed
     rho: float  # β0 P_avg / (σ² L0²)
     peak: float  # P_peak / P_avg
-    gamma1: float
-    gamma2: float
+    gamma1: float | None  # the QT's fixed shifts in these units; None: per term (trajectory)
+    gamma2: float | None
     period_s: float
     parts: tuple[NDArray[np.float64], ...] = ()  # convex parts of the polygon zones, (Q, 2) each
     part_zone: tuple[int, ...] = ()  # index into Site.polygon_zones of each part
@@ -53,7 +55,7 @@ class Scaled:
         return self.period_s / self.num_slots
 
 
-def scale_site(site: Site, margin_m: float, gamma: float = 100.0) -> Scaled:
+def scale_site(site: Site, margin_m: float, gamma: float | None = None) -> Scaled:
     """Scale ``site``; NFZ radii become radius + buffer + ``margin_m``, and polygon parts are
     kept buffer + ``margin_m`` away from."""
     n = site.slots
@@ -71,8 +73,8 @@ def scale_site(site: Site, margin_m: float, gamma: float = 100.0) -> Scaled:
         speed=site.max_speed_mps * slot_s / LENGTH_UNIT_M,
         rho=site.beta0 * site.p_avg_w / (site.noise_w * LENGTH_UNIT_M**2),
         peak=site.p_peak_w / site.p_avg_w,
-        gamma1=gamma + shift,
-        gamma2=gamma - shift,
+        gamma1=None if gamma is None else gamma + shift,
+        gamma2=None if gamma is None else gamma - shift,
         period_s=site.period_s,
         parts=tuple(p / LENGTH_UNIT_M for z in site.polygon_zones for p in z.parts),
         part_zone=tuple(i for i, z in enumerate(site.polygon_zones) for _ in z.parts),

@@ -63,7 +63,7 @@ class TrajectoryModel:
         self.w_lambda = cp.Parameter((k, j * n), nonneg=True)  # 2 s λ / N
         self.w_mu = cp.Parameter((k, j * n), nonneg=True)  # 2 s μ / N
         self.w_inv = cp.Parameter((k, n), nonneg=True)  # Σ s (λ² + μ²) / N
-        self.w_lin = cp.Parameter((k, n), nonneg=True)  # Σ s (γ1 + γ2) / N
+        self.w_lin = cp.Parameter((k, n))  # Σ s (γ1 + γ2) / N (per-term shifts: either sign)
         self.power = cp.Parameter(n, nonneg=True)  # p̃ / N
         self.q_ref = cp.Parameter((n, 2))  # q^r
 

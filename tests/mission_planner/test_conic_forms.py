@@ -20,8 +20,10 @@ from mission_planner.optimize.scheduling import SchedulingModel, SchedulingProbl
 from mission_planner.optimize.trajectory import (
     LN2,
     MIN_SLOT,
+    QT_HEADROOM,
     TRUST_REGION,
     TrajectoryProblem,
+    qt_shifts,
     sca_point,
 )
 from mission_planner.optimize.trajectory_model import TrajectoryModel
@@ -33,9 +35,9 @@ TOL = 2e-6  # both optima to Clarabel's 1e-7 gap, on objectives of order 1
 TRAJ_TOL = 1e-5
 
 
-def _random_point(seed: int, slots: int = 24):
+def _random_point(seed: int, slots: int = 24, gamma: float | None = None):
     site = random_site(seed, slots=slots)
-    sc = scale_site(site, 0.02)
+    sc = scale_site(site, 0.02, gamma)
     q, delta = initial_tour(sc)
     rng = np.random.default_rng(seed)
     s = rng.dirichlet(np.ones(sc.num_gns), size=sc.num_slots).T
@@ -62,8 +64,11 @@ def _surrogate_min(sc, point, power, s, terms, q, delta):
 @pytest.mark.parametrize("seed", [0, 1, 2])
 @pytest.mark.parametrize("scheme", ["proposed", "conventional"])
 @pytest.mark.parametrize("terms", [1, 2])
-def test_trajectory_form_agrees_with_model(seed: int, scheme: str, terms: int) -> None:
-    sc, q, delta, power, s = _random_point(seed)
+@pytest.mark.parametrize("gamma", [None, 100.0])  # per-term shifts, the paper's
+def test_trajectory_form_agrees_with_model(
+    seed: int, scheme: str, terms: int, gamma: float | None
+) -> None:
+    sc, q, delta, power, s = _random_point(seed, gamma=gamma)
     shape = (sc.num_slots, sc.num_gns, sc.num_nfzs, scheme, terms)
     direct = TrajectoryProblem(*shape).solve(sc, q, delta, power, s)
     oracle = TrajectoryModel(*shape).solve(sc, q, delta, power, s)
@@ -103,10 +108,11 @@ def test_trajectory_form_agrees_with_model_with_separating_lines(scheme: str) ->
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_surrogate_is_tight_at_the_sca_point(seed: int) -> None:
+@pytest.mark.parametrize("gamma", [None, 100.0])
+def test_surrogate_is_tight_at_the_sca_point(seed: int, gamma: float | None) -> None:
     # SCA needs the surrogate to equal the exact rate at q^r (with one term per slot and a
-    # binary schedule, where dropping terms loses nothing): the log bound included.
-    sc, q, delta, power, s = _random_point(seed)
+    # binary schedule, where dropping terms loses nothing): the log bound and shifts included.
+    sc, q, delta, power, s = _random_point(seed, gamma=gamma)
     binary = (s == s.max(axis=0)).astype(float)
     assert _surrogate_min(sc, (q, delta), power, binary, 1, q, delta) == pytest.approx(
         min_rate(sc, q, delta, power, binary), rel=1e-9
@@ -168,3 +174,24 @@ def test_scheduling_form_agrees_with_model(seed: int) -> None:
 
     assert objective(direct) == pytest.approx(objective(oracle), abs=TOL)
     assert np.all(direct.sum(axis=0) <= 1 + 1e-7)
+
+
+def test_per_term_shifts_leave_every_square_root_the_headroom_at_the_sca_point() -> None:
+    sc, q, delta, power, s = _random_point(1)
+    pt = sca_point(sc, q, delta, power, s, 2)
+    w = sc.gn[pt.top]
+    d2 = np.sum((q[None] - w) ** 2, axis=-1) + sc.height**2
+    gamma1, gamma2 = qt_shifts(sc, np.log2(d2 + sc.rho * power), -np.log2(d2))
+    assert np.allclose(np.log2(d2 + sc.rho * power) + gamma1, QT_HEADROOM)
+    assert np.allclose(np.log2(1.0 / d2) + gamma2, QT_HEADROOM)
+
+
+def test_a_fixed_gamma_is_the_papers_in_si_units() -> None:
+    # log2(σ² A + β0 p) + γ1 as the paper writes it, against the scaled form at one point.
+    site = random_site(2, slots=24)
+    sc = scale_site(site, 0.02, 100.0)
+    d_m, p_w = 137.0, 0.05
+    paper = np.log2(site.noise_w * d_m**2 + site.beta0 * p_w) + 100.0
+    d_s, p_s = d_m / 100.0, p_w / site.p_avg_w
+    gamma1, _ = qt_shifts(sc, np.log2(d_s**2 + sc.rho * p_s), 0.0)
+    assert np.log2(d_s**2 + sc.rho * p_s) + gamma1 == pytest.approx(paper, rel=1e-12)
