@@ -78,6 +78,7 @@ from numpy.typing import NDArray
 
 from mission_planner.optimize import conic
 from mission_planner.optimize.scaled import Scaled
+from validator.errors import InputError
 from validator.geometry import segment_point_closest_fraction
 from validator.zones import leg_separation, support_m
 
@@ -163,8 +164,12 @@ def qt_shifts(
 ) -> tuple[NDArray[np.float64] | float, NDArray[np.float64] | float]:
     """γ1, γ2 of the rate terms whose logarithms at q^r are ``log_a`` = log2(Ã + ρp̃) and
     ``log_b`` = log2 B̃ (each (J, N)): the site's fixed shifts, or else per term the ones that
-    make both square roots' arguments QT_HEADROOM at q^r (module docstring)."""
+    make both square roots' arguments QT_HEADROOM at q^r (module docstring). A fixed γ that
+    leaves an argument at or below zero is refused: (28), (29) would take its square root."""
     if sc.gamma1 is not None and sc.gamma2 is not None:
+        if min(float(np.min(log_a)) + sc.gamma1, float(np.min(log_b)) + sc.gamma2) <= 0.0:
+            raise InputError("gamma: too small for this site, a square root in (27) would be of "
+                             "a negative number; leave it None for per-term shifts")
         return sc.gamma1, sc.gamma2
     return QT_HEADROOM - log_a, QT_HEADROOM - log_b
 
