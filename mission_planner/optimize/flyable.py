@@ -33,6 +33,7 @@ from numpy.typing import NDArray
 
 from mission_planner.optimize import retime
 from mission_planner.optimize.bcd import (
+    PAPER_GAMMA,
     PlannerOptions,
     Progress,
     _descend,
@@ -71,7 +72,10 @@ def _as_calibrated(opt: PlannerOptions) -> bool:
     flights, issue 16): every waypoint a stop (:mod:`.corners`), the skeleton judged a whole
     stretch at a time, no planning speed above the vehicle's. Simplified chord by chord, PX4
     plans stopped at more corners, which SIH flew 3-5 % faster than the px4 model predicts
-    (about 0.7 s a stop)."""
+    (about 0.7 s a stop). And the paper's fixed γ (:data:`.bcd.PAPER_GAMMA`) unless a γ is
+    given: the per-term shifts (:func:`.trajectory.qt_shifts`) planned realistic.yaml a path
+    on which SIH stood still about 5 s after one waypoint (item 10, both of two flights),
+    flying the cycle in 1.04 T where the px4 model predicts 1.00 T."""
     return opt.autopilot == "px4"
 
 
@@ -290,6 +294,8 @@ def plan_flyable(
 ) -> Solution:
     """Algorithm 1 at the highest top speed whose path the vehicle flies within T (module
     docstring)."""
+    if _as_calibrated(opt) and opt.gamma is None:
+        opt = replace(opt, gamma=PAPER_GAMMA)
     search = _Search(retime.cruise_speed_mps(site, opt.autopilot), _as_calibrated(opt))
     speed = search.start
     tries = 0
