@@ -26,7 +26,7 @@ from validator.plan_format import read_plan
 DOCUMENTED_PATH = Path("/opt/sitl/arducopter")
 
 BINARY = sitl_binary("ARDUPILOT_SITL", DOCUMENTED_PATH)
-pytestmark = [pytest.mark.xdist_group("real-sitl"), pytest.mark.skipif(
+pytestmark = [pytest.mark.realtime, pytest.mark.xdist_group("real-sitl"), pytest.mark.skipif(
     BINARY is None,
     reason="no ArduCopter SITL binary: build ArduCopter 4.5 SITL for this machine and set "
            "ARDUPILOT_SITL=/path/to/build/sitl/bin/arducopter (or link it at "

@@ -24,7 +24,7 @@ from validator.mavlink.storage import first_stored_difference
 from validator.mavlink.wire import MissionType, plan_to_wire
 
 BINARY = sitl_binary("ARDUPILOT_SITL", Path("/opt/sitl/arducopter"))
-pytestmark = [pytest.mark.xdist_group("real-sitl"), pytest.mark.skipif(
+pytestmark = [pytest.mark.realtime, pytest.mark.xdist_group("real-sitl"), pytest.mark.skipif(
     BINARY is None,
     reason="no ArduCopter SITL binary: set ARDUPILOT_SITL=/path/to/arducopter (or link it at "
            "/opt/sitl/arducopter) to run the real-autopilot tests")]

@@ -39,7 +39,7 @@ SPEEDUP = "2"
 
 
 BINARY = sitl_binary("PX4_SITL", DOCUMENTED_PATH)
-pytestmark = [pytest.mark.xdist_group("real-sitl"), pytest.mark.skipif(
+pytestmark = [pytest.mark.realtime, pytest.mark.xdist_group("real-sitl"), pytest.mark.skipif(
     BINARY is None,
     reason="no PX4 SITL binary: build PX4 v1.15 px4_sitl_default (SIH) for this machine and "
            "set PX4_SITL=/path/to/build/px4_sitl_default/bin/px4 (or build it at "

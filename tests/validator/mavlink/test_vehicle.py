@@ -80,6 +80,7 @@ def test_mission_in_auto_reaches_every_item_and_lands(start_vehicle):
     assert list(dict.fromkeys(seqs)) == [1, 3, 4, 5]  # DO_CHANGE_SPEED (2) takes no time
 
 
+@pytest.mark.realtime
 def test_the_vehicle_flies_the_validators_replay(start_vehicle):
     site = make_site(nfz=((100.0, 0.0, 20.0),))
     plan = waypoint_plan(site, [(0.0, 60.0), (80.0, 60.0), (80.0, 120.0)], v=8.0)
