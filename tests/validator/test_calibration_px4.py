@@ -26,7 +26,7 @@ def _scored(name: str) -> tuple[px4_flights.Px4Flight, TrackReport, TrackReport,
 
 
 def test_there_are_flights_to_calibrate_on():
-    assert len(FLIGHTS) >= 9
+    assert len(FLIGHTS) >= 10
 
 
 @pytest.mark.parametrize("name", FLIGHTS)
@@ -36,7 +36,14 @@ def test_the_replay_predicts_the_flown_cycle(name):
     assert model.cycle.flown_cycle_s == pytest.approx(flown.cycle.flown_cycle_s, rel=0.03)
 
 
-@pytest.mark.parametrize("name", FLIGHTS)
+# realistic-shifts-nolock drifted 2.9 m off its outbound transit and PX4 stopped three times to
+# re-aim at the line (FlightTaskAuto's off-track state, tests/data/px4-sih/README.md): the model
+# flies along the path, so it puts that mission 7 % short. Strict: a model that learns it passes.
+OFF_TRACK = pytest.mark.xfail(strict=True, reason="PX4's off-track re-aiming is not modelled")
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=OFF_TRACK)
+                                  if n == "realistic-shifts-nolock" else n for n in FLIGHTS])
 def test_the_replay_predicts_the_whole_mission(name):
     f, _, _, end_s = _scored(name)
     assert end_s == pytest.approx(f.mission_s, rel=0.06)

@@ -105,3 +105,40 @@ def test_rest_to_rest_legs_end_on_their_waypoints():
     grid = np.linspace(0.0, legs.total_s[2], 200)
     along, _, _ = legs.state(np.full(grid.size, 2), grid)
     assert np.all(np.diff(along) >= -1e-9)
+
+
+def test_a_departure_crawl_matches_the_sih_flight():
+    # realistic.yaml, waypoint 9 of tests/data/px4-sih/realistic-shifts-nolock: the trajectory
+    # left 1.55 m short at 0.31 m/s onto a leg turning 77°, and crawled for 6.8 s
+    assert px4.departure_lock_s(1.55, 0.31, math.radians(77.0), 1.5) == pytest.approx(6.8,
+                                                                                      abs=0.3)
+
+
+def test_no_crawl_below_pxs_turning_speed():
+    assert px4.departure_lock_s(1.55, 0.19, math.radians(77.0), 1.5) == 0.0
+
+
+@pytest.mark.parametrize("turn_deg", [0.0, 20.0, 170.0, 180.0])
+def test_no_crawl_when_the_trajectory_starts_close_to_the_new_line(turn_deg):
+    # 1.55·|sin turn| within L1·sin(acos 0.98) = 0.995 m of the line: aligned at once
+    assert px4.departure_lock_s(1.55, 0.31, math.radians(turn_deg), 1.5) == 0.0
+
+
+def test_the_crawl_is_longest_off_a_right_angle_and_slower_when_slower():
+    right = px4.departure_lock_s(1.5, 0.3, math.pi / 2, 1.5)
+    assert right > px4.departure_lock_s(1.5, 0.3, math.radians(60.0), 1.5) > 0.0
+    assert px4.departure_lock_s(1.5, 0.25, math.pi / 2, 1.5) > right
+
+
+def test_a_wider_acceptance_radius_aims_further_ahead():
+    # L1 = max(NAV_ACC_RAD, 5 m): at 8 m the crossing point is further, the angle smaller
+    assert px4.departure_lock_s(1.55, 0.31, math.pi / 2, 8.0) == 0.0
+
+
+def test_a_hold_lets_the_trajectory_creep_in_until_it_is_too_slow_to_crawl():
+    togo, speed = px4.creep_on(1.55, 0.31, 0.0, 1.0, 2.5, 1.0)
+    assert togo < 1.55 and speed < 0.31
+    # close in, the braking law is an exponential approach with time constant 2A/J = 5 s
+    assert togo == pytest.approx(1.55 * math.exp(-1.0 / 5.0), rel=0.05)
+    _, later = px4.creep_on(1.55, 0.31, 0.0, 10.0, 2.5, 1.0)
+    assert later <= px4.TURNING_MIN_MPS

@@ -15,7 +15,9 @@ bounded jerk and acceleration:
   a waypoint with a hold has no next setpoint, so the vehicle stops there;
 - the navigator counts a waypoint reached when the vehicle is within NAV_ACC_RAD of it
   (NAV_MC_ALT_RAD vertically) and starts the hold then, while the vehicle is still creeping
-  in; when the hold is over the next leg starts from wherever the vehicle is.
+  in; when the hold is over the next leg starts from wherever the vehicle is;
+- leaving a stop for a leg that turns, the trajectory may crawl on at its creeping speed for
+  seconds (:func:`departure_lock_s`, ``PositionSmoothing::_isTurning``).
 
 Lengths are metres, speeds m/s, accelerations m/s², jerks m/s³, times seconds.
 """
@@ -32,6 +34,12 @@ from numpy.typing import ArrayLike, NDArray
 LOOP_S = 0.02  # the position controller's cycle: FlightTaskAuto runs at 50 Hz in SIH
 STOPPED_MPS = 0.02  # a run has settled when it is this slow, this close (STOPPED_M) to its end
 STOPPED_M = 0.01
+# PositionSmoothing: the trajectory is turning while it moves faster than TURNING_MIN_MPS and
+# its velocity is more than acos(TURNING_COS) off the direction to the target; it heads for the
+# crossing point max(NAV_ACC_RAD, L1_MIN_M) ahead on the line (_getL1Point).
+TURNING_MIN_MPS = 0.2
+TURNING_COS = 0.98
+L1_MIN_M = 5.0
 
 
 def max_speed_from_distance(
@@ -154,12 +162,17 @@ class Run1D:
 
     ``t_s`` (m,) from the run's start, ``s_m`` (m,) arc length flown, ``reached_s`` per
     waypoint of the run the time the navigator counted it reached, ``end_s`` when the run's
-    item completed (the last waypoint's hold over)."""
+    item completed (the last waypoint's hold over). ``end_togo_m``, ``end_speed_mps``,
+    ``end_accel_mps2``: the trajectory then, still short of the end and creeping in; the next
+    leg leaves from there (:func:`departure_lock_s`)."""
 
     t_s: NDArray[np.float64]
     s_m: NDArray[np.float64]
     reached_s: NDArray[np.float64]
     end_s: float
+    end_togo_m: float = 0.0
+    end_speed_mps: float = 0.0
+    end_accel_mps2: float = 0.0
 
 
 def fly_run(
@@ -244,7 +257,47 @@ def fly_run(
         if settled and not math.isnan(reached[last]) and t >= reached[last]:
             break  # at rest on the waypoint: the rest of the hold changes nothing
     end = max(t, done_at) if math.isfinite(done_at) else t
-    return Run1D(np.asarray(ts), np.asarray(ss), reached, float(end))
+    return Run1D(np.asarray(ts), np.asarray(ss), reached, float(end), ends[last] - vs.x, vs.v,
+                 vs.a)
+
+
+def creep_on(togo_m: float, speed_mps: float, accel_mps2: float, hold_s: float,
+             max_accel_mps2: float, jerk_mps3: float, dt_s: float = LOOP_S,
+             ) -> tuple[float, float]:
+    """The trajectory closing in on a stop ``togo_m`` ahead at ``speed_mps`` (and
+    ``accel_mps2``) by PX4's braking law (:func:`max_speed_from_distance`) for ``hold_s``
+    more seconds: (distance still to go (m), speed (m/s)). It stops early once too slow for
+    :func:`departure_lock_s` to matter."""
+    vs = VelocitySmoothing(max_accel_mps2, jerk_mps3)
+    vs.x, vs.v, vs.a = -togo_m, speed_mps, accel_mps2
+    t = 0.0
+    while t < hold_s - 1e-9 and vs.v > TURNING_MIN_MPS:
+        vs.update_durations(max_speed_from_distance(-vs.x, 0.0, max_accel_mps2, jerk_mps3))
+        vs.step(min(dt_s, hold_s - t))
+        vs.x = min(vs.x, 0.0)
+        t += dt_s
+    return -vs.x, vs.v
+
+
+def departure_lock_s(togo_m: float, speed_mps: float, turn_rad: float,
+                     acceptance_m: float) -> float:
+    """How long (s) PX4 crawls away from a stop before it speeds up along the next leg.
+
+    When the hold ends the trajectory is still creeping in, ``togo_m`` short of the waypoint at
+    ``speed_mps`` (:func:`max_speed_from_distance` crawls the last metres). The next leg turns
+    by ``turn_rad``, so the trajectory starts c = togo·|sin turn| off the new line and heads for
+    the L1 crossing point: sin φ = c/L1 off the line, L1 = max(NAV_ACC_RAD, 5 m). While φ >
+    acos(0.98) and the speed is above 0.2 m/s, ``PositionSmoothing::_isTurning`` holds the speed
+    it had when the turn began; c shrinks as c·exp(−v·t/L1), so the crawl lasts
+    L1/v · ln(c / (L1·sin acos 0.98)). On a PX4 v1.15.4 SIH flight of ours (1.55 m short at 0.31
+    m/s, a 77° turn) it lasted 6.8 s; this gives 6.95 s. Zero when the crawl is too slow or
+    the turn too slight."""
+    l1 = max(acceptance_m, L1_MIN_M)
+    c0 = togo_m * abs(math.sin(turn_rad))
+    c_end = l1 * math.sqrt(1.0 - TURNING_COS * TURNING_COS)
+    if speed_mps <= TURNING_MIN_MPS or c0 <= c_end:
+        return 0.0
+    return l1 / speed_mps * math.log(c0 / c_end)
 
 
 @dataclass(frozen=True)
@@ -254,12 +307,14 @@ class SampledLegs:
     ``s_m[k]`` of the distance flown. :meth:`state` answers like
     :class:`validator.motion.scurve.Profiles1D`, with the distance scaled so that a leg ends on
     its waypoint exactly when it counts as reached (the last ``acceptance_m`` is closed during
-    the hold)."""
+    the hold). ``arrival`` (n, 3): the trajectory when each leg counts as reached: distance
+    still to go (m), speed (m/s) and acceleration (m/s²), zeros for a leg of no length."""
 
     length_m: NDArray[np.float64]
     total_s: NDArray[np.float64]
     t_s: tuple[NDArray[np.float64], ...]
     s_m: tuple[NDArray[np.float64], ...]
+    arrival: NDArray[np.float64]
 
     def state(self, leg: NDArray[np.int64], t: NDArray[np.float64]
               ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
@@ -288,20 +343,22 @@ def rest_to_rest(
 ) -> SampledLegs:
     """Each straight leg of ``lengths_m`` flown alone, from rest to a stop (:func:`fly_run`):
     how a PX4 mission times legs that end in a hold."""
-    ts, ss, total = [], [], []
+    ts, ss, total, arrival = [], [], [], []
     for length in np.asarray(lengths_m, dtype=float):
         if length <= 0:
             ts.append(np.zeros(1))
             ss.append(np.zeros(1))
             total.append(0.0)
+            arrival.append((0.0, 0.0, 0.0))
             continue
         run = _rest_to_rest(float(length), cruise_mps, accel_mps2, jerk_mps3, acceptance_m,
                             tracking, arrival_lag_s)
         ts.append(run.t_s)
         ss.append(run.s_m)
         total.append(float(run.reached_s[-1]))
+        arrival.append((run.end_togo_m, run.end_speed_mps, run.end_accel_mps2))
     return SampledLegs(np.asarray(lengths_m, dtype=float), np.asarray(total), tuple(ts),
-                       tuple(ss))
+                       tuple(ss), np.asarray(arrival, dtype=float).reshape(-1, 3))
 
 
 @functools.lru_cache(maxsize=4096)
@@ -319,6 +376,8 @@ __all__ = [
     "Tracking",
     "VelocitySmoothing",
     "corner_speed_mps",
+    "creep_on",
+    "departure_lock_s",
     "fly_run",
     "max_speed_from_distance",
     "rest_to_rest",

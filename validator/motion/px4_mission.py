@@ -5,7 +5,9 @@ which it can still arrive, with PX4's conservative 2·A/J reaction delay (MPC_AC
 MPC_JERK_AUTO), smoothed by its jerk-limited velocity smoother; corners rounded by an arc
 inside NAV_ACC_RAD at PX4's corner speed (MPC_XY_TRAJ_P); a waypoint with a hold stops the
 vehicle, and the hold starts when the vehicle is within NAV_ACC_RAD (NAV_MC_ALT_RAD
-vertically). The vehicle follows that trajectory through PX4's position and velocity loops
+vertically). Leaving a stop for a leg that turns, the vehicle may crawl for seconds before it
+speeds up (:func:`validator.motion.px4.departure_lock_s`); the model waits at the waypoint that
+long. The vehicle follows that trajectory through PX4's position and velocity loops
 against a linear drag (VEHICLE_LIN_DRAG, SIH's quad by default) within MPC_TILTMAX_AIR, which
 also sets its top speed. Takeoff climbs after PX4_LIFTOFF_DELAY_S; a landing descends at
 MPC_Z_V_AUTO_DN, slowing to MPC_LAND_SPEED between MPC_LAND_ALT1 and MPC_LAND_ALT2, and ends
@@ -19,7 +21,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from validator.flight import Flight
 from validator.motion import px4
@@ -141,9 +143,12 @@ def fly(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
     t_parts, p_parts = [], []
     clock = 0.0
     here = geom.start[0].copy()
+    # the trajectory as the last horizontal run left it: distance still to go, speed, heading
+    left: tuple[tuple[float, float, float], NDArray[np.float64]] | None = None
     for run in _runs(flight):
         ends = geom.start[run] + geom.delta[run]
         first = legs[run[0]]
+        item_start = clock
         # a climb or descent in place (the vehicle may still be closing in on its last
         # waypoint horizontally, as PX4 does while it lands)
         vertical = len(run) == 1 and (legs[run[0]].kind in ("takeoff", "land")
@@ -162,6 +167,9 @@ def fly(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
                                 PX4_LAND_DETECT_S if landing else legs[run[-1]].hold_s,
                                 speed_profile=schedule)
         else:
+            if left is not None:
+                clock += departure_lock_s(profile, left[0], 0.0, left[1],
+                                          geom.delta[run[0], :2])
             path = _run_path(here, ends, cruise[run], profile)
             flown = px4.fly_run(path.waypoint_s_m, path.through_mps, cruise[run],
                                 profile.si("MPC_ACC_HOR"), jerk, profile.si("NAV_ACC_RAD"),
@@ -172,8 +180,18 @@ def fly(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
                        axis=1)
         t_parts.append(t_run)
         p_parts.append(xyz)
+        heading = geom.delta[run[-1], :2]
+        in_place = vertical and legs[run[-1]].kind not in ("takeoff", "land") and float(
+            np.max(np.abs(geom.delta[run]))) < 1e-6
+        if not vertical and float(np.hypot(*heading)) >= 1e-6:
+            left = ((flown.end_togo_m, flown.end_speed_mps, flown.end_accel_mps2), heading)
+        elif left is not None and in_place:  # a second hold where the last run stopped
+            togo, speed = px4.creep_on(*left[0], flown.end_s, profile.si("MPC_ACC_HOR"), jerk)
+            left = ((togo, speed, 0.0), left[1])
+        else:
+            left = None
         for j, k in enumerate(run):
-            start[k] = clock if j == 0 else reached[run[j - 1]]
+            start[k] = item_start if j == 0 else reached[run[j - 1]]
             reached[k] = done[k] = clock + flown.reached_s[j]
         done[run[-1]] = clock + flown.end_s
         clock = done[run[-1]]
@@ -184,6 +202,23 @@ def fly(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
     pos = np.stack([np.interp(t, t_abs, xyz_all[:, c]) for c in range(3)], axis=1)
     vel = np.gradient(pos, t, axis=0) if t.size > 1 else np.zeros_like(pos)
     return FlownPath(t, pos, vel, active_leg(done, t), start, reached, done)
+
+
+def departure_lock_s(profile: Profile, state: tuple[float, float, float], hold_s: float,
+                     arriving: ArrayLike, leaving: ArrayLike) -> float:
+    """How long (s) a ``px4`` profile's vehicle crawls away from a stop
+    (:func:`validator.motion.px4.departure_lock_s`). ``state``: its trajectory still short of
+    the waypoint (distance m, speed m/s, acceleration m/s²), which closes in for ``hold_s``
+    more seconds; then it leaves along ``leaving`` after arriving along ``arriving``
+    (horizontal direction vectors)."""
+    accel, jerk = profile.si("MPC_ACC_HOR"), profile.si("MPC_JERK_AUTO")
+    togo, speed = px4.creep_on(*state, hold_s, accel, jerk)
+    a, b = np.asarray(arriving, dtype=float), np.asarray(leaving, dtype=float)
+    na, nb = float(np.hypot(*a)), float(np.hypot(*b))
+    if na < 1e-9 or nb < 1e-9:
+        return 0.0
+    turn = math.acos(float(np.clip(np.dot(a, b) / (na * nb), -1.0, 1.0)))
+    return px4.departure_lock_s(togo, speed, turn, profile.si("NAV_ACC_RAD"))
 
 
 def px4_top_speed_mps(profile: Profile) -> float:
