@@ -41,10 +41,11 @@ class CycleMotion:
 
     ``stops`` (W,): the vehicle stops at waypoint k (else it passes through). Leg k is flown
     along its own rest-to-rest motion from ``offset_s[k]`` for ``duration_s[k]`` seconds: from
-    0 when it starts at a stop, from the moment the previous corner counts as reached when it
-    starts blended; to its end before a stop, to the moment its corner counts as reached before
-    a pass-through. ``arrival_lag_s`` (W,): time between the end of the motion into waypoint k
-    and the vehicle's arrival there (ArduCopter's stop lag at stops, 0 when passed through).
+    0 when it starts at a stop (below 0: it waits there that long first, PX4's departure
+    crawl), from the moment the previous corner counts as reached when it starts blended; to
+    its end before a stop, to the moment its corner counts as reached before a pass-through.
+    ``arrival_lag_s`` (W,): time between the end of the motion into waypoint k and the
+    vehicle's arrival there (ArduCopter's stop lag at stops, 0 when passed through).
     """
 
     stops: NDArray[np.bool_]

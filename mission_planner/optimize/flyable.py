@@ -74,8 +74,10 @@ def _as_calibrated(opt: PlannerOptions) -> bool:
     plans stopped at more corners, which SIH flew 3-5 % faster than the px4 model predicts
     (about 0.7 s a stop). And the paper's fixed γ (:data:`.bcd.PAPER_GAMMA`) unless a γ is
     given: the per-term shifts (:func:`.trajectory.qt_shifts`) planned realistic.yaml a path
-    on which SIH stood still about 5 s after one waypoint (item 10, both of two flights),
-    flying the cycle in 1.04 T where the px4 model predicts 1.00 T."""
+    that SIH flew in 1.04-1.05 T (four flights), crawling about 7 s away from one stop (PX4's
+    departure crawl, :func:`validator.motion.px4.departure_lock_s`). Planned with the crawl
+    counted it flew 1.03 and 1.01 T: its 3-s holds sat where the spread of PX4's arrivals
+    decides between no crawl and 4 s of it."""
     return opt.autopilot == "px4"
 
 

@@ -17,8 +17,10 @@ path but flies it honestly, with the validator's own model of the autopilot
    the buffer (:mod:`.corners`, the validator's corner model) and stops at the others;
    every ArduCopter stop costs its stop lag (:data:`validator.motion.arducopter.STOP_LAG_S`: it
    reaches the waypoint that long after the S-curve ends), counted as hover at the waypoint
-   just reached (the exporter programs holds net of it); the time left in T goes to the hover
-   points in proportion to the optimiser's holds;
+   just reached (the exporter programs holds net of it); PX4 stops at every waypoint, and
+   leaving one for a turn after a short hold it may crawl for seconds
+   (:func:`px4_departures_s`), spent at the waypoint before the leg's motion; the time left
+   in T goes to the hover points in proportion to the optimiser's holds;
 4. :func:`resample`: N slots are laid on that timeline: boundaries at every arrival and
    departure, the rest spread over the moves, positions taken from the leg motion.
 
@@ -29,7 +31,7 @@ are metres east/north; times seconds.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Protocol
 
 import numpy as np
@@ -53,7 +55,8 @@ from validator.motion.arducopter import (
 )
 from validator.motion.limits import site_limits
 from validator.motion.profile import Profile, flown_params, make_profile
-from validator.motion.px4_mission import px4_rest_to_rest, px4_top_speed_mps
+from validator.motion.px4 import SampledLegs
+from validator.motion.px4_mission import departure_lock_s, px4_rest_to_rest, px4_top_speed_mps
 from validator.motion.scurve import scurve_rest_to_rest
 from validator.site import Site
 from validator.zones import PolygonZone
@@ -63,6 +66,7 @@ MIN_SLOT_MOVE_M = 0.1  # the first and last slot of a move travel at least this 
 MIN_HOLD_S = 1.0  # every waypoint of a flyable plan holds this long at least (whole seconds)
 SIMPLIFY_TOLERANCE_M = 50.0  # a bend smaller than this between hover points is flown straight
 WHOLE_STRETCH_STEPS_M = (50.0, 25.0, 10.0, 5.0, 2.0, 1.0, 0.5, 0.2, 0.0)  # chordwise=False
+PX4_CRAWL_ROUNDS = 8  # time_cycle's rounds to settle PX4's departure crawls with the holds
 
 
 class LegMotion(Protocol):
@@ -295,15 +299,57 @@ def time_cycle(
     With ``pass_through`` (ArduCopter only) the vehicle flies through every corner that is not
     a hover point where its turn keeps the buffer (:mod:`.corners`); it stops at the rest. On
     the timeline each stop's hover begins with the stop lag (:func:`arrival_lag_s`) and then
-    holds as :func:`fit_holds` says (whole seconds but one, at least a second)."""
+    holds as :func:`fit_holds` says (whole seconds but one, at least a second). A PX4 leg
+    begins with its departure crawl (:func:`px4_departures_s`), settled with the holds."""
     profiles = leg_profiles(site, sk.leg_lengths_m, autopilot=autopilot, params=params)
     motion = cycle_motion(site, sk, profiles, autopilot, params, pass_through)
     lag = motion.arrival_lag_s
     holds = fit_holds(sk.hold_s, motion.move_s + float(np.sum(lag)), period_s,
                       stops=motion.stops)
+    if autopilot == "px4" and isinstance(profiles, SampledLegs):
+        # PX4's departure crawls shorten as the holds before them lengthen, and the holds
+        # shorten as the crawls take up the period: from the longest holds, each round
+        # lengthens the crawls and shortens the holds until they agree.
+        base, crawl = motion, np.zeros(len(sk.points_m))
+        for _ in range(PX4_CRAWL_ROUNDS):
+            if holds is None:
+                break
+            before, crawl = crawl, px4_departures_s(sk, profiles, holds,
+                                                    motion_profile(site, autopilot, params))
+            motion = replace(base, offset_s=base.offset_s - crawl,
+                             duration_s=base.duration_s + crawl)
+            holds = fit_holds(sk.hold_s, motion.move_s + float(np.sum(lag)), period_s,
+                              stops=motion.stops)
+            if float(np.max(np.abs(crawl - before))) < 0.01:
+                break
     if holds is None:
         return motion.move_s, None
     return motion.move_s, resample(sk, holds + lag, profiles, slots, motion)
+
+
+def px4_departures_s(sk: Skeleton, legs: SampledLegs, hold_s: NDArray[np.float64],
+                     profile: Profile) -> NDArray[np.float64]:
+    """(W,) how long (s) PX4 crawls away from each waypoint of the closed skeleton ``sk``
+    before leg k speeds up (:func:`validator.motion.px4_mission.departure_lock_s`): its
+    trajectory arrives as the last leg before it with any length left it (``legs.arrival``),
+    closes in over the holds since (``hold_s``), and turns onto leg k."""
+    lengths = legs.length_m
+    w = len(lengths)
+    out = np.zeros(w)
+    if not np.any(lengths > 0):
+        return out
+    pts = np.asarray(sk.points_m, dtype=float)
+    heading = np.roll(pts, -1, axis=0) - pts
+    for k in range(w):
+        if lengths[k] <= 0:
+            continue
+        held, j = float(hold_s[k]), (k - 1) % w
+        while lengths[j] <= 0:
+            held += float(hold_s[j])
+            j = (j - 1) % w
+        state = (float(legs.arrival[j, 0]), float(legs.arrival[j, 1]), float(legs.arrival[j, 2]))
+        out[k] = departure_lock_s(profile, state, held, heading[j], heading[k])
+    return out
 
 
 def cycle_motion(site: Site, sk: Skeleton, profiles: LegMotion, autopilot: str = "ardupilot",

@@ -286,3 +286,30 @@ def test_px4_plans_are_timed_with_px4s_own_rules(site: Site, flyable_px4: Soluti
     # 12 slots in 50 s, most of them moving: the paper model rates a moving slot at its end
     # point, the flown track averages over it (24 slots: within 1 %)
     assert report.throughput.flown_min == pytest.approx(report.throughput.planned_min, rel=0.08)
+
+
+def test_px4_timelines_count_the_departure_crawl() -> None:
+    """Off a right angle after a short hold PX4 crawls for seconds before it speeds up
+    (:func:`validator.motion.px4.departure_lock_s`), less after a longer hold: a period whose
+    holds are too short to let the crawls die down, and too short to fit them, does not fit,
+    though the moves and the minimum holds alone would."""
+    from pathlib import Path
+
+    from mission_planner.optimize.retime import motion_profile, px4_departures_s
+    from validator.site import load_site
+
+    site = load_site(Path(__file__).resolve().parents[2] / "samples" / "realistic.yaml")
+    sk = Skeleton(np.array([[100.0, 100.0], [300.0, 100.0], [300.0, 300.0], [100.0, 300.0]]),
+                  np.zeros(4))
+    legs = leg_profiles(site, sk.leg_lengths_m, autopilot="px4")
+    least = np.array([2.0, 1.0, 1.0, 1.0]) * MIN_HOLD_S  # fit_holds' minimum holds
+    crawl = px4_departures_s(sk, legs, least, motion_profile(site, "px4"))
+    assert np.all(crawl[1:] > 1.0)
+    assert np.all(px4_departures_s(sk, legs, least + 6.0, motion_profile(site, "px4")) < crawl)
+    tight = float(legs.total_s.sum() + least.sum()) + 1.0
+    assert fit_holds(sk.hold_s, float(legs.total_s.sum()), tight) is not None
+    assert time_cycle(site, sk, tight, 40, autopilot="px4")[1] is None
+    # given the time, holds of about 3 s let the trajectory creep in too slowly to crawl
+    move_s, timed = time_cycle(site, sk, tight + 12.0, 40, autopilot="px4")
+    assert timed is not None and timed[1].sum() == pytest.approx(tight + 12.0)
+    assert move_s == pytest.approx(float(legs.total_s.sum()))
