@@ -51,8 +51,7 @@ class PlannerOptions:
     ``gamma``: the quadratic transform's γ1 = γ2 in SI units, 100.0 as in the paper; None (the
     default) shifts each rate term's square roots to :data:`.trajectory.QT_HEADROOM` at each
     SCA point instead (:func:`.trajectory.qt_shifts`), which leaves (P0) as it is and moves
-    the slot lengths much further per step; PX4 plans keep the paper's unless a number is
-    given (:func:`.flyable._as_calibrated`).
+    the slot lengths much further per step.
 
     ``eta_scale`` "per-period" weighs the scheduling penalty against T·r_min (η/T), "literal"
     uses the paper's η as written. ``nfz_margin_m`` is added to every (buffered) NFZ radius so
@@ -99,7 +98,6 @@ class PlannerOptions:
 
 
 PAPER_OPTIONS = PlannerOptions(dynamics="none")  # the paper's model, for its figures
-PAPER_GAMMA = 100.0  # the paper's γ1 = γ2 (SI units), for PlannerOptions.gamma
 
 
 @dataclass

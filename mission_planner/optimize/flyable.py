@@ -33,7 +33,6 @@ from numpy.typing import NDArray
 
 from mission_planner.optimize import retime
 from mission_planner.optimize.bcd import (
-    PAPER_GAMMA,
     PlannerOptions,
     Progress,
     _descend,
@@ -72,12 +71,7 @@ def _as_calibrated(opt: PlannerOptions) -> bool:
     flights, issue 16): every waypoint a stop (:mod:`.corners`), the skeleton judged a whole
     stretch at a time, no planning speed above the vehicle's. Simplified chord by chord, PX4
     plans stopped at more corners, which SIH flew 3-5 % faster than the px4 model predicts
-    (about 0.7 s a stop). And the paper's fixed γ (:data:`.bcd.PAPER_GAMMA`) unless a γ is
-    given: the per-term shifts (:func:`.trajectory.qt_shifts`) planned realistic.yaml a path
-    that SIH flew in 1.04-1.05 T (four flights), crawling about 7 s away from one stop (PX4's
-    departure crawl, :func:`validator.motion.px4.departure_lock_s`). Planned with the crawl
-    counted it flew 1.03 and 1.01 T: its 3-s holds sat where the spread of PX4's arrivals
-    decides between no crawl and 4 s of it."""
+    (about 0.7 s a stop)."""
     return opt.autopilot == "px4"
 
 
@@ -296,8 +290,6 @@ def plan_flyable(
 ) -> Solution:
     """Algorithm 1 at the highest top speed whose path the vehicle flies within T (module
     docstring)."""
-    if _as_calibrated(opt) and opt.gamma is None:
-        opt = replace(opt, gamma=PAPER_GAMMA)
     search = _Search(retime.cruise_speed_mps(site, opt.autopilot), _as_calibrated(opt))
     speed = search.start
     tries = 0

@@ -66,6 +66,9 @@ MIN_SLOT_MOVE_M = 0.1  # the first and last slot of a move travel at least this 
 MIN_HOLD_S = 1.0  # every waypoint of a flyable plan holds this long at least (whole seconds)
 SIMPLIFY_TOLERANCE_M = 50.0  # a bend smaller than this between hover points is flown straight
 WHOLE_STRETCH_STEPS_M = (50.0, 25.0, 10.0, 5.0, 2.0, 1.0, 0.5, 0.2, 0.0)  # chordwise=False
+# SIH's trajectory was 1.63-2.24 m short of a stop when PX4 counted it reached (ten stops, model
+# 1.85 m): plans time the crawl for the long end (the replay keeps the model's, so may be early).
+PX4_ARRIVAL_SPREAD = 1.2
 PX4_CRAWL_ROUNDS = 8  # time_cycle's rounds to settle PX4's departure crawls with the holds
 
 
@@ -331,8 +334,9 @@ def px4_departures_s(sk: Skeleton, legs: SampledLegs, hold_s: NDArray[np.float64
                      profile: Profile) -> NDArray[np.float64]:
     """(W,) how long (s) PX4 crawls away from each waypoint of the closed skeleton ``sk``
     before leg k speeds up (:func:`validator.motion.px4_mission.departure_lock_s`): its
-    trajectory arrives as the last leg before it with any length left it (``legs.arrival``),
-    closes in over the holds since (``hold_s``), and turns onto leg k."""
+    trajectory arrives as the last leg before it with any length left it (``legs.arrival``,
+    taken :data:`PX4_ARRIVAL_SPREAD` times further out), closes in over the holds since
+    (``hold_s``), and turns onto leg k."""
     lengths = legs.length_m
     w = len(lengths)
     out = np.zeros(w)
@@ -347,8 +351,8 @@ def px4_departures_s(sk: Skeleton, legs: SampledLegs, hold_s: NDArray[np.float64
         while lengths[j] <= 0:
             held += float(hold_s[j])
             j = (j - 1) % w
-        state = (float(legs.arrival[j, 0]), float(legs.arrival[j, 1]), float(legs.arrival[j, 2]))
-        out[k] = departure_lock_s(profile, state, held, heading[j], heading[k])
+        togo, speed, accel = (float(x) * PX4_ARRIVAL_SPREAD for x in legs.arrival[j])
+        out[k] = departure_lock_s(profile, (togo, speed, accel), held, heading[j], heading[k])
     return out
 
 

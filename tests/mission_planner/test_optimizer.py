@@ -108,16 +108,6 @@ def test_per_term_qt_shifts_get_further_than_the_papers_gamma() -> None:
     assert ours.min_rate_bps_hz > 1.02 * paper.min_rate_bps_hz
 
 
-def test_px4_vehicle_plans_keep_the_papers_gamma() -> None:
-    # The px4 replay is calibrated on plans made with it (flyable._as_calibrated); without
-    # that rule the default (per-term shifts) plans another path.
-    site = random_site(3, slots=16)
-    px4 = PlannerOptions(max_iterations=8, autopilot="px4", search_ahead=False)
-    default = plan(site, "proposed", options=px4)
-    assert np.array_equal(default.trajectory_m,
-                          plan(site, "proposed", options=replace(px4, gamma=100.0)).trajectory_m)
-
-
 def test_a_gamma_too_small_for_the_site_is_refused() -> None:
     with pytest.raises(InputError, match="gamma: too small"):
         plan(random_site(3, slots=16), "proposed", options=replace(FAST, gamma=5.0))
