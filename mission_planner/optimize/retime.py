@@ -314,11 +314,11 @@ def time_cycle(
         # shorten as the crawls take up the period: from the longest holds, each round
         # lengthens the crawls and shortens the holds until they agree.
         base, crawl = motion, np.zeros(len(sk.points_m))
+        px4_profile = motion_profile(site, autopilot, params)
         for _ in range(PX4_CRAWL_ROUNDS):
             if holds is None:
                 break
-            before, crawl = crawl, px4_departures_s(sk, profiles, holds,
-                                                    motion_profile(site, autopilot, params))
+            before, crawl = crawl, px4_departures_s(sk, profiles, holds, px4_profile)
             motion = replace(base, offset_s=base.offset_s - crawl,
                              duration_s=base.duration_s + crawl)
             holds = fit_holds(sk.hold_s, motion.move_s + float(np.sum(lag)), period_s,

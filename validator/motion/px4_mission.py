@@ -143,8 +143,9 @@ def fly(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
     t_parts, p_parts = [], []
     clock = 0.0
     here = geom.start[0].copy()
-    # the trajectory as the last horizontal run left it: distance still to go, speed, heading
-    left: tuple[tuple[float, float, float], NDArray[np.float64]] | None = None
+    # the trajectory as the last horizontal run left it (distance still to go, speed,
+    # acceleration), its heading, and the holds in place since
+    left: tuple[tuple[float, float, float], NDArray[np.float64], float] | None = None
     for run in _runs(flight):
         ends = geom.start[run] + geom.delta[run]
         first = legs[run[0]]
@@ -168,7 +169,7 @@ def fly(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
                                 speed_profile=schedule)
         else:
             if left is not None:
-                clock += departure_lock_s(profile, left[0], 0.0, left[1],
+                clock += departure_lock_s(profile, left[0], left[2], left[1],
                                           geom.delta[run[0], :2])
             path = _run_path(here, ends, cruise[run], profile)
             flown = px4.fly_run(path.waypoint_s_m, path.through_mps, cruise[run],
@@ -184,10 +185,9 @@ def fly(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
         in_place = vertical and legs[run[-1]].kind not in ("takeoff", "land") and float(
             np.max(np.abs(geom.delta[run]))) < 1e-6
         if not vertical and float(np.hypot(*heading)) >= 1e-6:
-            left = ((flown.end_togo_m, flown.end_speed_mps, flown.end_accel_mps2), heading)
+            left = ((flown.end_togo_m, flown.end_speed_mps, flown.end_accel_mps2), heading, 0.0)
         elif left is not None and in_place:  # a second hold where the last run stopped
-            togo, speed = px4.creep_on(*left[0], flown.end_s, profile.si("MPC_ACC_HOR"), jerk)
-            left = ((togo, speed, 0.0), left[1])
+            left = (left[0], left[1], left[2] + flown.end_s)
         else:
             left = None
         for j, k in enumerate(run):
