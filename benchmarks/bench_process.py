@@ -73,6 +73,11 @@ def main() -> None:
     parser.add_argument("--before", metavar="CHECKOUT",
                         help="also time this checkout of the package, alternating run by run")
     args = parser.parse_args()
+    if args.before is not None and not (Path(args.before) / "mission_planner").is_dir():
+        # PYTHONPATH would name nothing, and the child would quietly time this checkout twice.
+        print(f"bench_process: --before {args.before}: no mission_planner package there",
+              file=sys.stderr)
+        sys.exit(2)
     checkouts: list[str | None] = [None] if args.before is None else [None, args.before]
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "bench.plan"
