@@ -1,6 +1,12 @@
-"""A GeoJSON airspace file: the no-fly zones a site names with ``airspace:``.
+"""An airspace file a site names with ``airspace:``: plain GeoJSON, ED-269 JSON or ED-318 GeoJSON.
 
-A FeatureCollection (RFC 7946, WGS84 longitude/latitude) as OpenAIP and national services
+:func:`read_airspace_file` tells the three apart by their content (an ED-269 document lists
+zones without a GeoJSON ``type``; an ED-318 FeatureCollection's features carry UAS-zone
+properties such as ``zoneAuthority`` or a vertical ``layer``) and reads each file once per
+process (a country's file is large: kept by path, size and modification time). UAS zones are
+read by :mod:`validator.uas_zones`; what follows is the plain GeoJSON reader.
+
+A plain FeatureCollection (RFC 7946, WGS84 longitude/latitude) as OpenAIP and national services
 publish it: each Polygon feature is a zone, each part of a MultiPolygon a zone of its own
 (named ``NAME/1``, ``NAME/2``...), a Point with a ``radius_m`` property a circle. The name is the
 feature's ``name`` property (``features[i]`` without one). Holes are refused: a zone with a hole
@@ -11,7 +17,9 @@ an :class:`~validator.errors.InputError` naming the file and the feature.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +28,9 @@ from numpy.typing import NDArray
 
 from validator.errors import InputError
 from validator.input_files import check_tree, parse_json, read_text
+from validator.uas_zones.ed269 import is_ed269, parse_ed269
+from validator.uas_zones.ed318 import is_ed318, parse_ed318
+from validator.uas_zones.selection import ZoneIndex, zone_index
 from validator.zones import MAX_VERTICES
 
 MAX_FEATURES = 1_000  # as many zones as a site may hold
@@ -36,6 +47,37 @@ class AirspaceZone:
     where: str
     lat_lon_deg: NDArray[np.float64]
     radius_m: float | None = None
+
+
+@dataclass(frozen=True)
+class AirspaceFile:
+    """An airspace file read: its ``format`` ("geojson", "ed269", "ed318") and its zones,
+    ``plain`` for plain GeoJSON, ``uas`` (indexed) for ED-269 and ED-318."""
+
+    path: str
+    format: str
+    plain: tuple[AirspaceZone, ...] = ()
+    uas: ZoneIndex | None = None
+
+
+def read_airspace_file(path: str | Path) -> AirspaceFile:
+    """The airspace file ``path``, its format told from its content; read once while it is
+    unchanged."""
+    try:
+        st = os.stat(path)
+    except OSError as err:
+        raise InputError(f"{path}: cannot read airspace file ({err.strerror or err})") from None
+    return _read_airspace_file(str(path), st.st_size, st.st_mtime_ns)
+
+
+@lru_cache(maxsize=8)
+def _read_airspace_file(path: str, size: int, mtime_ns: int) -> AirspaceFile:
+    data = parse_json(read_text(path, "airspace"), path)
+    if is_ed269(data):
+        return AirspaceFile(path, "ed269", uas=zone_index(parse_ed269(data, path)))
+    if is_ed318(data):
+        return AirspaceFile(path, "ed318", uas=zone_index(parse_ed318(data, path)))
+    return AirspaceFile(path, "geojson", plain=tuple(parse_airspace(data, path)))
 
 
 def load_airspace(path: str | Path) -> list[AirspaceZone]:

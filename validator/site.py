@@ -14,7 +14,8 @@ A site file is YAML of this shape (see ``samples/paper-default.yaml``)::
       - {name: NFZ1, x: 150.0, y: 200.0, radius: 30.0}   # a circle ...
       - name: CTR                                      # ... or a polygon (x/y or lat/lon)
         polygon: [{x: 0, y: 0}, {x: 120, y: 0}, {x: 120, y: 40}, {x: 0, y: 40}]
-    airspace: zones.geojson   # optional: more zones (validator.airspace), relative to this file
+    airspace: zones.geojson   # optional: more zones, relative to this file: GeoJSON, ED-269
+                              # or ED-318 (validator.site_airspace), one file or a list
     safety: {buffer_m: 2.0}
 
 :func:`load_site` validates it with pydantic and resolves it into a :class:`Site` in SI units
@@ -36,7 +37,6 @@ import shapely
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from validator.airspace import AirspaceZone, load_airspace
 from validator.errors import InputError
 from validator.geodesy import LocalFrame
 from validator.input_files import (
@@ -46,6 +46,8 @@ from validator.input_files import (
     read_text,
     resolve_referenced_path,
 )
+from validator.site_airspace import SiteAirspace, site_airspace
+from validator.uas_zones.applicability import AirspaceOptions, Band
 from validator.zones import MAX_VERTICES, PolygonZone, point_clearance_m, polygon_zone
 
 DEFAULT_BUFFER_M = 2.0
@@ -172,8 +174,8 @@ class SiteModel(_Strict):
     radio: RadioModel
     ground_nodes: list[GroundNodeModel] = Field(min_length=1, max_length=MAX_NODES)
     no_fly_zones: list[NoFlyZoneModel] = Field(default_factory=list, max_length=MAX_NODES)
-    airspace: str | None = Field(default=None, min_length=1,
-                                 description="GeoJSON file of more zones, beside the site")
+    airspace: str | list[str] | None = Field(
+        default=None, min_length=1, description="airspace file(s) of more zones, beside the site")
     safety: SafetyModel = Field(default_factory=SafetyModel)
 
 
@@ -184,6 +186,7 @@ class Site:
     Arrays: ``gn_xy_m`` is (K, 2), ``nfz_xy_m`` is (M, 2), ``nfz_radius_m`` is (M,): the M
     circle zones. ``polygon_zones`` are the polygon zones, in file order after the circles (the
     site file's, then the airspace file's). Zones are as published; planning adds ``buffer_m``.
+    ``airspace`` says which UAS zones within reach were taken and why (the report's table).
     """
 
     name: str
@@ -206,6 +209,7 @@ class Site:
     nfz_radius_m: NDArray[np.float64]
     buffer_m: float = DEFAULT_BUFFER_M
     polygon_zones: tuple[PolygonZone, ...] = ()
+    airspace: SiteAirspace = SiteAirspace()
 
     @property
     def num_gns(self) -> int:
@@ -312,8 +316,9 @@ class _Zone:
     polygon: PolygonZone | None = None  # ... or a polygon
 
 
-def _site_zones(model: SiteModel, frame: LocalFrame, source: str,
-                base_file: str | Path | None) -> list[_Zone]:
+def _site_zones(model: SiteModel, frame: LocalFrame, source: str, base_file: str | Path | None,
+                points_m: NDArray[np.float64], options: AirspaceOptions | None
+                ) -> tuple[list[_Zone], SiteAirspace]:
     zones = []
     for i, z in enumerate(model.no_fly_zones):
         where = f"{source}: no_fly_zones[{i}] ({z.name})"
@@ -323,20 +328,20 @@ def _site_zones(model: SiteModel, frame: LocalFrame, source: str,
                                                                    f"{where}.polygon")))
         else:
             zones.append(_Zone(where, z.name, _resolve(frame, z), float(z.radius or 0.0)))
-    if model.airspace is not None:
-        if base_file is None:
-            raise InputError(f"{source}: airspace: only a site file read from disk may name an "
-                             "airspace file (it is found relative to the site file)")
-        path = resolve_referenced_path(base_file, model.airspace, field="airspace")
-        zones += [_airspace_zone(a, frame) for a in load_airspace(path)]
-    return zones
-
-
-def _airspace_zone(a: AirspaceZone, frame: LocalFrame) -> _Zone:
-    if a.radius_m is not None:
-        return _Zone(a.where, a.name, frame.to_local(*a.lat_lon_deg[0]), a.radius_m)
-    lat, lon = a.lat_lon_deg[:, 0], a.lat_lon_deg[:, 1]
-    return _Zone(a.where, a.name, polygon=polygon_zone(a.name, frame.to_local(lat, lon), a.where))
+    names = [model.airspace] if isinstance(model.airspace, str) else model.airspace or []
+    if names and base_file is None:
+        raise InputError(f"{source}: airspace: only a site file read from disk may name an "
+                         "airspace file (it is found relative to the site file)")
+    paths = [resolve_referenced_path(base_file, a, field="airspace") for a in names if base_file]
+    band = Band(model.uav.altitude + model.safety.buffer_m, model.origin.alt)
+    air = site_airspace(paths, frame, points_m, band, options)
+    for a in air.shapes:
+        if a.vertices_m is not None:
+            zones.append(_Zone(a.where, a.name, polygon=polygon_zone(a.name, a.vertices_m,
+                                                                     a.where)))
+        else:
+            zones.append(_Zone(a.where, a.name, a.centre_m, a.radius_m))
+    return zones, air
 
 
 def _check_zones(zones: list[_Zone], model: SiteModel, gn_xy: NDArray[np.float64],
@@ -375,10 +380,12 @@ def _overlap(a: _Zone, b: _Zone) -> bool:
         < circle.radius_m
 
 
-def parse_site(data: Any, source: str = "site", *, base_file: str | Path | None = None) -> Site:
+def parse_site(data: Any, source: str = "site", *, base_file: str | Path | None = None,
+               airspace: AirspaceOptions | None = None) -> Site:
     """Validate a site given as a parsed YAML mapping and resolve it into a :class:`Site`.
 
-    ``base_file`` is the site file, from whose folder an ``airspace:`` file is read."""
+    ``base_file`` is the site file, from whose folder an ``airspace:`` file is read;
+    ``airspace`` the time, duration and authorisations its UAS zones are decided for."""
     if not isinstance(data, dict):
         raise InputError(f"{source}: expected a mapping at the top level")
     check_tree(data, source)
@@ -386,11 +393,12 @@ def parse_site(data: Any, source: str = "site", *, base_file: str | Path | None 
         model = SiteModel.model_validate(data)
     except ValidationError as err:
         raise InputError(f"{source}: {_first_error(err, data)}") from None
-    return site_from_model(model, source, base_file=base_file)
+    return site_from_model(model, source, base_file=base_file, airspace=airspace)
 
 
 def site_from_model(model: SiteModel, source: str = "site", *,
-                    base_file: str | Path | None = None) -> Site:
+                    base_file: str | Path | None = None,
+                    airspace: AirspaceOptions | None = None) -> Site:
     """Resolve a validated :class:`SiteModel`; checks relations between items."""
     frame = LocalFrame(model.origin.lat, model.origin.lon, model.origin.alt)
     gn_xy = np.array([_resolve(frame, g) for g in model.ground_nodes], dtype=float)
@@ -400,7 +408,7 @@ def site_from_model(model: SiteModel, source: str = "site", *,
         if g.name in seen:
             raise InputError(f"{source}: ground_nodes[{i}] ({g.name}): duplicate name")
         seen.add(g.name)
-    zones = _site_zones(model, frame, source, base_file)
+    zones, air = _site_zones(model, frame, source, base_file, np.vstack([home, gn_xy]), airspace)
     _check_zones(zones, model, gn_xy, source)
     circles = [z for z in zones if z.polygon is None]
     site = Site(
@@ -424,20 +432,25 @@ def site_from_model(model: SiteModel, source: str = "site", *,
         nfz_radius_m=np.array([z.radius_m for z in circles], dtype=float),
         buffer_m=model.safety.buffer_m,
         polygon_zones=tuple(z.polygon for z in zones if z.polygon is not None),
+        airspace=air,
     )
     _check_home_clear(site, f"{source}: home")
     return site
 
 
-def load_site(path: str | Path) -> Site:
-    """Read, validate and resolve a site YAML file (limits: :mod:`validator.input_files`)."""
+def load_site(path: str | Path, airspace: AirspaceOptions | None = None) -> Site:
+    """Read, validate and resolve a site YAML file (limits: :mod:`validator.input_files`;
+    ``airspace``: see :func:`parse_site`)."""
     path = Path(path)
-    return loads_site(read_text(path, "site", MAX_SITE_BYTES), str(path), base_file=path)
+    return loads_site(read_text(path, "site", MAX_SITE_BYTES), str(path), base_file=path,
+                      airspace=airspace)
 
 
-def loads_site(text: str, source: str = "site", *, base_file: str | Path | None = None) -> Site:
-    """Parse, validate and resolve site YAML text (``base_file``: see :func:`parse_site`)."""
-    return parse_site(parse_yaml(text, source), source, base_file=base_file)
+def loads_site(text: str, source: str = "site", *, base_file: str | Path | None = None,
+               airspace: AirspaceOptions | None = None) -> Site:
+    """Parse, validate and resolve site YAML text (``base_file``, ``airspace``: see
+    :func:`parse_site`)."""
+    return parse_site(parse_yaml(text, source), source, base_file=base_file, airspace=airspace)
 
 
 def site_to_dict(site: Site) -> dict[str, Any]:

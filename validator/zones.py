@@ -300,3 +300,30 @@ def leg_separation(part_xy_m: ArrayLike, a_m: ArrayLike, b_m: ArrayLike
         u[~ok] = normals[best]
         gap[~ok] = score[np.arange(len(best)), best]
     return u, gap
+
+
+def outward_simplified(vertices_xy_m: ArrayLike, tolerance_m: float,
+                       max_vertices: int) -> NDArray[np.float64]:
+    """Vertices (P, 2), counter-clockwise, of a simple polygon of at most ``max_vertices``
+    (>= 4) holding the polygon ``vertices_xy_m``: coarsened outward only, a zone never shrinks.
+
+    The polygon is grown by a tolerance (mitred) and simplified by it (Douglas-Peucker), and
+    the result kept only when it covers the original (checked, not assumed); the tolerance,
+    from ``tolerance_m``, grows by half until the vertex count fits. The last resort is the
+    smallest rotated rectangle round the polygon.
+    """
+    poly = orient(shapely.Polygon(np.asarray(vertices_xy_m, dtype=float)), 1.0)
+    if len(poly.exterior.coords) - 1 <= max_vertices:
+        return np.asarray(poly.exterior.coords, dtype=float)[:-1]
+    x0, y0, x1, y1 = poly.bounds
+    tol = max(tolerance_m, 1e-6 * math.hypot(x1 - x0, y1 - y0))
+    for _ in range(60):
+        grown = poly.buffer(tol, join_style="mitre", mitre_limit=2.0)
+        out = shapely.simplify(grown, tol, preserve_topology=True)
+        if isinstance(out, shapely.Polygon) and not out.is_empty:
+            out = orient(shapely.Polygon(out.exterior), 1.0)
+            if out.is_valid and out.covers(poly) and len(out.exterior.coords) - 1 <= max_vertices:
+                return np.asarray(out.exterior.coords, dtype=float)[:-1]
+        tol *= 1.5
+    rect = orient(shapely.minimum_rotated_rectangle(poly), 1.0)
+    return np.asarray(rect.exterior.coords, dtype=float)[:-1]
