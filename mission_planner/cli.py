@@ -6,6 +6,7 @@
         [--fence-margin-m M] [--operating-area polygon|circle] [--operating-area-margin-m A]
         [--format plan|waypoints] [--params F.param] [--no-merge] [--stop-at-every-waypoint]
         [--second-start] [--geojson F.geojson] [--plot F.png] [--force] [--quiet]
+        [--at ISO-8601] [--authorised ZONE ...]
 
 ``--dynamics vehicle`` (default) keeps speed changes within the site's ``uav.max_accel`` and
 ``uav.max_jerk``; ``--dynamics none`` is the paper's kinematic model (top speed only) and
@@ -19,6 +20,11 @@ model of the autopilot set to those parameters (:mod:`mission_planner.flight_rep
 report gets a ``"flight"`` section and stderr a one-line warning when the flown cycle is more
 than 10 % longer (or shorter) than T, and another when the site's ``uav.max_speed`` is above the
 vehicle's real top speed (:func:`speed_warning`).
+
+A site whose ``airspace:`` holds UAS zones (ED-269, ED-318) is planned among the zones that
+apply at ``--at`` for the mission's duration (:mod:`mission_planner.airspace_time`), less
+those ``--authorised``; the report's ``"airspace"`` section lists every zone within reach,
+taken or why not, and stderr a line per zone.
 
 Exit status: 0 written; 1 refused by the safety gate (some leg inside an NFZ plus its buffer,
 or another problem of :func:`mission_planner.mission.plan_problems`), nothing written unless
@@ -39,6 +45,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from mission_planner.airspace_time import plan_for_time
 from mission_planner.autopilot_params import (
     AutopilotParams,
     dumps_params,
@@ -60,7 +67,8 @@ from validator.errors import CommandParser, InputError, UserError, report_error
 from validator.fileio import write_all_atomic
 from validator.geojson_format import dumps_geojson, plan_geojson
 from validator.plan_format import dumps_plan
-from validator.site import Site, load_site
+from validator.site import Site
+from validator.uas_zones.applicability import AirspaceOptions, parse_at
 from validator.waypoints_format import waypoint_files
 
 FORMATS = ("plan", "waypoints")
@@ -74,6 +82,8 @@ def mission_report(mission: Mission, flight: FlightCheck | None = None,
     the recommended autopilot parameters under ``"autopilot_params"`` and the replay under
     ``"flight"`` when given."""
     out = {**mission.solution.report(), "mission": mission_summary(mission)}
+    if mission.solution.site.airspace.uas:
+        out["airspace"] = mission.solution.site.airspace.report()
     if params is not None:
         out["autopilot_params"] = params.as_dict()
     if flight is not None:
@@ -255,6 +265,13 @@ def _parser() -> argparse.ArgumentParser:
                    "merge into one long leg)")
     p.add_argument("--geojson", type=Path, help="also write a GeoJSON FeatureCollection")
     p.add_argument("--plot", type=Path, help="also draw the paper's Fig. 3 (PNG)")
+    p.add_argument("--at", metavar="ISO-8601",
+                   help="when the mission starts, with its time zone (2026-12-02T10:00+01:00): "
+                   "UAS zones of the airspace apply when active then or during the flight "
+                   "(default: every zone taken as active)")
+    p.add_argument("--authorised", action="append", default=[], metavar="ZONE",
+                   help="identifier of a REQ_AUTHORISATION or CONDITIONAL zone the operator "
+                   "holds the authorisation for, or meets the conditions of (repeatable)")
     p.add_argument("--force", action="store_true",
                    help="write the mission even if the safety gate refuses it")
     p.add_argument("--quiet", action="store_true",
@@ -303,9 +320,8 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
 
             outputs += list(sidecar_paths(args.output))
         check_output_paths(outputs)
-        site = load_site(args.site)
-        if args.buffer_m is not None:
-            site = site.with_buffer(args.buffer_m)
+        airspace = AirspaceOptions(parse_at(args.at) if args.at else None,
+                                   authorised=frozenset(args.authorised))
         options = MissionOptions(
             autopilot=args.autopilot,
             cycles=args.cycles,
@@ -315,14 +331,24 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
             merge_legs=not args.no_merge,
         )
         progress = None if args.quiet else _ProgressLine()
-        try:
-            mission = plan_and_build(site, args.scheme, options, dynamics=args.dynamics,
-                                     progress=progress,
-                                     pass_through_corners=not args.stop_at_every_waypoint,
-                                     second_start=args.second_start)
-        finally:
-            if progress is not None and progress.tty:
-                print(file=sys.stderr)
+
+        def made(site: Site) -> tuple[Mission, AutopilotParams, FlightCheck]:
+            try:
+                mission = plan_and_build(site, args.scheme, options, dynamics=args.dynamics,
+                                         progress=progress,
+                                         pass_through_corners=not args.stop_at_every_waypoint,
+                                         second_start=args.second_start)
+            finally:
+                if progress is not None and progress.tty:
+                    print(file=sys.stderr)
+            params = recommended_params(mission)
+            return mission, params, replay_mission(mission, params)
+
+        site, (mission, autopilot_params, flight) = plan_for_time(
+            args.site, airspace, args.cycles, made, lambda m: m[2].report.duration_s,
+            args.buffer_m)
+        for line in site.airspace.lines():
+            print(f"plan-mission: {line}", file=sys.stderr)
         if mission.problems:
             for problem in mission.problems:
                 print(f"plan-mission: unsafe: {problem}", file=sys.stderr)
@@ -332,8 +358,6 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
                       file=sys.stderr)
                 return 1
             print("plan-mission: --force: writing the unsafe mission", file=sys.stderr)
-        autopilot_params = recommended_params(mission)
-        flight = replay_mission(mission, autopilot_params)
         files = output_files(mission, args.output, fmt=fmt, report=args.report,
                              geojson=args.geojson, plot=args.plot, params=param_file,
                              autopilot_params=autopilot_params, flight=flight)

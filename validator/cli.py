@@ -3,6 +3,7 @@
     validate-mission PLAN --site SITE [--report OUT] [--replay] [--profile ideal|arducopter|px4]
                      [--params FILE] [--param NAME=VALUE ...] [--dt SECONDS]
                      [--sitl [--sitl-binary PATH | --sitl-url URL] ...]
+                     [--at ISO-8601] [--authorised ZONE ...]
 
 Prints a table; ``--report OUT`` (formerly ``--json``) also writes the full report
 atomically. Exit status: 0 clear, 1 a violation (audit or replay), 2 bad input (one line on
@@ -11,7 +12,10 @@ stderr, no output file).
 firmware (PX4 -> ``px4``, otherwise ``arducopter``). ``--params FILE`` is the parameter file
 the vehicle will fly with (``plan-mission`` writes one beside the plan): its motion parameters
 feed the replay, it is set on the vehicle of a ``--sitl`` flight, and a file that leaves the
-geofence off or with a breach action that can cross another zone is flagged.
+geofence off or with a breach action that can cross another zone is flagged. ``--at`` and
+``--authorised`` re-decide the site's UAS zones (ED-269, ED-318) for the plan's flight from
+that time: a leg in a zone active then is a violation (without ``--at`` every zone is taken as
+active).
 
 Everything here parses and prints around :func:`validator.validation.validate_mission`, which
 notebooks can call.
@@ -32,6 +36,7 @@ from validator.mavlink.cli import add_sitl_arguments, run_sitl, split_sitl_url
 from validator.motion.profile import PROFILES, parse_param_overrides
 from validator.replay import TrackReport
 from validator.track_file import write_track
+from validator.uas_zones.applicability import AirspaceOptions, parse_at
 from validator.validation import Validation, default_profile_name, validate_mission
 
 __all__ = ["Validation", "build_parser", "default_profile_name", "format_report",
@@ -100,6 +105,8 @@ def format_report(v: Validation) -> str:
         c = flight.cycle
         lines.append(f"  service cycle: legs {c.start_leg}-{c.end_leg}, {c.cycles} cycle(s) "
                      f"({c.source})")
+    if site.airspace.uas:
+        lines += ["", *site.airspace.lines()]
     lines += ["", f"Audit: exact clearance of every straight leg from each NFZ "
               f"(m from the published radius; safety buffer {site.buffer_m:g} m)"]
     if rep.nfz:
@@ -170,6 +177,13 @@ def build_parser() -> argparse.ArgumentParser:
                         "(repeatable); implies --replay")
     p.add_argument("--dt", type=float, default=0.05, metavar="SECONDS",
                    help="replay sample interval (default 0.05 = 20 Hz; at most 0.05)")
+    p.add_argument("--at", metavar="ISO-8601",
+                   help="when the plan flies, with its time zone: the site's UAS zones are "
+                        "decided for then and the flight's duration (default: every zone "
+                        "taken as active)")
+    p.add_argument("--authorised", action="append", default=[], metavar="ZONE",
+                   help="identifier of a REQ_AUTHORISATION or CONDITIONAL zone the flight is "
+                        "authorised for (repeatable)")
     add_sitl_arguments(p)
     return p
 
@@ -189,7 +203,9 @@ def validate_mission_main(argv: Sequence[str] | None = None) -> int:
         vehicle_params = read_params(args.params) if args.params else None
         v = validate_mission(args.plan, args.site, replay_flight=args.replay,
                              profile=args.profile, params=params or None, dt_s=args.dt,
-                             vehicle_params=vehicle_params)
+                             vehicle_params=vehicle_params,
+                             airspace=AirspaceOptions(parse_at(args.at) if args.at else None,
+                                                      authorised=frozenset(args.authorised)))
         if flying:
             run_sitl(v, args, vehicle_params)
         if args.track and v.recorded is not None:

@@ -51,12 +51,27 @@ class SiteAirspace:
         """The report's ``"airspace"`` section."""
         window = self.options.window
         return {
-            "at": None if window is None else window[0].isoformat(),
-            "until": None if window is None else window[1].isoformat(),
+            "at": None if window is None else window[0].isoformat(timespec="seconds"),
+            "until": None if window is None else window[1].isoformat(timespec="seconds"),
             "authorised": sorted(self.options.authorised),
             "zones": [d.as_dict() for d in self.table],
             "taken": [s.name for s in self.shapes],
         }
+
+    def lines(self) -> list[str]:
+        """The table for a terminal: a line per UAS zone within reach, taken or why not."""
+        if not self.uas:
+            return []
+        window = self.options.window
+        head = ("airspace: every zone taken as active (no --at)" if window is None else
+                f"airspace from {window[0].isoformat(timespec='seconds')} to "
+                f"{window[1].isoformat(timespec='seconds')}")
+        out = [f"{head}: {sum(d.taken for d in self.table)} of {len(self.table)} zones "
+               "within reach taken"]
+        for d in self.table:
+            out.append(f"  zone {d.zone.identifier} ({d.zone.restriction}): "
+                       + ("taken, " if d.taken else "not taken: ") + d.why)
+        return out
 
 
 def site_airspace(paths: Sequence[str | Path], frame: LocalFrame,

@@ -10,7 +10,7 @@ commands only parse arguments and print (:mod:`validator.cli`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +23,7 @@ from validator.motion.profile import Profile, flown_params, make_profile
 from validator.plan_format import Autopilot, Plan, read_plan
 from validator.replay import TrackReport, replay, score_track
 from validator.site import Site, load_site
+from validator.uas_zones.applicability import AirspaceOptions
 from validator.track_file import RecordedTrack
 
 
@@ -112,6 +113,7 @@ def validate_mission(
     params: dict[str, float] | None = None,
     dt_s: float = 0.05,
     vehicle_params: dict[str, float] | None = None,
+    airspace: AirspaceOptions | None = None,
 ) -> Validation:
     """Audit ``plan_path`` against ``site_path`` and, with ``replay_flight``, replay it.
 
@@ -119,17 +121,27 @@ def validate_mission(
     choose the flight model; the track is sampled every ``dt_s`` seconds. ``vehicle_params``
     are the parameters the vehicle will hold (a parameter file): those of the flight model
     replay the flight under ``params``' overrides, and a geofence they leave off or unsafe is
-    flagged in ``param_findings`` (for a plan with a fence). Raises :class:`InputError` for bad
-    input.
+    flagged in ``param_findings`` (for a plan with a fence). ``airspace`` says when the plan
+    flies and what it is authorised for: the site's UAS zones are decided for [at, at + the
+    plan's replayed duration], and a leg in a zone that applies then is a violation (without a
+    time every zone is taken as active). Raises :class:`InputError` for bad input.
     """
     if not (dt_s > 0 and dt_s <= 0.05):
         raise InputError(f"--dt: must be > 0 and <= 0.05 s (at least 20 Hz), got {dt_s}")
-    site = load_site(site_path)
+    site = load_site(site_path, airspace)
     plan = read_plan(plan_path)
     flight = resolve_flight(plan, site, str(plan_path))
+    if airspace is not None and airspace.at is not None and site.airspace.uas and flight.legs:
+        name = profile or default_profile_name(plan)
+        prof = make_profile(name, site_limits(site), flown_params(name, vehicle_params or {}))
+        duration_s = float(replay(flight, prof, dt_s=dt_s).t_s[-1])
+        site = load_site(site_path, replace(airspace, duration_s=duration_s))
+        flight = resolve_flight(plan, site, str(plan_path))
     report = audit(plan, site, flight, source=str(plan_path))
     v = Validation(str(plan_path), str(site_path), plan, site, flight, report, dt_s=dt_s,
                    vehicle_params=dict(vehicle_params or {}))
+    if site.airspace.uas:
+        v.extra["airspace"] = site.airspace.report()
     if vehicle_params is not None and (plan.circles or plan.polygons):
         rules = FENCE_RULES["px4" if plan.firmware_type == Autopilot.PX4 else "ardupilot"]
         v.param_findings = [Finding("warning", f"parameter file: {p}", None)
