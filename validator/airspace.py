@@ -3,7 +3,7 @@
 :func:`read_airspace_file` tells the three apart by their content (an ED-269 document lists
 zones without a GeoJSON ``type``; an ED-318 FeatureCollection's features carry UAS-zone
 properties such as ``zoneAuthority`` or a vertical ``layer``) and reads each file once per
-process (a country's file is large: kept by path, size and modification time). UAS zones are
+process (a country's file is large). UAS zones are
 read by :mod:`validator.uas_zones`; what follows is the plain GeoJSON reader.
 
 A plain FeatureCollection (RFC 7946, WGS84 longitude/latitude) as OpenAIP and national services
@@ -16,10 +16,9 @@ an :class:`~validator.errors.InputError` naming the file and the feature.
 
 from __future__ import annotations
 
+import hashlib
 import math
-import os
 from dataclasses import dataclass
-from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -60,19 +59,25 @@ class AirspaceFile:
     uas: ZoneIndex | None = None
 
 
+_READ: dict[tuple[str, str], AirspaceFile] = {}
+_READ_KEPT = 8  # files kept read (a site names one or a few)
+
+
 def read_airspace_file(path: str | Path) -> AirspaceFile:
-    """The airspace file ``path``, its format told from its content; read once while it is
-    unchanged."""
-    try:
-        st = os.stat(path)
-    except OSError as err:
-        raise InputError(f"{path}: cannot read airspace file ({err.strerror or err})") from None
-    return _read_airspace_file(str(path), st.st_size, st.st_mtime_ns)
+    """The airspace file ``path``, its format told from its content; parsed once while its
+    content is unchanged (kept by path and a hash of the text: hashing is a small part of
+    parsing a country's file, and a timestamp can miss a quick rewrite)."""
+    text = read_text(path, "airspace")
+    key = (str(path), hashlib.blake2b(text.encode("utf-8"), digest_size=16).hexdigest())
+    if key not in _READ:
+        if len(_READ) >= _READ_KEPT:
+            del _READ[next(iter(_READ))]
+        _READ[key] = _parse_airspace_file(str(path), text)
+    return _READ[key]
 
 
-@lru_cache(maxsize=8)
-def _read_airspace_file(path: str, size: int, mtime_ns: int) -> AirspaceFile:
-    data = parse_json(read_text(path, "airspace"), path)
+def _parse_airspace_file(path: str, text: str) -> AirspaceFile:
+    data = parse_json(text, path)
     if is_ed269(data):
         return AirspaceFile(path, "ed269", uas=zone_index(parse_ed269(data, path)))
     if is_ed318(data):

@@ -23,8 +23,8 @@ from validator.motion.profile import Profile, flown_params, make_profile
 from validator.plan_format import Autopilot, Plan, read_plan
 from validator.replay import TrackReport, replay, score_track
 from validator.site import Site, load_site
-from validator.uas_zones.applicability import AirspaceOptions
 from validator.track_file import RecordedTrack
+from validator.uas_zones.applicability import AirspaceOptions
 
 
 @dataclass

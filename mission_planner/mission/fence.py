@@ -10,17 +10,24 @@ after rounding (:func:`exclusion_outline`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 import shapely
 from numpy.typing import ArrayLike, NDArray
+from shapely.geometry.polygon import orient
 
 from validator.autopilot.fence_storage import fits_ardupilot
 from validator.geodesy import LocalFrame, round_e7
 from validator.plan_format import FenceCircle, FencePolygon
 from validator.site import Site
-from validator.zones import FENCE_ARC_STEP_DEG, PolygonZone, fence_outline_m
+from validator.zones import (
+    FENCE_ARC_STEP_DEG,
+    PolygonZone,
+    fence_outline_m,
+    outward_simplified,
+)
 
 ROUNDING_ALLOWANCE_M = 0.01  # > the ~0.8 cm an int32 1e-7° vertex moves at mid latitudes
 
@@ -58,9 +65,33 @@ def exclusion_outline(zone: PolygonZone, margin_m: float, frame: LocalFrame,
     ``margin_m`` of ``zone``: :func:`validator.zones.fence_outline_m` (corners in chords of
     ``arc_step_deg``), grown by a rounding allowance (doubled until the rounded outline contains
     the zone plus margin)."""
+    return _rounded(zone, margin_m, frame,
+                    lambda extra: fence_outline_m(zone, margin_m + extra, arc_step_deg))
+
+
+def coarse_outline(zone: PolygonZone, margin_m: float, frame: LocalFrame, max_vertices: int
+                   ) -> list[tuple[float, float]]:
+    """(lat, lon) vertices on the 1e-7° grid of an exclusion fence of about ``max_vertices``
+    holding ``zone`` plus ``margin_m``: its mitred outline coarsened outward only
+    (:func:`validator.zones.outward_simplified`), for a fence storage too small for more."""
+    outline = outward_simplified(fence_outline_m(zone, margin_m, None), margin_m / 4.0,
+                                 max_vertices)
+
+    def grown(extra: float) -> NDArray[np.float64]:
+        out = orient(shapely.Polygon(outline).buffer(extra, join_style="mitre",
+                                                     mitre_limit=10.0), 1.0)
+        return np.asarray(out.exterior.coords, dtype=float)[:-1]
+
+    return _rounded(zone, margin_m, frame, grown)
+
+
+def _rounded(zone: PolygonZone, margin_m: float, frame: LocalFrame,
+             outline: Callable[[float], NDArray[np.float64]]) -> list[tuple[float, float]]:
+    """``outline(extra)`` (local metres) on the 1e-7° grid, ``extra`` doubled from the rounding
+    allowance until the rounded outline holds the zone plus margin."""
     extra = ROUNDING_ALLOWANCE_M
     for _ in range(8):
-        lat, lon = frame.to_geodetic(fence_outline_m(zone, margin_m + extra, arc_step_deg))
+        lat, lon = frame.to_geodetic(outline(extra))
         lat, lon = round_e7(lat), round_e7(lon)
         held = shapely.Polygon(frame.to_local(lat, lon))
         if (held.is_valid and held.contains(zone.shape)
@@ -116,13 +147,21 @@ ARC_STEPS_DEG: tuple[float | None, ...] = (FENCE_ARC_STEP_DEG, 45.0, 90.0, None)
 def _exclusion_polygons(site: Site, margin_m: float, circles: int,
                         ardupilot: bool) -> list[FencePolygon]:
     """An exclusion polygon per polygon zone, with the finest corners whose fence (beside
-    ``circles`` circles and the return point) ArduCopter can store; the coarsest when none fits
-    (the gate then says so). An inclusion polygon (``--operating-area polygon``) is not counted
-    here: when it tips the fence over, the gate refuses the mission."""
+    ``circles`` circles and the return point) ArduCopter can store; when even mitred corners do
+    not fit (many or large zones, as published airspace brings), the largest outlines are
+    coarsened outward, a vertex at a time, until the fence fits (:func:`coarse_outline`); the
+    coarsest when none does (the gate then says so). An inclusion polygon
+    (``--operating-area polygon``) is not counted here: when it tips the fence over, the gate
+    refuses the mission."""
     fences: list[FencePolygon] = []
     for step in ARC_STEPS_DEG:
         fences = [FencePolygon(exclusion_outline(z, margin_m, site.frame, step), inclusion=False)
                   for z in site.polygon_zones]
         if not ardupilot or fits_ardupilot([len(p.vertices_deg) for p in fences], circles, True):
-            break
-    return fences
+            return fences
+    caps = [len(p.vertices_deg) for p in fences]
+    while not fits_ardupilot(caps, circles, True) and max(caps, default=0) > 4:
+        caps[int(np.argmax(caps))] -= 1
+    return [FencePolygon(coarse_outline(z, margin_m, site.frame, cap), inclusion=False)
+            if cap < len(p.vertices_deg) else p
+            for z, p, cap in zip(site.polygon_zones, fences, caps, strict=True)]

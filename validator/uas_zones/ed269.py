@@ -10,7 +10,6 @@ zone only grows). A value that could mean two things is refused (:mod:`.fields`)
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -118,13 +117,11 @@ def _volume(v: Any, field: str, notes: list[str]) -> Volume:
     if not isinstance(hp, dict):
         raise InputError(f"{f}: expected a Circle or a Polygon")
     if hp.get("type") == "Circle":
-        radius = hp.get("radius")
-        if not fd.is_number(radius) or not math.isfinite(radius) or radius <= 0:
-            raise InputError(f"{f}.radius: expected a number > 0")
+        radius = fd.positive(hp.get("radius"), f"{f}.radius")
         if factor is None:
             raise InputError(f"{field}.uomDimensions: the circle's radius needs its unit")
         centre = fd.positions([hp.get("center")], f"{f}.center")
-        return Volume(lower, upper, centre, float(radius) * factor)
+        return Volume(lower, upper, centre, radius * factor)
     if hp.get("type") == "Polygon":
         rings = hp.get("coordinates")
         if not isinstance(rings, list) or not rings:

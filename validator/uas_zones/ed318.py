@@ -10,7 +10,6 @@ read as REQ_AUTHORISATION (a flight there needs a U-space service's authorisatio
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 from validator.errors import InputError
@@ -124,13 +123,10 @@ def _volumes(geom: Any, layer: Any, field: str) -> tuple[Volume, ...]:
                      for k, p in enumerate(coords))
     if kind == "Point":
         extent = geom.get("extent")
-        radius = extent.get("radius") if isinstance(extent, dict) else None
-        if not isinstance(extent, dict) or extent.get("subType") != "Circle" \
-                or not fd.is_number(radius) or not math.isfinite(radius) or radius <= 0:
-            raise InputError(f"{field}.extent: a Point zone needs a Circle extent with a "
-                             "radius > 0 (m)")
-        return (Volume(lower, upper, fd.positions([coords], f"{field}.coordinates"),
-                       float(radius)),)
+        if not isinstance(extent, dict) or extent.get("subType") != "Circle":
+            raise InputError(f"{field}.extent: a Point zone needs a Circle extent (radius, m)")
+        radius = fd.positive(extent.get("radius"), f"{field}.extent.radius")
+        return (Volume(lower, upper, fd.positions([coords], f"{field}.coordinates"), radius),)
     raise InputError(f"{field}.type: a {kind} cannot be a zone (Polygon, MultiPolygon, "
                      "Point with a Circle extent, GeometryCollection)")
 

@@ -8,7 +8,7 @@ is refused with one line naming the zone and the field (:class:`~validator.error
 from __future__ import annotations
 
 import math
-from datetime import datetime, time, timezone, tzinfo
+from datetime import UTC, datetime, time, tzinfo
 from typing import Any
 
 import numpy as np
@@ -31,6 +31,13 @@ UNLIMITED = ("UNL", "UNLIMITED")  # an upper limit written as none
 
 def is_number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def positive(value: Any, field: str) -> float:
+    """A finite number > 0 (a radius)."""
+    if not is_number(value) or not math.isfinite(value) or value <= 0:
+        raise InputError(f"{field}: expected a number > 0")
+    return float(value)
 
 
 def text(d: dict[str, Any], key: str, where: str, *, required: bool = False) -> str | None:
@@ -74,7 +81,13 @@ def uom_factor(value: Any, field: str) -> float:
 def limit(value: Any, reference: Any, factor: float | None, field: str, ref_field: str,
           *, lower: bool) -> Limit:
     """A lower or upper limit. Null is the surface (lower) or no ceiling (upper); a number
-    written as a string is read as that number; 99999 or more is no ceiling."""
+    written as a string is read as that number; 99999 or more is no ceiling. A reference
+    given is checked even beside a null limit: a mistake there says the file is not what we
+    think it is."""
+    if reference is not None and (not isinstance(reference, str)
+                                  or reference.strip().upper() not in REFERENCES):
+        raise InputError(f"{ref_field}: {reference!r} is not a vertical reference "
+                         f"({', '.join(REFERENCES)})")
     if isinstance(value, str):
         word = value.strip().upper()
         if lower and word in GROUND:
@@ -182,7 +195,7 @@ def schedule(value: Any, field: str, notes: list[str]) -> tuple[DailyPeriod, ...
             b, tz_b = clock(end, f"{f}.endTime", end=True)
         if a is None:
             notes.append(f"{f}.startEvent {d['startEvent']} taken as the day's start")
-            a, tz_a = time(0), tz_b if b is not None else timezone.utc
+            a, tz_a = time(0), tz_b if b is not None else UTC
         if b is None:
             notes.append(f"{f}.endEvent {d['endEvent']} taken as the day's end")
             b, tz_b = time(23, 59, 59, 999999), tz_a
