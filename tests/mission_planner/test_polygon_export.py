@@ -225,3 +225,30 @@ def test_fig3_marks_legs_cutting_a_polygon_zone_and_zooms_on_it(site):
     assert len(inside) >= 3 and len(red) >= len(inside)
     titles = [a.get_title() for a in fig.axes[0].child_axes]
     assert any(t.startswith("CTR, conventional slot ") for t in titles), titles
+
+
+def test_fences_too_big_even_mitred_are_coarsened_outward_until_they_fit():
+    """Published airspace brings many detailed zones: when mitred corners still overflow
+    ArduCopter's 70 fence items, the largest outlines lose vertices outward only."""
+    from mission_planner.mission.fence import _exclusion_polygons
+    from validator.autopilot.fence_storage import fits_ardupilot
+    from validator.site import parse_site
+
+    def wavy(cx: float, cy: float) -> list[dict[str, float]]:
+        a = np.linspace(0.0, 2 * np.pi, 30, endpoint=False)
+        r = np.where(np.arange(30) % 2 == 0, 30.0, 24.0)
+        return [{"x": float(cx + ri * np.cos(ai)), "y": float(cy + ri * np.sin(ai))}
+                for ai, ri in zip(a, r, strict=True)]
+
+    site = parse_site({
+        "name": "waves", "origin": {"lat": 46.95, "lon": 7.45},
+        "uav": {"altitude": 30.0, "max_speed": 10.0, "period": 100.0, "slots": 20},
+        "radio": {"p_avg_dbm": 20.0, "p_peak_dbm": 26.0, "beta0_db": -30.0, "noise_dbm": -70.0},
+        "ground_nodes": [{"name": "GN1", "x": 0.0, "y": 300.0}],
+        "no_fly_zones": [{"name": f"W{i}", "polygon": wavy(80.0 * i, 100.0)} for i in range(4)],
+    })
+    held = _exclusion_polygons(site, 1.0, circles=1, ardupilot=True)
+    assert fits_ardupilot([len(p.vertices_deg) for p in held], 1, True)
+    for zone, fence in zip(site.polygon_zones, held, strict=True):  # outward: still holding
+        outline = _held(site.frame, fence.vertices_deg)
+        assert outline.contains(zone.shape) and outline.exterior.distance(zone.shape) >= 1.0
