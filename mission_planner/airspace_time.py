@@ -44,7 +44,7 @@ def plan_for_time(site_path: str | Path, options: AirspaceOptions, cycles: int,
     ``buffer_m`` overrides the site's safety buffer.
     """
     def load(duration: float) -> Site:
-        site = load_site(site_path, replace(options, duration_s=duration))
+        site = load_site(site_path, replace(options, duration_s=duration, buffer_m=buffer_m))
         return site if buffer_m is None else site.with_buffer(buffer_m)
 
     site = load(0.0)

@@ -334,6 +334,21 @@ def zone_leg_clearances(flight: Flight, site: Site) -> NDArray[np.float64]:
     return clr
 
 
+def _check_reach(flight: Flight, site: Site) -> list[Finding]:
+    """A leg beyond the area the site's UAS zones were selected in could meet a zone nobody
+    looked at."""
+    reach = site.airspace.reach_m
+    if reach is None:
+        return []
+    for leg in flight.legs:
+        if not reach.covers(shapely.LineString([leg.start_xy_m, leg.end_xy_m])
+                            if leg.length_m > 0 else shapely.Point(leg.start_xy_m)):
+            return [Finding("violation", f"{leg.label} leaves the area the airspace's UAS zones "
+                            "were looked for (round home and the nodes): zones beyond it were "
+                            "not checked", leg.item)]
+    return []
+
+
 def audit(
     plan: Plan,
     site: Site,
@@ -356,6 +371,7 @@ def audit(
     findings += _check_legs(flight, site, clr, tolerance_m, require_buffer)
     findings += _check_fence(plan, flight, site, tolerance_m)
     findings += _check_items(plan, flight, site)
+    findings += _check_reach(flight, site)
     order = {"violation": 0, "warning": 1, "note": 2}
     findings.sort(key=lambda f: (order[f.severity], -1 if f.item is None else f.item))
     return AuditReport(flight, site.zone_names, clr, _closest(flight, site, clr), tuple(findings))

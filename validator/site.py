@@ -333,7 +333,8 @@ def _site_zones(model: SiteModel, frame: LocalFrame, source: str, base_file: str
         raise InputError(f"{source}: airspace: only a site file read from disk may name an "
                          "airspace file (it is found relative to the site file)")
     paths = [resolve_referenced_path(base_file, a, field="airspace") for a in names if base_file]
-    band = Band(model.uav.altitude + model.safety.buffer_m, model.origin.alt)
+    buffer_m = (options or AirspaceOptions()).buffer_or(model.safety.buffer_m)
+    band = Band(model.uav.altitude + buffer_m, model.origin.alt)
     air = site_airspace(paths, frame, points_m, band, options)
     for a in air.shapes:
         if a.vertices_m is not None:

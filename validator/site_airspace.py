@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import shapely
 from numpy.typing import NDArray
 
 from validator.airspace import read_airspace_file
@@ -46,6 +47,7 @@ class SiteAirspace:
     table: tuple[ZoneDecision, ...] = ()
     options: AirspaceOptions = field(default_factory=AirspaceOptions)
     uas: bool = False  # whether any file holds UAS zones (ED-269 / ED-318)
+    reach_m: shapely.Polygon | None = None  # where UAS zones were looked for (local metres)
 
     def report(self) -> dict[str, Any]:
         """The report's ``"airspace"`` section."""
@@ -116,7 +118,7 @@ def site_airspace(paths: Sequence[str | Path], frame: LocalFrame,
                 else:
                     pieces.append(ZoneShape(name, zone.where, vertices_m=np.asarray(
                         shape.exterior.coords, dtype=float)[:-1]))
-    return SiteAirspace(tuple(shapes + merged(pieces)), tuple(table), options, True)
+    return SiteAirspace(tuple(shapes + merged(pieces)), tuple(table), options, True, area)
 
 
 def _unique(zones: list[UasZone]) -> list[UasZone]:

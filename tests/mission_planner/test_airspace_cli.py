@@ -63,3 +63,40 @@ def test_an_authorisation_for_a_prohibited_zone_is_refused(tmp_path: Path, capsy
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "CTR1" in err[0] and "PROHIBITED" in err[0]
     assert not (tmp_path / "m.plan").exists()
+
+
+def test_a_leg_beyond_the_area_zones_were_looked_for_is_a_violation(weekday: Path) -> None:
+    from dataclasses import replace
+
+    import shapely
+
+    from validator.audit import audit
+    from validator.plan_format import read_plan
+    from validator.site import load_site
+    from validator.uas_zones.applicability import AirspaceOptions, parse_at
+
+    site = load_site(SAMPLE, AirspaceOptions(parse_at(WEDNESDAY), 600.0))
+    plan = read_plan(weekday / "m.plan")
+    assert not [f for f in audit(plan, site).findings if "looked for" in f.message]
+    small = replace(site, airspace=replace(site.airspace, reach_m=shapely.box(-50, -50, 50, 50)))
+    found = [f for f in audit(plan, small).violations if "looked for" in f.message]
+    assert len(found) == 1
+
+
+def test_the_band_takes_the_buffer_plan_mission_is_given() -> None:
+    from mission_planner.airspace_time import plan_for_time
+    from validator.site import load_site
+    from validator.uas_zones.applicability import AirspaceOptions, parse_at
+
+    # HIGH starts 200 m AGL: a 160 m buffer over the 40 m altitude reaches it
+    high = AirspaceOptions(parse_at(WEDNESDAY), 600.0, buffer_m=160.0)
+    def taken(options: AirspaceOptions) -> bool:
+        return next(d.taken for d in load_site(SAMPLE, options).airspace.table
+                    if d.zone.identifier == "HIGH")
+
+    assert taken(high) and not taken(AirspaceOptions(parse_at(WEDNESDAY)))
+    assert "HOSP+HIGH" in load_site(SAMPLE, high).zone_names  # they overlap: merged
+    # plan_for_time hands plan-mission's --buffer-m to the band (a 5 m buffer: 45 m band)
+    site, planned = plan_for_time(SAMPLE, AirspaceOptions(parse_at(WEDNESDAY)), 1,
+                                  lambda s: s.buffer_m, lambda _: 0.0, buffer_m=5.0)
+    assert planned == 5.0 and site.airspace.options.buffer_m == 5.0

@@ -29,11 +29,16 @@ LIFTABLE = ("REQ_AUTHORISATION", "CONDITIONAL")  # what --authorised may lift
 @dataclass(frozen=True)
 class AirspaceOptions:
     """When the mission flies (``at``, aware; None: every zone taken as active) and for how
-    long (``duration_s``), and the zones it holds authorisations for (identifiers)."""
+    long (``duration_s``), the zones it holds authorisations for (identifiers), and the safety
+    buffer it keeps when not the site's (``buffer_m``, as ``plan-mission --buffer-m``)."""
 
     at: datetime | None = None
     duration_s: float = 0.0
     authorised: frozenset[str] = frozenset()
+    buffer_m: float | None = None
+
+    def buffer_or(self, site_buffer_m: float) -> float:
+        return site_buffer_m if self.buffer_m is None else self.buffer_m
 
     def __post_init__(self) -> None:
         if self.at is not None and self.at.tzinfo is None:
