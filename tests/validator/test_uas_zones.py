@@ -16,6 +16,8 @@ import numpy as np
 import pytest
 import shapely
 import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from validator.airspace import read_airspace_file
 from validator.errors import InputError
@@ -23,7 +25,7 @@ from validator.geodesy import LocalFrame
 from validator.site import Site, load_site
 from validator.uas_zones.applicability import AirspaceOptions, parse_at
 from validator.uas_zones.selection import reach_area, within_reach, zone_index
-from validator.zones import point_clearance_m
+from validator.zones import outward_simplified, point_clearance_m
 
 DATA = Path(__file__).parents[1] / "data" / "airspace"
 ED269 = json.loads((DATA / "zones-ed269.json").read_text())
@@ -225,3 +227,31 @@ def test_a_site_can_name_several_airspace_files(tmp_path: Path) -> None:
     (tmp_path / "both.yaml").write_text(yaml.safe_dump(both))
     combined = load_site(tmp_path / "both.yaml")
     assert set(combined.zone_names) == set(site.zone_names) | {"PRISON"}
+
+
+def test_a_bare_zone_list_with_extra_fields_and_an_empty_schedule_is_read(tmp_path) -> None:
+    """As a national feed serves it: no wrapper, a zoneId beyond the model, schedule: []."""
+    zones = [{**copy.deepcopy(z), "zoneId": f"uuid-{i}"}
+             for i, z in enumerate(ED269["UASZoneList"])]
+    _zone({"UASZoneList": zones}, "Z8")["applicability"][0]["schedule"] = []
+    site = _site(tmp_path, zones, at="2026-12-02T11:25:00+01:00", duration_s=600)
+    assert read_airspace_file(tmp_path / "zones.json").format == "ed269"
+    assert _table(site)["Z8"][0]  # an empty schedule: all day within its dates
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(st.integers(8, 300), st.integers(4, 40), st.floats(0.05, 0.6), st.integers(0, 2**31))
+def test_outward_simplified_never_shrinks_and_keeps_its_vertex_budget(
+        n: int, budget: int, wobble: float, seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    t = np.sort(rng.uniform(0.0, 2 * np.pi, n))
+    t = t[np.concatenate([[True], np.diff(t) > 1e-3])]
+    r = 100.0 * (1.0 - wobble * rng.random(len(t)))
+    poly = shapely.Polygon(np.column_stack([r * np.cos(t), r * np.sin(t)]))
+    if not poly.is_valid or len(t) < 3:
+        return
+    out = outward_simplified(np.asarray(poly.exterior.coords)[:-1], 1.0, budget)
+    held = shapely.Polygon(out)
+    assert len(out) <= max(budget, len(t)) and held.is_valid
+    assert len(out) <= budget or len(t) <= budget
+    assert held.buffer(1e-6).covers(poly)

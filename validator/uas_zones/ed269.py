@@ -1,8 +1,9 @@
 """EUROCAE ED-269 JSON: a list of ``UASZoneVersion`` objects -> :class:`UasZone` s.
 
 Field names as InterUSS's ``uas_standards.eurocae_ed269`` models them (version 4.4). Read as
-the published files write them: the zones under ``features`` (InterUSS, Luxembourg) or under
-``UASZoneList`` (the Swiss sample); ``schedule`` or ``dailyPeriod``; limits as numbers, as
+the published files write them: the zones under ``features`` (InterUSS, Luxembourg), under
+``UASZoneList`` (the Swiss sample) or as a bare list; ``schedule`` or ``dailyPeriod`` (an
+empty one: all day); fields beyond the model (``zoneId``...) ignored; limits as numbers, as
 numeric strings or null (the surface below, no ceiling above); positions [lon, lat] (the
 model's comment says lat, lng; the files and GeoJSON do not); a polygon's holes dropped (the
 zone only grows). A value that could mean two things is refused (:mod:`.fields`).
@@ -22,7 +23,11 @@ MAX_ZONES = 100_000  # per file: a national file holds ~1,200 (Switzerland)
 
 
 def is_ed269(data: Any) -> bool:
-    """Whether a parsed document is ED-269 (not GeoJSON): a zone list without a "type"."""
+    """Whether a parsed document is ED-269 (not GeoJSON): a zone list without a "type", or a
+    bare list of zones (as some national feeds serve it)."""
+    if isinstance(data, list):
+        return bool(data) and all(isinstance(z, dict) and "geometry" in z
+                                  and "identifier" in z for z in data)
     return isinstance(data, dict) and (
         "UASZoneList" in data
         or (isinstance(data.get("features"), list) and data.get("type") != "FeatureCollection"))
@@ -30,6 +35,8 @@ def is_ed269(data: Any) -> bool:
 
 def parse_ed269(data: Any, source: str) -> list[UasZone]:
     """The zones of a parsed ED-269 document; ``source`` names it in errors."""
+    if isinstance(data, list):
+        data = {"features": data}
     if not isinstance(data, dict):
         raise InputError(f"{source}: expected an ED-269 document (an object)")
     if "UASZoneList" in data and "features" in data:

@@ -178,9 +178,9 @@ def days(value: Any, field: str) -> frozenset[int]:
 def schedule(value: Any, field: str, notes: list[str]) -> tuple[DailyPeriod, ...]:
     """A schedule: daily periods. ED-318's sunrise and sunset events (startEvent, endEvent)
     are taken as the day's start and end: the zone is then active for longer, never less."""
-    if value is None:
+    if value is None or value == []:
         return ()
-    if not isinstance(value, list) or not value:
+    if not isinstance(value, list):
         raise InputError(f"{field}: expected a list of daily periods")
     out = []
     for i, d in enumerate(value):
