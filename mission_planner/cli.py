@@ -349,6 +349,9 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
             args.buffer_m)
         for line in site.airspace.lines():
             print(f"plan-mission: {line}", file=sys.stderr)
+        if args.at and not site.airspace.uas:
+            print("plan-mission: note: the site names no UAS zones (ED-269, ED-318): --at "
+                  "changes nothing", file=sys.stderr)
         if mission.problems:
             for problem in mission.problems:
                 print(f"plan-mission: unsafe: {problem}", file=sys.stderr)
