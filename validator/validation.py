@@ -21,7 +21,7 @@ from validator.flight import Finding, Flight, resolve_flight
 from validator.motion.limits import site_limits
 from validator.motion.profile import Profile, flown_params, make_profile
 from validator.plan_format import Autopilot, Plan, read_plan
-from validator.replay import TrackReport, replay, score_track
+from validator.replay import Track, TrackReport, replay, score_track
 from validator.site import Site, load_site
 from validator.track_file import RecordedTrack
 
@@ -44,6 +44,7 @@ class Validation:
     profile: Profile | None = None
     dt_s: float = 0.05
     replay: TrackReport | None = None
+    replay_track: Track | None = None  # the modelled flight itself, for a view
     sitl: TrackReport | None = None
     recorded: RecordedTrack | None = None  # what the SITL vehicle sent, for --track
     vehicle_params: dict[str, float] = field(default_factory=dict)
@@ -140,6 +141,6 @@ def validate_mission(
         prof = make_profile(name, site_limits(site), merged)
         v.profile = prof
         if flight.legs:
-            track = replay(flight, prof, dt_s=dt_s)
-            v.replay = score_track(track, flight, site, plan)
+            v.replay_track = replay(flight, prof, dt_s=dt_s)
+            v.replay = score_track(v.replay_track, flight, site, plan)
     return v
