@@ -5,7 +5,8 @@
         [--cycles C]
         [--fence-margin-m M] [--operating-area polygon|circle] [--operating-area-margin-m A]
         [--format plan|waypoints] [--params F.param] [--no-merge] [--stop-at-every-waypoint]
-        [--second-start] [--geojson F.geojson] [--plot F.png] [--force] [--quiet]
+        [--second-start] [--geojson F.geojson] [--plot F.png] [--html F.html [--html-map]]
+        [--force] [--quiet]
 
 ``--dynamics vehicle`` (default) keeps speed changes within the site's ``uav.max_accel`` and
 ``uav.max_jerk``; ``--dynamics none`` is the paper's kinematic model (top speed only) and
@@ -97,6 +98,8 @@ def output_files(
     params: str | Path | None = None,
     autopilot_params: AutopilotParams | None = None,
     flight: FlightCheck | None = None,
+    html: str | Path | None = None,
+    html_map: bool = False,
 ) -> dict[Path, str | bytes]:
     """Every file the mission is exported to (path -> content), not yet written.
 
@@ -104,7 +107,8 @@ def output_files(
     with its fence and rally files beside it (``NAME.fence.waypoints``, ``NAME.rally.waypoints``).
     ``params`` names the autopilot parameter file (``autopilot_params``, default
     :func:`~mission_planner.autopilot_params.recommended_params`); ``flight`` adds the replay
-    to the report.
+    to the report and its track to the ``html`` view (:mod:`validator.view`; ``html_map``: on
+    OpenStreetMap tiles).
     """
     if fmt not in FORMATS:
         raise InputError(f"format: expected one of {', '.join(FORMATS)}, got {fmt!r}")
@@ -128,7 +132,26 @@ def output_files(
         from mission_planner.figure import figure_png, solution_figure
 
         files[Path(plot)] = figure_png(solution_figure(mission.solution, mission))
+    if html is not None:
+        files[Path(html)] = mission_view(mission, flight, Path(out).name, html_map)
     return files
+
+
+def mission_view(mission: Mission, flight: FlightCheck | None = None, name: str = "",
+                 map_background: bool = False) -> str:
+    """The mission's interactive view (:func:`validator.view.view_html`) with the replay of
+    ``flight`` on its time slider."""
+    from validator.flight import resolve_flight
+    from validator.view import TrackLayer, ViewInputs, view_html
+
+    site = mission.solution.site
+    resolved = (flight.flight if flight is not None and flight.flight is not None
+                else resolve_flight(mission.plan, site, "mission"))
+    tracks = ((TrackLayer(f"replay ({flight.profile.name})", flight.track),)
+              if flight is not None and flight.track is not None else ())
+    title = f"{site.name}: {name or 'mission'} ({mission.solution.scheme})"
+    return view_html(ViewInputs(mission.plan, site, resolved, tracks, title=title),
+                     map_background=map_background)
 
 
 def check_output_paths(paths: Sequence[Path]) -> None:
@@ -255,6 +278,12 @@ def _parser() -> argparse.ArgumentParser:
                    "merge into one long leg)")
     p.add_argument("--geojson", type=Path, help="also write a GeoJSON FeatureCollection")
     p.add_argument("--plot", type=Path, help="also draw the paper's Fig. 3 (PNG)")
+    p.add_argument("--html", type=Path,
+                   help="also write an interactive view: one self-contained HTML page with "
+                   "zones, fence, legs, waypoints and the replayed flight on a time slider")
+    p.add_argument("--html-map", action="store_true",
+                   help="with --html, draw the view on OpenStreetMap tiles (fetched by the "
+                   "browser when the page opens, so online only; default: local metres)")
     p.add_argument("--force", action="store_true",
                    help="write the mission even if the safety gate refuses it")
     p.add_argument("--quiet", action="store_true",
@@ -296,8 +325,10 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
     try:
         fmt = args.format or ("waypoints" if args.output.suffix == ".waypoints" else "plan")
         param_file = args.params or params_path(args.output)
-        outputs = [args.output, param_file] + [p for p in (args.report, args.geojson, args.plot)
-                                               if p]
+        if args.html_map and not args.html:
+            raise InputError("--html-map: only with --html")
+        outputs = [args.output, param_file] + [
+            p for p in (args.report, args.geojson, args.plot, args.html) if p]
         if fmt == "waypoints":
             from validator.waypoints_format import sidecar_paths
 
@@ -336,7 +367,8 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
         flight = replay_mission(mission, autopilot_params)
         files = output_files(mission, args.output, fmt=fmt, report=args.report,
                              geojson=args.geojson, plot=args.plot, params=param_file,
-                             autopilot_params=autopilot_params, flight=flight)
+                             autopilot_params=autopilot_params, flight=flight,
+                             html=args.html, html_map=args.html_map)
         write_outputs(files)
     except UserError as err:
         return report_error("plan-mission", err)

@@ -23,7 +23,7 @@ from validator.motion.profile import Profile, flown_params, make_profile
 from validator.plan_format import Autopilot, Plan, read_plan
 from validator.replay import Track, TrackReport, replay, score_track
 from validator.site import Site, load_site
-from validator.track_file import RecordedTrack
+from validator.track_file import RecordedTrack, read_track
 
 
 @dataclass
@@ -113,6 +113,7 @@ def validate_mission(
     params: dict[str, float] | None = None,
     dt_s: float = 0.05,
     vehicle_params: dict[str, float] | None = None,
+    flown_track: str | Path | None = None,
 ) -> Validation:
     """Audit ``plan_path`` against ``site_path`` and, with ``replay_flight``, replay it.
 
@@ -120,7 +121,9 @@ def validate_mission(
     choose the flight model; the track is sampled every ``dt_s`` seconds. ``vehicle_params``
     are the parameters the vehicle will hold (a parameter file): those of the flight model
     replay the flight under ``params``' overrides, and a geofence they leave off or unsafe is
-    flagged in ``param_findings`` (for a plan with a fence). Raises :class:`InputError` for bad
+    flagged in ``param_findings`` (for a plan with a fence). ``flown_track`` is a recorded
+    flight of the plan (:mod:`validator.track_file`, as ``--track`` writes one): scored into
+    ``sitl`` like a flight flown now, and kept in ``recorded``. Raises :class:`InputError` for bad
     input.
     """
     if not (dt_s > 0 and dt_s <= 0.05):
@@ -143,4 +146,9 @@ def validate_mission(
         if flight.legs:
             v.replay_track = replay(flight, prof, dt_s=dt_s)
             v.replay = score_track(v.replay_track, flight, site, plan)
+    if flown_track is not None:
+        v.recorded = read_track(flown_track)
+        track = v.recorded.track(flight, site, source=f"recorded:{Path(flown_track).name}")
+        v.sitl = score_track(track, flight, site, plan)
+        v.extra["recorded_flight"] = {"file": str(flown_track)}
     return v

@@ -74,6 +74,8 @@ def validation_inputs(v: Validation, title: str = "") -> ViewInputs:
         tracks.append(TrackLayer(f"replay ({v.profile.name})", v.replay_track))
     if v.recorded is not None:
         who = v.extra.get("sitl_flight", {}).get("kind", "recorded")
+        if "recorded_flight" in v.extra:
+            who = f"recorded, {Path(v.extra['recorded_flight']['file']).name}"
         tracks.append(TrackLayer(f"flown ({who})", v.recorded.track(v.flight, v.site)))
     return ViewInputs(v.plan, v.site, v.flight, tuple(tracks),
                       title=title or f"{v.site.name}: {Path(v.plan_path).name}")

@@ -36,6 +36,7 @@ TRACK_COLOURS = ("#222222", "#ff00aa", "#00a0a0")
 _VIRIDIS = ((0.0, (68, 1, 84)), (0.2, (65, 68, 135)), (0.4, (42, 120, 142)),
             (0.6, (34, 168, 132)), (0.8, (122, 209, 81)), (1.0, (253, 231, 37)))
 CIRCLE_POINTS = 97
+SAME_PLACE_M = 0.5  # waypoints closer than this share one marker
 
 
 def node_colour(k: int) -> str:
@@ -167,14 +168,13 @@ def leg_traces(inputs: ViewInputs) -> list[Trace]:
             continue
         layer = "cycle" if k in cycle else "transit"
         legend = "service cycle (colour: commanded speed)" if layer == "cycle" else "transits"
-        speed = "autopilot default" if leg.speed_mps is None else f"{leg.speed_mps:.2f} m/s"
         out.append({
             "type": "scatter", "mode": "lines", **_xy(np.stack([leg.start_xy_m, leg.end_xy_m])),
             "name": legend, "legendgroup": layer, "showlegend": layer not in shown,
             "meta": {"layer": layer, "leg": k},
             "line": {"color": speed_colour(leg.speed_mps or top, top), "width": 3.5,
                      "dash": "solid" if layer == "cycle" else "dash"},
-            "hoverinfo": "text", "hovertext": f"leg to item {leg.item}: {speed}",
+            "hoverinfo": "skip",  # the waypoint at its end tells speed and more
         })
         shown.add(layer)
     return out
@@ -214,7 +214,12 @@ def waypoint_trace(inputs: ViewInputs) -> Trace:
     first: dict[int, list[int]] = {}
     for k, leg in enumerate(flight.legs):
         first.setdefault(leg.item, []).append(k)
-    pts, texts, colours = [], [], []
+    # Items at one place (a cycle closing where it began, takeoff and landing at home) share
+    # a marker, so hovering it tells all of them
+    pts: list[NDArray[np.float64]] = []
+    texts: list[list[str]] = []
+    items: list[list[int]] = []
+    colours: list[float] = []
     top = _top_speed_mps(inputs)
     for item, legs in first.items():
         k = legs[0]
@@ -236,13 +241,21 @@ def waypoint_trace(inputs: ViewInputs) -> Trace:
                          f"(buffer {site.buffer_m:g} m)")
         if reached is not None and k < reached.size and np.isfinite(reached[k]):
             lines.append(f"{inputs.tracks[0].name}: reached at t = {reached[k]:.1f} s")
-        pts.append(leg.end_xy_m)
-        texts.append("<br>".join(lines))
-        colours.append(leg.speed_mps if leg.speed_mps is not None else top)
+        at = next((i for i, p in enumerate(pts) if np.hypot(*(p - leg.end_xy_m)) < SAME_PLACE_M),
+                  None)
+        if at is None:
+            pts.append(leg.end_xy_m)
+            texts.append([])
+            items.append([])
+            colours.append(leg.speed_mps if leg.speed_mps is not None else top)
+            at = len(pts) - 1
+        texts[at].append("<br>".join(lines))
+        items[at].append(item)
     return {
         "type": "scatter", "mode": "markers", **_xy(np.asarray(pts).reshape(-1, 2)),
-        "name": "waypoints", "meta": {"layer": "waypoint", "items": list(first)},
-        "uid": "waypoints", "hovertext": texts, "hoverinfo": "text",
+        "name": "waypoints", "meta": {"layer": "waypoint", "items": items},
+        "uid": "waypoints", "hovertext": ["<br>—<br>".join(t) for t in texts],
+        "hoverinfo": "text",
         "marker": {"size": 10, "color": [round(c, 2) for c in colours], "colorscale": "Viridis",
                    "cmin": 0.0, "cmax": top, "line": {"width": 1.5, "color": "black"},
                    "colorbar": {"title": {"text": "commanded<br>speed (m/s)"}, "x": 0.565,

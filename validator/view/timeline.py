@@ -139,8 +139,8 @@ class Timeline:
                 g = site.gn_xy_m[gn]
                 out.append({"x": [x, round(float(g[0]), 2)], "y": [y, round(float(g[1]), 2)],
                             "line": {"color": node_colour(gn), "width": 2, "dash": "dot"}})
-            else:
-                out.append({"x": [], "y": []})
+            else:  # one blank point, not none: plotly hides a trace born empty for good
+                out.append({"x": [None], "y": [None]})
             if s is not None:
                 out.append({"y": np.round(s.so_far[j], 4).tolist()})
         out.append({"x": [round(t, 2), round(t, 2)], "y": [0.0, round(self.rate_top * 1.05, 3)]})
@@ -155,6 +155,7 @@ class Timeline:
             colour = TRACK_COLOURS[i % len(TRACK_COLOURS)]
             out.append({"type": "scatter", "mode": "markers+text", **next(state),
                         "name": f"{layer.name}: vehicle", "meta": {"layer": "vehicle", "track": i},
+                        "uid": f"vehicle{i}",
                         "textposition": "bottom right", "hoverinfo": "text",
                         "marker": {"size": 15, "color": colour, "symbol": "circle",
                                    "line": {"width": 2, "color": "white"}}})
