@@ -35,7 +35,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -56,6 +55,7 @@ from mission_planner.mission import (
     mission_summary,
 )
 from mission_planner.optimize.retime import top_speed_mps
+from mission_planner.progress import PlanProgress
 from mission_planner.waypoint_radius import radius_params
 from validator.errors import CommandParser, InputError, UserError, report_error
 from validator.fileio import write_all_atomic
@@ -286,34 +286,13 @@ def _parser() -> argparse.ArgumentParser:
                    "browser when the page opens, so online only; default: local metres)")
     p.add_argument("--force", action="store_true",
                    help="write the mission even if the safety gate refuses it")
-    p.add_argument("--quiet", action="store_true",
-                   help="no progress lines (warnings and the result still print)")
+    p.add_argument("--quiet", "--no-progress", action="store_true",
+                   help="no progress line (warnings and the result still print; there is none "
+                   "either when stderr is not a terminal)")
     # Removed: the optimiser is deterministic, so a seed never did anything. Accepted with a
     # deprecation line for one release.
     p.add_argument("--seed", type=int, help=argparse.SUPPRESS)
     return p
-
-
-PIPE_PROGRESS_EVERY = 10  # iterations between progress lines when stderr is not a terminal
-
-
-class _ProgressLine:
-    """Progress of the optimiser on stderr: one line rewritten in place on a terminal, a line
-    every :data:`PIPE_PROGRESS_EVERY` iterations (and the first) in a pipe or log."""
-
-    def __init__(self) -> None:
-        self.started = time.monotonic()
-        self.tty = sys.stderr.isatty()
-        self.count = 0
-
-    def __call__(self, iteration: int, objective: float) -> None:
-        self.count += 1
-        text = (f"plan-mission: iteration {iteration}: objective {objective:.6g} "
-                f"({time.monotonic() - self.started:.1f} s)")
-        if self.tty:
-            print(f"\r{text}", end="", file=sys.stderr, flush=True)
-        elif self.count == 1 or self.count % PIPE_PROGRESS_EVERY == 0:
-            print(text, file=sys.stderr, flush=True)
 
 
 def plan_mission_main(argv: Sequence[str] | None = None) -> int:
@@ -345,15 +324,11 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
             operating_area_margin_m=args.operating_area_margin_m,
             merge_legs=not args.no_merge,
         )
-        progress = None if args.quiet else _ProgressLine()
-        try:
+        with PlanProgress(enabled=False if args.quiet else None) as progress:
             mission = plan_and_build(site, args.scheme, options, dynamics=args.dynamics,
-                                     progress=progress,
+                                     progress=progress if progress.shown else None,
                                      pass_through_corners=not args.stop_at_every_waypoint,
                                      second_start=args.second_start)
-        finally:
-            if progress is not None and progress.tty:
-                print(file=sys.stderr)
         if mission.problems:
             for problem in mission.problems:
                 print(f"plan-mission: unsafe: {problem}", file=sys.stderr)

@@ -3,7 +3,8 @@ no console error, its layers match the plan, hovering a waypoint tells its detai
 time slider moves the vehicle.
 
 Skips with the reason when no browser is installed (``scripts/install-browser.sh``).
-``VIEW_SCREENSHOT=docs/view.png`` also saves the sample site's view as the README shows it.
+``VIEW_SCREENSHOT=docs/view.png`` also saves the sample site's view, the slider moved, as the
+README shows it.
 """
 
 from __future__ import annotations
@@ -87,9 +88,6 @@ def test_sample_view_loads_with_no_console_error(browser, sample):
         "return Plotly.validate(gd.data, gd.layout) || [];")
     assert [p["msg"] for p in problems if p["code"] != "dynamic"] == []
     print(f"loaded in {seconds:.2f} s, {path.stat().st_size / 1e6:.2f} MB")
-    shot = os.environ.get("VIEW_SCREENSHOT")
-    if shot:
-        browser.get_screenshot_as_file(shot)
 
 
 def test_layers_match_the_plan(browser, sample):
@@ -157,6 +155,9 @@ def test_the_slider_moves_the_vehicle(browser, sample):
     assert np.allclose([drawn["x"][0], drawn["y"][0]], track.xy_m[j], atol=0.01)
     shown = browser.find_element("css selector", ".slider-group .slider-label").text
     assert shown.startswith("t = ")
+    shot = os.environ.get("VIEW_SCREENSHOT")  # the README's picture: the vehicle mid-cycle
+    if shot:
+        browser.get_screenshot_as_file(shot)
 
 
 def test_a_flown_track_is_drawn_beside_the_replay(browser, flown):

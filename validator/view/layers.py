@@ -130,7 +130,8 @@ def point_traces(inputs: ViewInputs) -> list[Trace]:
                    "color": [node_colour(k) for k in range(site.num_gns)]},
         "hovertemplate": "%{text}<br>%{x:.0f} m E, %{y:.0f} m N<extra></extra>",
     }, {
-        "type": "scatter", "mode": "markers", **_xy(home), "name": "home", "meta": {"layer": "home"},
+        "type": "scatter", "mode": "markers", **_xy(home), "name": "home",
+        "meta": {"layer": "home"},
         "marker": {"symbol": "square", "size": 11, "color": "black"},
         "hovertemplate": "home<br>%{x:.0f} m E, %{y:.0f} m N<extra></extra>",
     }]

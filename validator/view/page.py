@@ -122,7 +122,7 @@ def _layout(inputs: ViewInputs, timeline: Timeline, map_background: bool) -> dic
                            "scaleanchor": "x", "scaleratio": 1, "gridcolor": "#e5e5e5",
                            "zeroline": False, "constrain": "domain"}
     if timeline.times.size > 1:
-        redraw = map_background  # a map redraws its traces; an SVG plot moves them in place
+        redraw = True  # bars and text labels are only redrawn, not moved, by a frame
         go = {"mode": "immediate", "frame": {"duration": 0, "redraw": redraw},
               "transition": {"duration": 0}}
         layout["sliders"] = [{

@@ -124,7 +124,7 @@ class Timeline:
         serves and the bars of each node's rate so far; then the rate panel's time cursor."""
         site = self.inputs.site
         out: list[Trace] = []
-        for i, (layer, s) in enumerate(zip(self.inputs.tracks, self.served, strict=True)):
+        for layer, s in zip(self.inputs.tracks, self.served, strict=True):
             track = layer.track
             j = _at(track, t)
             x, y = (round(float(v), 2) for v in track.xy_m[j])
