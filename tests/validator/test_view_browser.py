@@ -171,3 +171,52 @@ def test_a_flown_track_is_drawn_beside_the_replay(browser, flown):
     rates = _trace(browser, "flown-rate", 1)
     assert v.sitl is not None and v.sitl.throughput is not None
     assert np.allclose(rates["y"], v.sitl.throughput.flown_bps_hz, atol=1e-3)
+
+
+@pytest.fixture()
+def served(tmp_path):
+    """A web server on loopback for ``tmp_path``: browsers refuse MapLibre's worker from a
+    file:// page, so a map view is opened the way the README says, over HTTP."""
+    import functools
+    import http.server
+    import threading
+
+    handler = functools.partial(http.server.SimpleHTTPRequestHandler, directory=str(tmp_path))
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    try:
+        yield tmp_path, f"http://127.0.0.1:{server.server_address[1]}"
+    finally:
+        server.shutdown()
+        server.server_close()
+
+
+def test_the_map_background_view_draws_the_layers_and_moves_the_vehicle(
+        browser, sample, served, monkeypatch):
+    import validator.view.page as page
+
+    monkeypatch.setattr(page, "MAP_STYLE", "white-bg")  # no tiles to fetch in a test
+    v, _ = sample
+    folder, url = served
+    write_view(folder / "map.html", validation_inputs(v), map_background=True)
+    browser.get_log("browser")
+    browser.get(f"{url}/map.html")
+    assert browser.execute_async_script(WAIT_FOR_PLOT), "the map never appeared"
+    offline = ("ERR_NAME_NOT_RESOLVED", "ERR_INTERNET_DISCONNECTED", "AJAXError", "favicon")
+    errors = [e["message"] for e in browser.get_log("browser")
+              if e["level"] == "SEVERE" and not any(s in e["message"] for s in offline)]
+    assert errors == []
+    counts = _layer_counts(browser)
+    assert counts["zone"] == len(v.site.zone_names) and counts["vehicle"] == 1
+    assert _trace(browser, "zone")["type"] == "scattermap"
+    before = _trace(browser, "vehicle")["lat"]
+    browser.execute_script(
+        "Plotly.animate(document.getElementById('mission-view'), ['100'], {mode: 'immediate',"
+        " frame: {duration: 0, redraw: true}, transition: {duration: 0}});")
+    time.sleep(0.5)
+    after = _trace(browser, "vehicle")
+    lat, lon = v.site.frame.to_geodetic(v.replay_track.xy_m[np.argmin(
+        np.abs(v.replay_track.t_s - 100.0))])
+    assert after["lat"] != before and np.allclose([after["lat"][0], after["lon"][0]],
+                                                  [lat, lon], atol=1e-6)

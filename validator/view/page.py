@@ -25,6 +25,7 @@ from validator.view.timeline import Timeline
 Trace = dict[str, Any]
 DIV_ID = "mission-view"
 HEIGHT_PX = 860
+MAP_STYLE = "open-street-map"  # plotly's name for OpenStreetMap's tiles
 MAP_X = (0.0, 0.55)  # paper fractions: the map, and the panels to its right
 PANEL_X = (0.68, 1.0)
 MAP_Y = (0.2, 1.0)
@@ -70,10 +71,11 @@ def _map_view(inputs: ViewInputs) -> dict[str, Any]:
     lo, hi = xy.min(axis=0), xy.max(axis=0)
     lat, lon = inputs.site.frame.to_geodetic((lo + hi) / 2.0)
     span_m = max(float(np.max(hi - lo)), 100.0) * 1.3
-    # 256-pixel tiles: at zoom z one pixel is 40075 km cos(lat) / 2^(z+8)
-    zoom = math.log2(40_075_016.0 * math.cos(math.radians(float(lat))) * 600 / (span_m * 256))
+    # MapLibre's 512-pixel tiles: at zoom z a pixel is 40075 km cos(lat) / 2^(z+9); the map is
+    # about 750 pixels across
+    zoom = math.log2(40_075_016.0 * math.cos(math.radians(float(lat))) * 750 / (span_m * 512))
     return {"center": {"lat": float(lat), "lon": float(lon)}, "zoom": round(zoom, 2),
-            "style": "open-street-map",
+            "style": MAP_STYLE,
             "domain": {"x": list(MAP_X), "y": list(MAP_Y)}}
 
 
