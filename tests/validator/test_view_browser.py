@@ -125,7 +125,7 @@ def test_hovering_a_waypoint_shows_its_details(browser, sample):
     assert f"item {item}: NAV_WAYPOINT" in shown
     leg = next(leg for leg in v.flight.legs if leg.item == item)
     assert f"speed {leg.speed_mps:.2f} m/s" in shown and "hold" in shown
-    assert "slots" in shown and "of T" in shown and "clearance" in shown
+    assert "slot" in shown and "of T" in shown and "clearance" in shown
 
 
 def test_the_slider_moves_the_vehicle(browser, sample):
@@ -155,8 +155,14 @@ def test_the_slider_moves_the_vehicle(browser, sample):
     assert np.allclose([drawn["x"][0], drawn["y"][0]], track.xy_m[j], atol=0.01)
     shown = browser.find_element("css selector", ".slider-group .slider-label").text
     assert shown.startswith("t = ")
-    shot = os.environ.get("VIEW_SCREENSHOT")  # the README's picture: the vehicle mid-cycle
-    if shot:
+    shot = os.environ.get("VIEW_SCREENSHOT")  # the README's picture: the vehicle mid-cycle,
+    if shot:  # a waypoint's details shown
+        waypoints = _trace(browser, "waypoint")
+        k = next(i for i, text in enumerate(waypoints["hovertext"])
+                 if "slots" in text and len(waypoints["meta"]["items"][i]) == 1)
+        point = browser.find_elements("css selector", ".scatterlayer .tracewaypoints path.point")
+        ActionChains(browser).move_to_element(point[k]).perform()
+        time.sleep(0.3)
         browser.get_screenshot_as_file(shot)
 
 

@@ -199,7 +199,8 @@ def _slot_notes(inputs: ViewInputs) -> dict[int, str]:
                 continue
             n = rows[:, 0].astype(int)
             gns = sorted({names[g] for g in service.schedule[n] if g >= 0})
-            parts.append(f"{what} slots {n[0] + 1}-{n[-1] + 1} (t {ends[n[0]]:.1f}-"
+            which = f"slot {n[0] + 1}" if n.size == 1 else f"slots {n[0] + 1}-{n[-1] + 1}"
+            parts.append(f"{what} {which} (t {ends[n[0]]:.1f}-"
                          f"{ends[n[-1] + 1]:.1f} s of T, serving {', '.join(gns) or 'nobody'})")
         out[k] = "<br>".join(parts)
     return out
