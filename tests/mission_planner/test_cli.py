@@ -409,3 +409,19 @@ def test_a_site_faster_than_the_vehicle_is_one_warning_naming_both_speeds(tmp_pa
     params = parse_params((tmp_path / "m.param").read_text())
     assert params["WPNAV_SPEED"] == math.ceil(top * 100.0 - 1e-9)  # what the vehicle reaches
     assert "WPNAV_SPEED" not in err  # within the documented range: no note
+
+
+def test_html_writes_the_view_with_the_replay(tmp_path, capsys, chatty_planner):
+    out = tmp_path / "view.html"
+    code, err = _run([_write_site(tmp_path, SLOW), "-o", tmp_path / "m.plan", "--quiet",
+                      "--html", out], capsys)
+    assert code == 0 and str(out) in err
+    page = out.read_text(encoding="utf-8")
+    assert "Plotly.newPlot" in page and "replay (arducopter): vehicle" in page
+
+
+def test_html_map_needs_html(tmp_path, capsys, chatty_planner):
+    code, err = _run([_write_site(tmp_path, SLOW), "-o", tmp_path / "m.plan", "--html-map"],
+                     capsys)
+    assert code == 2 and "--html-map: only with --html" in err
+    assert not (tmp_path / "m.plan").exists()
