@@ -26,7 +26,7 @@ def find_browser() -> tuple[str, str] | str:
     browser = os.environ.get("CHROMIUM") or next(
         (p for p in map(shutil.which, BROWSERS) if p), None)
     driver = os.environ.get("CHROMEDRIVER") or shutil.which("chromedriver")
-    if browser is None or driver is None:
+    if browser is None or driver is None or not all(map(os.path.isfile, (browser, driver))):
         return ("no headless Chromium and chromedriver found (scripts/install-browser.sh "
                 "installs Debian's; or set $CHROMIUM and $CHROMEDRIVER)")
     return browser, driver
