@@ -105,3 +105,18 @@ def test_bad_view_arguments_are_one_line_and_write_nothing(tmp_path, capsys, arg
     err = capsys.readouterr().err.strip()
     assert says in err and len(err.splitlines()) == 1
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_plan_without_planner_metadata_says_why_it_shows_no_rates(tmp_path):
+    import json
+
+    data = json.loads(PLAN.read_text())
+    del data["nfzMission"]  # as QGroundControl would save a plan it edited
+    bare = tmp_path / "bare.plan"
+    bare.write_text(json.dumps(data))
+    fig = view_figure(validation_inputs(validate_mission(bare, SITE, replay_flight=True)))
+    layers = _layers(fig)
+    assert "vehicle" in layers and fig["frames"]  # the flight still plays
+    assert not {"so-far", "rate", "planned", "cursor"} & set(layers)
+    assert fig["layout"]["xaxis2"]["visible"] is False
+    assert any("nfzMission" in a["text"] for a in fig["layout"]["annotations"])

@@ -115,6 +115,19 @@ def _layout(inputs: ViewInputs, timeline: Timeline, map_background: bool) -> dic
                    "title": {"text": "instantaneous rate (bps/Hz)"}, "gridcolor": "#e5e5e5"},
         "annotations": _wind_annotation(inputs),
     }
+    if timeline.times.size > 1:
+        layout["xaxis3"]["range"] = [0.0, float(timeline.times[-1])]
+    if not timeline.has_rates:
+        # nothing to put beside the map: say why instead of empty axes
+        why = ("No node rates: the plan carries<br>no planner metadata (nfzMission)"
+               if inputs.flight.service is None else
+               "No node rates: no flight<br>matched to the planned slots")
+        for axis in ("xaxis3", "yaxis3") + (() if inputs.flight.service else ("xaxis2",
+                                                                              "yaxis2")):
+            layout[axis]["visible"] = False
+        layout["annotations"].append({"text": why, "showarrow": False, "xref": "paper",
+                                      "yref": "paper", "x": sum(PANEL_X) / 2, "y": 0.4,
+                                      "font": {"size": 12, "color": "#555"}})
     if map_background:
         layout["map"] = _map_view(inputs)
     else:

@@ -74,6 +74,7 @@ class Timeline:
         self.inputs = inputs
         self.times = frame_times(inputs)
         self.served = [served(inputs, layer.track) for layer in inputs.tracks]
+        self.has_rates = any(s is not None for s in self.served)
         self.rate_top = max([1e-3, *(float(np.max(s.rate_bps_hz)) for s in self.served
                                      if s is not None and s.rate_bps_hz.size)])
 
@@ -143,7 +144,9 @@ class Timeline:
                 out.append({"x": [None], "y": [None]})
             if s is not None:
                 out.append({"y": np.round(s.so_far[j], 4).tolist()})
-        out.append({"x": [round(t, 2), round(t, 2)], "y": [0.0, round(self.rate_top * 1.05, 3)]})
+        if self.has_rates:
+            out.append({"x": [round(t, 2), round(t, 2)],
+                        "y": [0.0, round(self.rate_top * 1.05, 3)]})
         return out
 
     def animated_traces(self) -> list[Trace]:
@@ -169,6 +172,8 @@ class Timeline:
                             "marker": {"color": [node_colour(k) for k in range(len(names))],
                                        "line": {"color": colour, "width": 1.5}},
                             "hovertemplate": "%{x} so far: %{y:.4f} bps/Hz<extra></extra>"})
+        if not self.has_rates:
+            return out
         out.append({"type": "scatter", "mode": "lines", **next(state), "xaxis": "x3",
                     "yaxis": "y3", "showlegend": False, "name": "time", "hoverinfo": "skip",
                     "meta": {"layer": "cursor"}, "line": {"color": "black", "width": 1}})
