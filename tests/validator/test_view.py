@@ -36,7 +36,8 @@ def test_a_plan_alone_has_no_slider_and_no_flight_layers(validation):
     assert fig["frames"] == [] and "sliders" not in fig["layout"]
     assert "track" not in layers and "vehicle" not in layers and "failsafe" not in layers
     assert layers.count("zone") == 3 and layers.count("fence") == len(v.plan.circles)
-    assert fig["layout"]["annotations"] == []  # no wind given, none drawn
+    assert not any("wind" in a["text"] for a in fig["layout"]["annotations"])  # none given
+    assert fig["layout"]["yaxis3"]["visible"] is False and "visible" not in fig["layout"]["yaxis2"]
 
 
 def test_failsafe_paths_and_wind_are_drawn_when_given(validation):

@@ -121,7 +121,8 @@ def _layout(inputs: ViewInputs, timeline: Timeline, map_background: bool) -> dic
         # nothing to put beside the map: say why instead of empty axes
         why = ("No node rates: the plan carries<br>no planner metadata (nfzMission)"
                if inputs.flight.service is None else
-               "No node rates: no flight<br>matched to the planned slots")
+               "No flight given: the planned<br>rates only" if not inputs.tracks else
+               "No flown rates: no flight<br>matched to the planned slots")
         for axis in ("xaxis3", "yaxis3") + (() if inputs.flight.service else ("xaxis2",
                                                                               "yaxis2")):
             layout[axis]["visible"] = False
