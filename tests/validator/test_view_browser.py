@@ -62,6 +62,22 @@ def _open(browser, path: Path) -> float:
     return time.perf_counter() - started
 
 
+def _until(browser, script: str, *args, timeout_s: float = 10.0):
+    """Poll a JavaScript function body until it returns something truthy (or time is up): a
+    busy machine answers a mouse move or a frame late, never by a fixed sleep."""
+    end = time.monotonic() + timeout_s
+    while True:
+        value = browser.execute_script(script, *args)
+        if value or time.monotonic() > end:
+            return value
+        time.sleep(0.05)
+
+
+HOVER_TEXT = "const h = document.querySelector('.hoverlayer'); return h && h.textContent;"
+VEHICLE = ("document.getElementById('mission-view').data.filter("
+           "t => t.meta && t.meta.layer === 'vehicle')[0]")
+
+
 def _layer_counts(browser) -> dict[str, int]:
     return browser.execute_script("""
         const out = {};
@@ -119,8 +135,7 @@ def test_hovering_a_waypoint_shows_its_details(browser, sample):
     k = next(i for i, text in enumerate(waypoints["hovertext"])
              if "slots" in text and len(waypoints["meta"]["items"][i]) == 1)
     ActionChains(browser).move_to_element(drawn[k]).perform()
-    time.sleep(0.2)
-    shown = browser.execute_script("return document.querySelector('.hoverlayer').textContent")
+    shown = _until(browser, HOVER_TEXT)
     item = waypoints["meta"]["items"][k][0]
     assert f"item {item}: NAV_WAYPOINT" in shown
     leg = next(leg for leg in v.flight.legs if leg.item == item)
@@ -135,12 +150,13 @@ def test_the_slider_moves_the_vehicle(browser, sample):
     _open(browser, path)
     vehicle = browser.find_element("css selector", ".scatterlayer .tracevehicle0 path.point")
     before = vehicle.rect
+    start_x = _trace(browser, "vehicle")["x"][0]
     grip = browser.find_element("css selector", ".slider-grip-rect")
     rail = browser.find_element("css selector", ".slider-rail-rect")
     # drag the grip 60 % of the way along the rail, as a user would
     ActionChains(browser).click_and_hold(grip).move_by_offset(
         int(rail.rect["width"] * 0.6), 0).release().perform()
-    time.sleep(0.3)
+    assert _until(browser, f"return {VEHICLE}.x[0] !== arguments[0];", start_x)
     t = float(browser.execute_script(
         "const s = document.getElementById('mission-view')._fullLayout.sliders[0];"
         "return s.steps[s.active].label;"))
@@ -162,7 +178,7 @@ def test_the_slider_moves_the_vehicle(browser, sample):
                  if "slots" in text and len(waypoints["meta"]["items"][i]) == 1)
         point = browser.find_elements("css selector", ".scatterlayer .tracewaypoints path.point")
         ActionChains(browser).move_to_element(point[k]).perform()
-        time.sleep(0.3)
+        assert _until(browser, HOVER_TEXT)
         browser.get_screenshot_as_file(shot)
 
 
@@ -220,7 +236,7 @@ def test_the_map_background_view_draws_the_layers_and_moves_the_vehicle(
     browser.execute_script(
         "Plotly.animate(document.getElementById('mission-view'), ['100'], {mode: 'immediate',"
         " frame: {duration: 0, redraw: true}, transition: {duration: 0}});")
-    time.sleep(0.5)
+    assert _until(browser, f"return {VEHICLE}.lat[0] !== arguments[0];", before[0])
     after = _trace(browser, "vehicle")
     lat, lon = v.site.frame.to_geodetic(v.replay_track.xy_m[np.argmin(
         np.abs(v.replay_track.t_s - 100.0))])
