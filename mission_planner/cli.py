@@ -5,8 +5,8 @@
         [--cycles C]
         [--fence-margin-m M] [--operating-area polygon|circle] [--operating-area-margin-m A]
         [--format plan|waypoints] [--params F.param] [--no-merge] [--stop-at-every-waypoint]
-        [--second-start] [--geojson F.geojson] [--plot F.png] [--force] [--quiet]
-        [--at ISO-8601] [--authorised ZONE ...]
+        [--second-start] [--geojson F.geojson] [--plot F.png] [--html F.html [--html-map]]
+        [--force] [--quiet] [--at ISO-8601] [--authorised ZONE ...]
 
 ``--dynamics vehicle`` (default) keeps speed changes within the site's ``uav.max_accel`` and
 ``uav.max_jerk``; ``--dynamics none`` is the paper's kinematic model (top speed only) and
@@ -40,7 +40,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -62,6 +61,7 @@ from mission_planner.mission import (
     mission_summary,
 )
 from mission_planner.optimize.retime import top_speed_mps
+from mission_planner.progress import PlanProgress
 from mission_planner.waypoint_radius import radius_params
 from validator.errors import CommandParser, InputError, UserError, report_error
 from validator.fileio import write_all_atomic
@@ -107,6 +107,8 @@ def output_files(
     params: str | Path | None = None,
     autopilot_params: AutopilotParams | None = None,
     flight: FlightCheck | None = None,
+    html: str | Path | None = None,
+    html_map: bool = False,
 ) -> dict[Path, str | bytes]:
     """Every file the mission is exported to (path -> content), not yet written.
 
@@ -114,7 +116,8 @@ def output_files(
     with its fence and rally files beside it (``NAME.fence.waypoints``, ``NAME.rally.waypoints``).
     ``params`` names the autopilot parameter file (``autopilot_params``, default
     :func:`~mission_planner.autopilot_params.recommended_params`); ``flight`` adds the replay
-    to the report.
+    to the report and its track to the ``html`` view (:mod:`validator.view`; ``html_map``: on
+    OpenStreetMap tiles).
     """
     if fmt not in FORMATS:
         raise InputError(f"format: expected one of {', '.join(FORMATS)}, got {fmt!r}")
@@ -138,7 +141,26 @@ def output_files(
         from mission_planner.figure import figure_png, solution_figure
 
         files[Path(plot)] = figure_png(solution_figure(mission.solution, mission))
+    if html is not None:
+        files[Path(html)] = mission_view(mission, flight, Path(out).name, html_map)
     return files
+
+
+def mission_view(mission: Mission, flight: FlightCheck | None = None, name: str = "",
+                 map_background: bool = False) -> str:
+    """The mission's interactive view (:func:`validator.view.view_html`) with the replay of
+    ``flight`` on its time slider."""
+    from validator.flight import resolve_flight
+    from validator.view import TrackLayer, ViewInputs, view_html
+
+    site = mission.solution.site
+    resolved = (flight.flight if flight is not None and flight.flight is not None
+                else resolve_flight(mission.plan, site, "mission"))
+    tracks = ((TrackLayer(f"replay ({flight.profile.name})", flight.track),)
+              if flight is not None and flight.track is not None else ())
+    title = f"{site.name}: {name or 'mission'} ({mission.solution.scheme})"
+    return view_html(ViewInputs(mission.plan, site, resolved, tracks, title=title),
+                     map_background=map_background)
 
 
 def check_output_paths(paths: Sequence[Path]) -> None:
@@ -272,36 +294,21 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--authorised", action="append", default=[], metavar="ZONE",
                    help="identifier of a REQ_AUTHORISATION or CONDITIONAL zone the operator "
                    "holds the authorisation for, or meets the conditions of (repeatable)")
+    p.add_argument("--html", type=Path,
+                   help="also write an interactive view: one self-contained HTML page with "
+                   "zones, fence, legs, waypoints and the replayed flight on a time slider")
+    p.add_argument("--html-map", action="store_true",
+                   help="with --html, draw the view on OpenStreetMap tiles (fetched by the "
+                   "browser when the page opens, so online only; default: local metres)")
     p.add_argument("--force", action="store_true",
                    help="write the mission even if the safety gate refuses it")
-    p.add_argument("--quiet", action="store_true",
-                   help="no progress lines (warnings and the result still print)")
+    p.add_argument("--quiet", "--no-progress", action="store_true",
+                   help="no progress line (warnings and the result still print; there is none "
+                   "either when stderr is not a terminal)")
     # Removed: the optimiser is deterministic, so a seed never did anything. Accepted with a
     # deprecation line for one release.
     p.add_argument("--seed", type=int, help=argparse.SUPPRESS)
     return p
-
-
-PIPE_PROGRESS_EVERY = 10  # iterations between progress lines when stderr is not a terminal
-
-
-class _ProgressLine:
-    """Progress of the optimiser on stderr: one line rewritten in place on a terminal, a line
-    every :data:`PIPE_PROGRESS_EVERY` iterations (and the first) in a pipe or log."""
-
-    def __init__(self) -> None:
-        self.started = time.monotonic()
-        self.tty = sys.stderr.isatty()
-        self.count = 0
-
-    def __call__(self, iteration: int, objective: float) -> None:
-        self.count += 1
-        text = (f"plan-mission: iteration {iteration}: objective {objective:.6g} "
-                f"({time.monotonic() - self.started:.1f} s)")
-        if self.tty:
-            print(f"\r{text}", end="", file=sys.stderr, flush=True)
-        elif self.count == 1 or self.count % PIPE_PROGRESS_EVERY == 0:
-            print(text, file=sys.stderr, flush=True)
 
 
 def plan_mission_main(argv: Sequence[str] | None = None) -> int:
@@ -313,8 +320,10 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
     try:
         fmt = args.format or ("waypoints" if args.output.suffix == ".waypoints" else "plan")
         param_file = args.params or params_path(args.output)
-        outputs = [args.output, param_file] + [p for p in (args.report, args.geojson, args.plot)
-                                               if p]
+        if args.html_map and not args.html:
+            raise InputError("--html-map: only with --html")
+        outputs = [args.output, param_file] + [
+            p for p in (args.report, args.geojson, args.plot, args.html) if p]
         if fmt == "waypoints":
             from validator.waypoints_format import sidecar_paths
 
@@ -330,23 +339,19 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
             operating_area_margin_m=args.operating_area_margin_m,
             merge_legs=not args.no_merge,
         )
-        progress = None if args.quiet else _ProgressLine()
 
         def made(site: Site) -> tuple[Mission, AutopilotParams, FlightCheck]:
-            try:
-                mission = plan_and_build(site, args.scheme, options, dynamics=args.dynamics,
-                                         progress=progress,
-                                         pass_through_corners=not args.stop_at_every_waypoint,
-                                         second_start=args.second_start)
-            finally:
-                if progress is not None and progress.tty:
-                    print(file=sys.stderr)
+            mission = plan_and_build(site, args.scheme, options, dynamics=args.dynamics,
+                                     progress=progress if progress.shown else None,
+                                     pass_through_corners=not args.stop_at_every_waypoint,
+                                     second_start=args.second_start)
             params = recommended_params(mission)
             return mission, params, replay_mission(mission, params)
 
-        site, (mission, autopilot_params, flight) = plan_for_time(
-            args.site, airspace, args.cycles, made, lambda m: m[2].report.duration_s,
-            args.buffer_m)
+        with PlanProgress(enabled=False if args.quiet else None) as progress:
+            site, (mission, autopilot_params, flight) = plan_for_time(
+                args.site, airspace, args.cycles, made, lambda m: m[2].report.duration_s,
+                args.buffer_m)
         for line in site.airspace.lines():
             print(f"plan-mission: {line}", file=sys.stderr)
         if args.at and not site.airspace.uas:
@@ -363,7 +368,8 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
             print("plan-mission: --force: writing the unsafe mission", file=sys.stderr)
         files = output_files(mission, args.output, fmt=fmt, report=args.report,
                              geojson=args.geojson, plot=args.plot, params=param_file,
-                             autopilot_params=autopilot_params, flight=flight)
+                             autopilot_params=autopilot_params, flight=flight,
+                             html=args.html, html_map=args.html_map)
         write_outputs(files)
     except UserError as err:
         return report_error("plan-mission", err)

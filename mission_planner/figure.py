@@ -28,7 +28,7 @@ def solution_figure(solution: Solution, mission: Mission | None = None) -> Figur
     """Fig. 3 (a) and (b) of ``solution``; with ``mission``, its exported path and transits."""
     site = solution.site
     q = mission.trajectory_m if mission is not None else solution.trajectory_m
-    fig = Figure(figsize=(12.0, 5.2), layout="constrained")
+    fig = Figure(figsize=(13.0, 5.2), layout="constrained")
     FigureCanvasAgg(fig)
     ax, bx = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.1, 1.0]})
     colours = [f"C{k % 10}" for k in range(site.num_gns)]
@@ -69,7 +69,8 @@ def solution_figure(solution: Solution, mission: Mission | None = None) -> Figur
     ax.set_xlabel("east (m)")
     ax.set_ylabel("north (m)")
     ax.set_title(f"(a) trajectory and scheduling: {site.name}, {solution.scheme}")
-    ax.legend(fontsize=7, loc="best")
+    # beside the map, never on it (inside, "best" still covered the path to a node)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
     ax.grid(alpha=0.3)
 
     n = np.arange(1, len(solution.delta_s) + 1)

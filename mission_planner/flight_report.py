@@ -23,10 +23,10 @@ from typing import Any
 
 from mission_planner.autopilot_params import AutopilotParams, recommended_params
 from mission_planner.mission import Mission
-from validator.flight import resolve_flight
+from validator.flight import Flight, resolve_flight
 from validator.motion.limits import site_limits
 from validator.motion.profile import Profile, flown_params, make_profile
-from validator.replay import TrackReport, replay, score_track
+from validator.replay import Track, TrackReport, replay, score_track
 
 CYCLE_OVERRUN_WARN = 0.10  # warn when the flown cycle is off T by more than this fraction
 PROFILE_FOR = {"ardupilot": "arducopter", "px4": "px4"}
@@ -40,6 +40,8 @@ class FlightCheck:
     params: dict[str, float]
     period_s: float
     report: TrackReport
+    flight: Flight | None = None  # the mission as the validator resolves it, and its track:
+    track: Track | None = None  # what a view draws
 
     @property
     def planned_min_rate_bps_hz(self) -> float | None:
@@ -136,7 +138,7 @@ def replay_mission(
     flight = resolve_flight(mission.plan, site, "mission")
     track = replay(flight, prof, dt_s=dt_s)
     report = score_track(track, flight, site, mission.plan)
-    return FlightCheck(prof, values, site.period_s, report)
+    return FlightCheck(prof, values, site.period_s, report, flight, track)
 
 
 __all__ = ["CYCLE_OVERRUN_WARN", "FlightCheck", "replay_mission"]

@@ -2,6 +2,7 @@
 
     validate-mission PLAN --site SITE [--report OUT] [--replay] [--profile ideal|arducopter|px4]
                      [--params FILE] [--param NAME=VALUE ...] [--dt SECONDS]
+                     [--flown TRACK.csv] [--html OUT.html [--html-map]]
                      [--sitl [--sitl-binary PATH | --sitl-url URL] ...]
                      [--at ISO-8601] [--authorised ZONE ...]
 
@@ -28,10 +29,11 @@ import json
 import math
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 from validator.autopilot.param_file import read_params
 from validator.errors import CommandParser, InputError, UserError, report_error
-from validator.fileio import write_atomic
+from validator.fileio import write_all_atomic
 from validator.mavlink.cli import add_sitl_arguments, run_sitl, split_sitl_url
 from validator.motion.profile import PROFILES, parse_param_overrides
 from validator.replay import TrackReport
@@ -127,6 +129,8 @@ def format_report(v: Validation) -> str:
         flown = v.extra.get("sitl_flight", {})
         who = (f"the built-in model vehicle ({flown.get('profile')} profile): a model, not an "
                "autopilot" if flown.get("builtin") else flown.get("vehicle", "a vehicle"))
+        if "recorded_flight" in v.extra:
+            who = f"the recorded flight {v.extra['recorded_flight']['file']}"
         lines += ["", *_track_lines(f"Flown by {who} ({v.sitl.source})", v.sitl)]
     findings = list(rep.findings) + list(v.param_findings)
     for r in (v.replay, v.sitl):
@@ -184,6 +188,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--authorised", action="append", default=[], metavar="ZONE",
                    help="identifier of a REQ_AUTHORISATION or CONDITIONAL zone the flight is "
                         "authorised for (repeatable)")
+    p.add_argument("--flown", metavar="TRACK.csv",
+                   help="a recorded flight of this plan (as --track writes it; .gz too): "
+                        "scored like a flight and drawn in --html")
+    p.add_argument("--html", metavar="OUT.html",
+                   help="also write an interactive view (one self-contained HTML page: "
+                        "zones, fence, legs, waypoints, the replay and the flown track on a "
+                        "time slider); implies --replay")
+    p.add_argument("--html-map", action="store_true",
+                   help="with --html, draw the view on OpenStreetMap tiles (fetched by the "
+                        "browser when the page opens, so online only; default: local metres)")
     add_sitl_arguments(p)
     return p
 
@@ -196,14 +210,21 @@ def validate_mission_main(argv: Sequence[str] | None = None) -> int:
         print("validate-mission: --json is deprecated: use --report", file=sys.stderr)
     try:
         flying = bool(args.sitl or args.sitl_binary or args.sitl_url)
+        if args.html_map and not args.html:
+            raise InputError("--html-map: only with --html")
+        if args.flown and flying:
+            raise InputError("--flown: a recorded flight, or a flight now (--sitl…), not both")
+        for out in (args.html, report_path, args.track):
+            if out and not Path(out).resolve().parent.is_dir():
+                raise InputError(f"{out}: folder {Path(out).parent} does not exist")
         if args.track and not flying:
             raise InputError("--track: only a flight has a track (add --sitl, --sitl-binary "
                              "or --sitl-url)")
         params = parse_param_overrides(args.param)
         vehicle_params = read_params(args.params) if args.params else None
-        v = validate_mission(args.plan, args.site, replay_flight=args.replay,
+        v = validate_mission(args.plan, args.site, replay_flight=args.replay or bool(args.html),
                              profile=args.profile, params=params or None, dt_s=args.dt,
-                             vehicle_params=vehicle_params,
+                             vehicle_params=vehicle_params, flown_track=args.flown,
                              airspace=AirspaceOptions(parse_at(args.at) if args.at else None,
                                                       authorised=frozenset(args.authorised)))
         if flying:
@@ -211,8 +232,14 @@ def validate_mission_main(argv: Sequence[str] | None = None) -> int:
         if args.track and v.recorded is not None:
             write_track(args.track, v.recorded,
                         (f"plan {args.plan}", f"vehicle {v.extra['sitl_flight']['vehicle']}"))
+        files: dict[Path, str | bytes] = {}
         if report_path:
-            write_atomic(report_path, json.dumps(v.as_dict(), indent=1, allow_nan=False) + "\n")
+            files[Path(report_path)] = json.dumps(v.as_dict(), indent=1, allow_nan=False) + "\n"
+        if args.html:
+            from validator.view import validation_inputs, view_html
+
+            files[Path(args.html)] = view_html(validation_inputs(v), map_background=args.html_map)
+        write_all_atomic(files)
     except (UserError, OSError) as err:
         return report_error("validate-mission", err)
     print(format_report(v))

@@ -21,9 +21,9 @@ from validator.flight import Finding, Flight, resolve_flight
 from validator.motion.limits import site_limits
 from validator.motion.profile import Profile, flown_params, make_profile
 from validator.plan_format import Autopilot, Plan, read_plan
-from validator.replay import TrackReport, replay, score_track
+from validator.replay import Track, TrackReport, replay, score_track
 from validator.site import Site, load_site
-from validator.track_file import RecordedTrack
+from validator.track_file import RecordedTrack, read_track
 from validator.uas_zones.applicability import AirspaceOptions
 
 
@@ -45,6 +45,7 @@ class Validation:
     profile: Profile | None = None
     dt_s: float = 0.05
     replay: TrackReport | None = None
+    replay_track: Track | None = None  # the modelled flight itself, for a view
     sitl: TrackReport | None = None
     recorded: RecordedTrack | None = None  # what the SITL vehicle sent, for --track
     vehicle_params: dict[str, float] = field(default_factory=dict)
@@ -113,6 +114,7 @@ def validate_mission(
     params: dict[str, float] | None = None,
     dt_s: float = 0.05,
     vehicle_params: dict[str, float] | None = None,
+    flown_track: str | Path | None = None,
     airspace: AirspaceOptions | None = None,
 ) -> Validation:
     """Audit ``plan_path`` against ``site_path`` and, with ``replay_flight``, replay it.
@@ -121,7 +123,9 @@ def validate_mission(
     choose the flight model; the track is sampled every ``dt_s`` seconds. ``vehicle_params``
     are the parameters the vehicle will hold (a parameter file): those of the flight model
     replay the flight under ``params``' overrides, and a geofence they leave off or unsafe is
-    flagged in ``param_findings`` (for a plan with a fence). ``airspace`` says when the plan
+    flagged in ``param_findings`` (for a plan with a fence). ``flown_track`` is a recorded
+    flight of the plan (:mod:`validator.track_file`, as ``--track`` writes one): scored into
+    ``sitl`` like a flight flown now, and kept in ``recorded``. ``airspace`` says when the plan
     flies and what it is authorised for: the site's UAS zones are decided for [at, at + the
     plan's replayed duration], and a leg in a zone that applies then is a violation (without a
     time every zone is taken as active). Raises :class:`InputError` for bad input.
@@ -152,6 +156,11 @@ def validate_mission(
         prof = make_profile(name, site_limits(site), merged)
         v.profile = prof
         if flight.legs:
-            track = replay(flight, prof, dt_s=dt_s)
-            v.replay = score_track(track, flight, site, plan)
+            v.replay_track = replay(flight, prof, dt_s=dt_s)
+            v.replay = score_track(v.replay_track, flight, site, plan)
+    if flown_track is not None:
+        v.recorded = read_track(flown_track)
+        track = v.recorded.track(flight, site, source=f"recorded:{Path(flown_track).name}")
+        v.sitl = score_track(track, flight, site, plan)
+        v.extra["recorded_flight"] = {"file": str(flown_track)}
     return v

@@ -27,6 +27,7 @@ from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from types import TracebackType
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -52,6 +53,16 @@ SEARCH_ITERATIONS = 15  # Algorithm 1 iterations per candidate top speed
 BRACKET_REL = 0.05  # the search stops bisecting within 5 % of the overrunning speed
 RAISE_FACTOR = 1.25  # a path that fits at the vehicle's top speed is planned again this much faster
 RAISE_LIMIT = 2.0  # ... up to this multiple of the top speed
+
+
+@runtime_checkable
+class SearchProgress(Protocol):
+    """A ``progress`` callback that also hears which candidate the search runs: Algorithm 1's
+    iterations restart at 1 for each (e.g. :class:`mission_planner.progress.PlanProgress`)."""
+
+    def __call__(self, iteration: int, objective: float) -> None: ...
+
+    def candidate(self, number: int, most: int, speed_mps: float) -> None: ...
 
 
 @dataclass
@@ -301,6 +312,8 @@ def plan_flyable(
         for attempt in range(opt.retime_attempts):
             if attempt + 1 < opt.retime_attempts:
                 ahead.guess(search.likely_next(speed))
+            if isinstance(progress, SearchProgress):
+                progress.candidate(attempt + 1, opt.retime_attempts, speed)
             cand, overrun = ahead.run(speed, progress)
             search.record(speed, cand)
             tries += 1

@@ -81,7 +81,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="trial table format: csv or parquet (needs pyarrow)")
     p4.add_argument("--retry-errors", action="store_true",
                     help="re-run logged trials that ended in an error")
-    p4.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p4.add_argument("--no-progress", "--quiet", action="store_true",
+                    help="no progress bar (trials done, rate, time left; shown only on a "
+                         "terminal)")
     return parser
 
 

@@ -195,7 +195,7 @@ def run_trials(
     executed = 0
     todo_keys = {s.key for s in todo}
     failed = sum(is_failed(done[k]) for k in (s.key for s in wanted) if k not in todo_keys)
-    bar = tqdm(total=len(wanted), initial=len(wanted) - len(todo), unit="trial",
+    bar = tqdm(total=len(wanted), initial=len(wanted) - len(todo), unit="trial", desc="trials",
                disable=None if progress is None else not progress, dynamic_ncols=True,
                smoothing=0.05)
     try:

@@ -151,7 +151,9 @@ def plot_fig3_map(solutions: Sequence[Solution]) -> Figure:
     handles += [Line2D([], [], color=gn_colors[k], marker="o", linestyle="none",
                        markeredgecolor="k", label=f"served: {name}")
                 for k, name in enumerate(site.gn_names)]
-    ax.legend(handles=handles, fontsize=7, loc="best", framealpha=0.85)
+    # below the map, off the data (the insets take its right-hand side)
+    ax.legend(handles=handles, fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.1),
+              ncols=3)
 
     seen: set[int] = set()
     insets: list[tuple[Solution, int, int]] = []
@@ -199,7 +201,7 @@ def plot_fig3_slots(solutions: Sequence[Solution]) -> Figure:
     ax_p.set_xlabel("time slot n")
     for ax in (ax_d, ax_p):
         ax.grid(True, lw=0.3)
-        ax.legend(fontsize=7)
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # off the data
     return fig
 
 
@@ -224,7 +226,7 @@ def _plot_sweeps(summary: Sequence[dict[str, Any]], config: Fig4Config, column: 
         ax.set_xlabel(xlabel)
         ax.grid(True, lw=0.3)
     ax_r.set_ylabel(ylabel)
-    ax_r.legend(fontsize=8)
+    ax_m.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0))  # off the data
     trials = max((r["trials"] for r in summary), default=0)
     fig.suptitle(f"{trials} random sites per point, error bars: 95 % confidence", fontsize=9)
     return fig

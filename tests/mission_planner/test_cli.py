@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import io
 import json
 import math
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,6 +17,7 @@ import mission_planner.optimize
 from mission_planner.cli import plan_mission_main
 from mission_planner.mission import flown_legs, planned_cycle_s
 from mission_planner.optimize.retime import top_speed_mps
+from mission_planner.progress import PlanProgress
 from tests.mission_planner.mavsdk_peer import mavsdk_import
 from tests.mission_planner.solutions import (
     NUDGED_LEG_SLACK_M,
@@ -30,6 +33,7 @@ from validator.plan_format import Autopilot, Cmd, read_plan
 from validator.site import load_site
 from validator.waypoints_format import read_waypoints
 
+SAMPLES = Path(__file__).resolve().parents[2] / "samples"
 SMALL = site_dict(
     name="small",
     uav={"altitude": 30.0, "max_speed": 30.0, "period": 16.0, "slots": 12},
@@ -79,9 +83,9 @@ def test_writes_a_plan_mavsdk_imports(small_run):
     assert plan.firmware_type == Autopilot.ARDUPILOTMEGA and plan.vehicle_type == 2
 
 
-def test_progress_goes_to_stderr(small_run):
+def test_no_progress_when_stderr_is_not_a_terminal(small_run):
     stderr = small_run[3]
-    assert "plan-mission: iteration 1: objective" in stderr
+    assert "iteration" not in stderr and "candidate" not in stderr
     assert "plan-mission: wrote" in stderr
 
 
@@ -343,16 +347,43 @@ def chatty_planner(monkeypatch):
     monkeypatch.setattr(mission_planner.optimize, "plan", fake_plan)
 
 
-def test_progress_in_a_pipe_is_a_few_plain_lines(tmp_path, capsys, chatty_planner):
-    code, err = _run([_write_site(tmp_path, SLOW), "-o", tmp_path / "m.plan"], capsys)
-    lines = [ln for ln in err.splitlines() if "iteration" in ln]
-    assert code == 0
-    assert [ln.split(":")[1].strip() for ln in lines] == ["iteration 1", "iteration 10",
-                                                          "iteration 20"]
+def test_progress_names_the_candidate_its_iterations_belong_to():
+    out = io.StringIO()
+    with PlanProgress(enabled=True, file=out) as progress:
+        progress.candidate(1, 8, 10.0)
+        progress(15, 1.5)
+        progress.candidate(2, 8, 8.25)
+        progress(3, 1.25)
+    shown = out.getvalue()
+    assert "plan-mission: candidate 1 of at most 8 (top speed 10.00 m/s), iteration 15, " \
+           "objective 1.5" in shown
+    assert "candidate 2 of at most 8 (top speed 8.25 m/s), iteration 3, objective 1.25" in shown
+    assert shown.count("\n") <= 1  # one line, rewritten in place
 
 
-def test_quiet_prints_no_progress(tmp_path, capsys, chatty_planner):
-    code, err = _run([_write_site(tmp_path, SLOW), "-o", tmp_path / "m.plan", "--quiet"], capsys)
+def test_the_vehicle_search_reports_each_candidate():
+    from mission_planner.optimize import PlannerOptions, plan
+
+    seen: list[tuple[str, float]] = []
+
+    class Recorder:
+        def __call__(self, iteration: int, objective: float) -> None:
+            seen.append(("iteration", iteration))
+
+        def candidate(self, number: int, most: int, speed_mps: float) -> None:
+            assert most == 8 and speed_mps > 0
+            seen.append(("candidate", number))
+
+    sol = plan(load_site(SAMPLES / "realistic.yaml"), options=PlannerOptions(
+        max_iterations=2, search_ahead=False), progress=Recorder())
+    candidates = [n for what, n in seen if what == "candidate"]
+    assert candidates == list(range(1, sol.notes["speeds_tried"] + 1))
+    assert seen[0] == ("candidate", 1) and ("iteration", 1) in seen
+
+
+@pytest.mark.parametrize("flag", ["--quiet", "--no-progress"])
+def test_quiet_prints_no_progress(tmp_path, capsys, chatty_planner, flag):
+    code, err = _run([_write_site(tmp_path, SLOW), "-o", tmp_path / "m.plan", flag], capsys)
     assert code == 0 and "iteration" not in err and "wrote" in err
 
 
@@ -378,3 +409,19 @@ def test_a_site_faster_than_the_vehicle_is_one_warning_naming_both_speeds(tmp_pa
     params = parse_params((tmp_path / "m.param").read_text())
     assert params["WPNAV_SPEED"] == math.ceil(top * 100.0 - 1e-9)  # what the vehicle reaches
     assert "WPNAV_SPEED" not in err  # within the documented range: no note
+
+
+def test_html_writes_the_view_with_the_replay(tmp_path, capsys, chatty_planner):
+    out = tmp_path / "view.html"
+    code, err = _run([_write_site(tmp_path, SLOW), "-o", tmp_path / "m.plan", "--quiet",
+                      "--html", out], capsys)
+    assert code == 0 and str(out) in err
+    page = out.read_text(encoding="utf-8")
+    assert "Plotly.newPlot" in page and "replay (arducopter): vehicle" in page
+
+
+def test_html_map_needs_html(tmp_path, capsys, chatty_planner):
+    code, err = _run([_write_site(tmp_path, SLOW), "-o", tmp_path / "m.plan", "--html-map"],
+                     capsys)
+    assert code == 2 and "--html-map: only with --html" in err
+    assert not (tmp_path / "m.plan").exists()

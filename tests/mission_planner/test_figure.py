@@ -44,3 +44,30 @@ def test_png_is_the_drawn_figure_at_its_size():
     assert image[..., :3].std() > 0.05
     leg_colour = fig.axes[0].collections[0].get_colors()[0][:3]
     assert np.any(np.all(np.abs(image[..., :3] - leg_colour) < 0.02, axis=-1))
+
+
+def _legend_overlaps_data(fig) -> list[str]:
+    """Names of the axes whose plotting area a legend of the figure covers."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    legends = [lg for ax in fig.axes if (lg := ax.get_legend()) is not None] + fig.legends
+    assert legends, "the figure has no legend"
+    out = []
+    for lg in legends:
+        box = lg.get_window_extent(renderer)
+        out += [ax.get_title() or "axes" for ax in fig.axes
+                if box.overlaps(ax.get_window_extent(renderer))]
+    return out
+
+
+def test_the_legends_stay_off_the_data():
+    from mission_planner.study.plots import plot_fig3_map, plot_fig3_slots
+
+    site = make_site()
+    sol = circle_tour(site)
+    for fig in (solution_figure(sol, build_mission(sol)), plot_fig3_map([sol]),
+                plot_fig3_slots([sol])):
+        assert _legend_overlaps_data(fig) == []

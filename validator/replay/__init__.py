@@ -32,6 +32,7 @@ from validator.replay.throughput import (
     flown_rates,
     planned_leg_times,
     planned_rates,
+    served_samples,
     slot_map,
 )
 from validator.replay.track import Track, replay, track_from_geodetic, track_from_samples
@@ -50,6 +51,7 @@ __all__ = [
     "planned_rates",
     "replay",
     "score_track",
+    "served_samples",
     "slot_map",
     "track_clearances",
     "track_from_geodetic",

@@ -237,3 +237,30 @@ def flown_rates(
     return Throughput(site.gn_names, planned, bits / span, span)
 
 
+
+
+def served_samples(
+    flight: Flight, track: Track, site: Site
+) -> tuple[NDArray[np.int64], NDArray[np.float64]] | str:
+    """Per sample of ``track`` over its flown service cycles: the GN served (-1: none, or
+    outside the cycles) and its instantaneous rate (bps/Hz) at the planned power, the terms
+    :func:`flown_rates` averages; a reason string when the slots cannot be matched."""
+    service = flight.service
+    if service is None or flight.cycle is None:
+        return "no planner metadata (nfzMission) in the plan"
+    smap = slot_map(flight, service)
+    if isinstance(smap, str):
+        return smap
+    window = flight.cycle.window_s(track.leg_start_s, track.leg_reached_s, track.leg_done_s)
+    if window is None:
+        return "the track does not fly a whole service cycle"
+    slot, _ = _sample_slots(flight, track, smap, window)
+    gn = np.where(slot >= 0, service.schedule[np.maximum(slot, 0)], -1)
+    served = gn >= 0
+    alt = np.where(np.isnan(track.alt_m), site.altitude_m, track.alt_m)
+    rate = np.zeros(track.t_s.size)
+    rate[served] = spectral_efficiency(
+        np.column_stack([track.xy_m[served], alt[served]]),
+        np.column_stack([site.gn_xy_m[gn[served]], np.zeros(int(served.sum()))]),
+        0.0, service.power_w[slot[served]], site.beta0, site.noise_w)
+    return gn.astype(np.int64), rate

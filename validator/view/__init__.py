@@ -1,0 +1,21 @@
+"""An interactive view of a mission: plan, zones, fence and flights in one self-contained HTML
+page (plotly), written by ``plan-mission --html`` and ``validate-mission --html``.
+
+- :mod:`.inputs`: what a view shows (:class:`ViewInputs`); optional layers (failsafe paths,
+  wind) are fields other checks fill;
+- :mod:`.layers`: the still map layers as plotly traces;
+- :mod:`.timeline`: the flights on a time slider, the node served and the rates;
+- :mod:`.page`: the figure and the HTML page (:func:`view_html`, :func:`write_view`).
+"""
+
+from validator.view.inputs import (
+    FailsafePath,
+    TrackLayer,
+    ViewInputs,
+    Wind,
+    validation_inputs,
+)
+from validator.view.page import view_figure, view_html, write_view
+
+__all__ = ["FailsafePath", "TrackLayer", "ViewInputs", "Wind", "validation_inputs",
+           "view_figure", "view_html", "write_view"]

@@ -1,0 +1,302 @@
+"""The still layers of a mission view, as plotly trace dicts in local metres: zones and their
+buffers, the fence as uploaded, nodes, home, rally points, the legs coloured by commanded
+speed (transits dashed, apart from the service cycle), the waypoints with what a pilot asks
+of each, flown tracks, failsafe paths.
+
+Each trace carries ``meta.layer`` (``zone``, ``buffer``, ``fence``, ``node``, ``home``,
+``rally``, ``cycle``, ``transit``, ``waypoint``, ``track``, ``failsafe``) so the page, its
+tests and a reader's script can find a layer without counting traces.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from validator.audit import zone_leg_clearances
+from validator.fence_geometry import local_fence
+from validator.plan_format import Cmd
+from validator.replay import slot_map
+from validator.view.inputs import ViewInputs
+
+Trace = dict[str, Any]
+
+ZONE_RED = "#d62728"
+FENCE_ORANGE = "#ff7f0e"
+INCLUSION_BLUE = "#1f77b4"
+# Node colours: a qualitative palette without red, which the zones keep
+NODE_COLOURS = ("#1f77b4", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22",
+                "#7f7f7f", "#ff7f0e", "#393b79")
+TRACK_COLOURS = ("#222222", "#ff00aa", "#00a0a0")
+# Viridis at six stops: the legs' speed colours, and the waypoints' colour bar, which plotly
+# draws from the same name
+_VIRIDIS = ((0.0, (68, 1, 84)), (0.2, (65, 68, 135)), (0.4, (42, 120, 142)),
+            (0.6, (34, 168, 132)), (0.8, (122, 209, 81)), (1.0, (253, 231, 37)))
+CIRCLE_POINTS = 97
+SAME_PLACE_M = 0.5  # waypoints closer than this share one marker
+
+
+def node_colour(k: int) -> str:
+    return NODE_COLOURS[k % len(NODE_COLOURS)]
+
+
+def speed_colour(speed_mps: float, top_mps: float) -> str:
+    """The Viridis colour of ``speed_mps`` on a 0..``top_mps`` scale."""
+    f = min(max(speed_mps / top_mps, 0.0), 1.0) if top_mps > 0 else 0.0
+    for (f0, c0), (f1, c1) in zip(_VIRIDIS, _VIRIDIS[1:], strict=False):
+        if f <= f1:
+            w = (f - f0) / (f1 - f0)
+            r, g, b = (round(a + w * (z - a)) for a, z in zip(c0, c1, strict=True))
+            return f"rgb({r},{g},{b})"
+    return "rgb(253,231,37)"
+
+
+def _xy(points: NDArray[np.float64]) -> dict[str, list[float]]:
+    p = np.asarray(points, dtype=float).reshape(-1, 2)
+    return {"x": np.round(p[:, 0], 2).tolist(), "y": np.round(p[:, 1], 2).tolist()}
+
+
+def _ring(centre: NDArray[np.float64], radius_m: float) -> NDArray[np.float64]:
+    a = np.linspace(0.0, 2.0 * math.pi, CIRCLE_POINTS)
+    return np.column_stack([centre[0] + radius_m * np.cos(a), centre[1] + radius_m * np.sin(a)])
+
+
+def _closed(ring: NDArray[np.float64]) -> NDArray[np.float64]:
+    ring = np.asarray(ring, dtype=float)
+    return ring if np.all(ring[0] == ring[-1]) else np.vstack([ring, ring[:1]])
+
+
+def _outline(layer: str, name: str, ring: NDArray[np.float64], colour: str, *, dash: str,
+             legend: str, first: bool, fill: str | None = None, width: float = 1.2) -> Trace:
+    t: Trace = {"type": "scatter", "mode": "lines", **_xy(_closed(ring)), "name": legend,
+                "legendgroup": legend, "showlegend": first, "meta": {"layer": layer, "of": name},
+                "line": {"color": colour, "width": width, "dash": dash},
+                "hoverinfo": "text", "hovertext": name, "hoveron": "points"}
+    if fill is not None:
+        t.update(fill="toself", fillcolor=fill, line={"color": colour, "width": 0.8})
+    return t
+
+
+def zone_traces(inputs: ViewInputs) -> list[Trace]:
+    """Each zone as published (filled) and grown by the safety buffer (dashed)."""
+    site = inputs.site
+    zones: list[tuple[str, NDArray[np.float64], NDArray[np.float64] | None]] = []
+    for name, c, r in zip(site.nfz_names, site.nfz_xy_m, site.nfz_radius_m, strict=True):
+        zones.append((name, _ring(c, float(r)),
+                      _ring(c, float(r) + site.buffer_m) if site.buffer_m > 0 else None))
+    for z in site.polygon_zones:
+        grown = (np.asarray(z.shape.buffer(site.buffer_m).exterior.coords)
+                 if site.buffer_m > 0 else None)
+        zones.append((z.name, np.asarray(z.vertices_xy_m, dtype=float), grown))
+    out = [_outline("zone", name, ring, ZONE_RED, dash="solid", legend="no-fly zone",
+                    first=i == 0, fill="rgba(214,39,40,0.25)")
+           for i, (name, ring, _) in enumerate(zones)]
+    out += [_outline("buffer", f"{name} + {site.buffer_m:g} m buffer", grown, ZONE_RED,
+                     dash="dash", legend="zone + buffer", first=i == 0)
+            for i, (name, _, grown) in enumerate(zones) if grown is not None]
+    return out
+
+
+def fence_traces(inputs: ViewInputs) -> list[Trace]:
+    """The geofence the plan uploads (``geoFence``), exclusions orange, inclusions blue."""
+    fence = local_fence(inputs.plan, inputs.site.frame)
+    shapes: list[tuple[str, NDArray[np.float64], bool]] = []
+    for i, (c, r, inclusion) in enumerate(fence.circles):
+        shapes.append((f"fence circle {i + 1}, radius {r:.1f} m", _ring(c, r), inclusion))
+    for i, (poly, inclusion) in enumerate(fence.polygons):
+        ring = np.asarray(poly.exterior.coords, dtype=float)
+        shapes.append((f"fence polygon {i + 1}, {len(ring) - 1} vertices", ring, inclusion))
+    out: list[Trace] = []
+    seen: set[bool] = set()
+    for name, ring, inclusion in shapes:
+        legend = "inclusion fence" if inclusion else "exclusion fence (uploaded)"
+        out.append(_outline("fence", name, ring, INCLUSION_BLUE if inclusion else FENCE_ORANGE,
+                            dash="dot", legend=legend, first=inclusion not in seen, width=2.0))
+        seen.add(inclusion)
+    return out
+
+
+def point_traces(inputs: ViewInputs) -> list[Trace]:
+    """Nodes (triangles, named), home (square) and the rally points (diamonds)."""
+    site, plan = inputs.site, inputs.plan
+    home = site.frame.to_local(plan.home_lat_deg, plan.home_lon_deg)
+    out: list[Trace] = [{
+        "type": "scatter", "mode": "markers+text", **_xy(site.gn_xy_m), "name": "ground nodes",
+        "text": list(site.gn_names), "textposition": "top center", "meta": {"layer": "node"},
+        "marker": {"symbol": "triangle-up", "size": 13, "line": {"width": 1, "color": "black"},
+                   "color": [node_colour(k) for k in range(site.num_gns)]},
+        "hovertemplate": "%{text}<br>%{x:.0f} m E, %{y:.0f} m N<extra></extra>",
+    }, {
+        "type": "scatter", "mode": "markers", **_xy(home), "name": "home",
+        "meta": {"layer": "home"},
+        "marker": {"symbol": "square", "size": 11, "color": "black"},
+        "hovertemplate": "home<br>%{x:.0f} m E, %{y:.0f} m N<extra></extra>",
+    }]
+    if plan.rally:
+        rally = site.frame.to_local([p[0] for p in plan.rally], [p[1] for p in plan.rally])
+        out.append({"type": "scatter", "mode": "markers", **_xy(rally), "name": "rally points",
+                    "meta": {"layer": "rally"},
+                    "marker": {"symbol": "diamond-open", "size": 14, "color": "black",
+                               "line": {"width": 2}},
+                    "hovertemplate": "rally point<br>%{x:.0f} m E, %{y:.0f} m N<extra></extra>"})
+    return out
+
+
+def cycle_legs(inputs: ViewInputs) -> range:
+    """Indices of the legs flown in the service cycles (the rest are transits)."""
+    c = inputs.flight.cycle
+    if c is None:
+        return range(0)
+    return range(c.start_leg + 1 if c.start_at_arrival else c.start_leg, c.end_leg + 1)
+
+
+def _top_speed_mps(inputs: ViewInputs) -> float:
+    speeds = [leg.speed_mps for leg in inputs.flight.legs if leg.speed_mps is not None]
+    return max([inputs.site.max_speed_mps, *speeds])
+
+
+def leg_traces(inputs: ViewInputs) -> list[Trace]:
+    """One line a leg, coloured by its commanded speed; transits dashed."""
+    top = _top_speed_mps(inputs)
+    cycle = set(cycle_legs(inputs))
+    out: list[Trace] = []
+    shown: set[str] = set()
+    for k, leg in enumerate(inputs.flight.legs):
+        if leg.length_m < 0.01:  # takeoff and landing: vertical
+            continue
+        layer = "cycle" if k in cycle else "transit"
+        legend = "service cycle (colour: commanded speed)" if layer == "cycle" else "transits"
+        out.append({
+            "type": "scatter", "mode": "lines", **_xy(np.stack([leg.start_xy_m, leg.end_xy_m])),
+            "name": legend, "legendgroup": layer, "showlegend": layer not in shown,
+            "meta": {"layer": layer, "leg": k},
+            "line": {"color": speed_colour(leg.speed_mps or top, top), "width": 3.5,
+                     "dash": "solid" if layer == "cycle" else "dash"},
+            "hoverinfo": "skip",  # the waypoint at its end tells speed and more
+        })
+        shown.add(layer)
+    return out
+
+
+def _slot_notes(inputs: ViewInputs) -> dict[int, str]:
+    """Per leg: the planned slots it flies and holds, and their times in the cycle."""
+    service = inputs.flight.service
+    if service is None:
+        return {}
+    sm = slot_map(inputs.flight, service)
+    if isinstance(sm, str):
+        return {}
+    ends = np.concatenate([[0.0], np.cumsum(service.delta_s)])
+    names = inputs.site.gn_names
+    out: dict[int, str] = {}
+    for k in set(sm.moving) | set(sm.hold):
+        parts = []
+        for what, rows in (("flies", sm.moving.get(k)), ("holds", sm.hold.get(k))):
+            if rows is None or not rows.size:
+                continue
+            n = rows[:, 0].astype(int)
+            gns = sorted({names[g] for g in service.schedule[n] if g >= 0})
+            which = f"slot {n[0] + 1}" if n.size == 1 else f"slots {n[0] + 1}-{n[-1] + 1}"
+            parts.append(f"{what} {which} (t {ends[n[0]]:.1f}-"
+                         f"{ends[n[-1] + 1]:.1f} s of T, serving {', '.join(gns) or 'nobody'})")
+        out[k] = "<br>".join(parts)
+    return out
+
+
+def waypoint_trace(inputs: ViewInputs) -> Trace:
+    """One marker per mission item the vehicle flies to, coloured by the speed it is flown
+    at; its hover: item, command, speed, hold, planned slots and times, clearance."""
+    flight, plan, site = inputs.flight, inputs.plan, inputs.site
+    clear = zone_leg_clearances(flight, site)
+    notes = _slot_notes(inputs)
+    reached = inputs.tracks[0].track.leg_reached_s if inputs.tracks else None
+    first: dict[int, list[int]] = {}
+    for k, leg in enumerate(flight.legs):
+        first.setdefault(leg.item, []).append(k)
+    # Items at one place (a cycle closing where it began, takeoff and landing at home) share
+    # a marker, so hovering it tells all of them
+    pts: list[NDArray[np.float64]] = []
+    texts: list[list[str]] = []
+    items: list[list[int]] = []
+    colours: list[float] = []
+    top = _top_speed_mps(inputs)
+    for item, legs in first.items():
+        k = legs[0]
+        leg = flight.legs[k]
+        try:
+            command = Cmd(plan.items[item].command).name
+        except (ValueError, IndexError):
+            command = str(plan.items[item].command) if item < len(plan.items) else "?"
+        lines = [f"<b>item {item}</b>: {command}",
+                 "speed " + ("autopilot default" if leg.speed_mps is None
+                             else f"{leg.speed_mps:.2f} m/s") + f", hold {leg.hold_s:g} s"]
+        if len(legs) > 1:
+            lines.append(f"flown {len(legs)} times (DO_JUMP)")
+        if k in notes:
+            lines.append(notes[k])
+        if clear.shape[1]:
+            z = int(np.argmin(clear[k]))
+            lines.append(f"clearance {clear[k, z]:.2f} m from {site.zone_names[z]} "
+                         f"(buffer {site.buffer_m:g} m)")
+        if reached is not None and k < reached.size and np.isfinite(reached[k]):
+            lines.append(f"{inputs.tracks[0].name}: reached at t = {reached[k]:.1f} s")
+        at = next((i for i, p in enumerate(pts) if np.hypot(*(p - leg.end_xy_m)) < SAME_PLACE_M),
+                  None)
+        if at is None:
+            pts.append(leg.end_xy_m)
+            texts.append([])
+            items.append([])
+            colours.append(leg.speed_mps if leg.speed_mps is not None else top)
+            at = len(pts) - 1
+        texts[at].append("<br>".join(lines))
+        items[at].append(item)
+    return {
+        "type": "scatter", "mode": "markers", **_xy(np.asarray(pts).reshape(-1, 2)),
+        "name": "waypoints", "meta": {"layer": "waypoint", "items": items},
+        "uid": "waypoints", "hovertext": ["<br>—<br>".join(t) for t in texts],
+        "hoverinfo": "text",
+        "marker": {"size": 10, "color": [round(c, 2) for c in colours], "colorscale": "Viridis",
+                   "cmin": 0.0, "cmax": top, "line": {"width": 1.5, "color": "black"},
+                   "colorbar": {"title": {"text": "commanded<br>speed (m/s)"}, "x": 0.565,
+                                "xanchor": "left", "len": 0.5, "y": 0.72,
+                                "thickness": 12}},
+    }
+
+
+def track_traces(inputs: ViewInputs, step: int = 5) -> list[Trace]:
+    """Each flight as a thin line (every ``step``-th sample: 4 Hz of a 20 Hz replay)."""
+    out = []
+    for i, layer in enumerate(inputs.tracks):
+        xy = layer.track.xy_m[::step]
+        if layer.track.xy_m.shape[0] and (layer.track.xy_m.shape[0] - 1) % step:
+            xy = np.vstack([xy, layer.track.xy_m[-1:]])
+        out.append({"type": "scatter", "mode": "lines", **_xy(xy), "name": layer.name,
+                    "meta": {"layer": "track", "track": i}, "hoverinfo": "skip",
+                    "line": {"color": TRACK_COLOURS[i % len(TRACK_COLOURS)], "width": 1.2},
+                    "opacity": 0.7})
+    return out
+
+
+def failsafe_traces(inputs: ViewInputs) -> list[Trace]:
+    """The failsafe paths an audit checked: green when they held, red when not."""
+    out = []
+    for i, path in enumerate(inputs.failsafe_paths):
+        legend = "failsafe path" if path.ok else "failsafe path (failed)"
+        out.append({"type": "scatter", "mode": "lines", **_xy(path.xy_m), "name": legend,
+                    "legendgroup": legend, "showlegend": all(
+                        p.ok != path.ok for p in inputs.failsafe_paths[:i]),
+                    "meta": {"layer": "failsafe"}, "hoverinfo": "text",
+                    "hovertext": path.name + (f": {path.note}" if path.note else ""),
+                    "line": {"color": "#2ca02c" if path.ok else ZONE_RED, "width": 1.5,
+                             "dash": "dashdot"}})
+    return out
+
+
+def map_traces(inputs: ViewInputs) -> list[Trace]:
+    """Every still layer of the map, bottom to top."""
+    return [*zone_traces(inputs), *fence_traces(inputs), *failsafe_traces(inputs),
+            *leg_traces(inputs), *track_traces(inputs), waypoint_trace(inputs),
+            *point_traces(inputs)]
