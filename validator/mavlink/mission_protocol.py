@@ -14,7 +14,7 @@ import re
 import time
 from typing import Any
 
-from validator.mavlink.connection import Connection, LinkError
+from validator.mavlink.connection import Connection, LinkClosed, LinkError
 from validator.mavlink.wire import MissionType, WireItem, mavlink, mission_result_name
 
 TRANSFER_ATTEMPTS = 5  # whole-transfer restarts when the vehicle loses its place
@@ -120,11 +120,16 @@ def upload_list(link: Connection, items: tuple[WireItem, ...],
                     items[count - 1].send(link.mav, ts, tc)
                     final_resends += 1
                 last_send = now
-            msg = link.recv(
-                (*_MISSION_REQUESTS, "MISSION_ACK"),
-                min(last_send + link.retry_s, last_progress + link.timeout_s),
-                lambda m: getattr(m, "mission_type", 0) == int(mission_type),
-            )
+            try:
+                msg = link.recv(
+                    (*_MISSION_REQUESTS, "MISSION_ACK"),
+                    min(last_send + link.retry_s, last_progress + link.timeout_s),
+                    lambda m: getattr(m, "mission_type", 0) == int(mission_type),
+                )
+            except LinkClosed as err:
+                where = f"after item {highest} of {count}" if highest >= 0 else "at its start"
+                raise LinkError(f"{label} upload: {err} {where}; upload incomplete, upload "
+                                "again once it is back") from None
             if msg is None:
                 continue
             if msg.get_type() == "MISSION_ACK":
