@@ -5,7 +5,6 @@ with one line; it never reports a mission the vehicle does not hold."""
 from __future__ import annotations
 
 import socket
-import time
 
 import pytest
 
