@@ -81,6 +81,7 @@ def test_gaps_are_found_in_the_recorded_times():
     assert track_gaps([1.0]) == []
 
 
+@pytest.mark.realtime  # the cut is timed on the wall clock, the flight too
 def test_the_vehicle_flies_on_through_a_gap_and_the_report_says_what_the_track_misses(
         files, relayed):
     vehicle, relay = relayed
@@ -96,6 +97,7 @@ def test_the_vehicle_flies_on_through_a_gap_and_the_report_says_what_the_track_m
     assert missed_s > 0.5 * 1.5 * SPEEDUP  # most of the cut, in vehicle seconds
 
 
+@pytest.mark.realtime  # the cut is timed on the wall clock, the flight too
 def test_a_link_down_for_good_ends_the_run_with_a_verdict(files, relayed, capsys):
     vehicle, relay = relayed
     cut = cut_in_auto(vehicle, relay, after_s=1.0, for_s=None)
@@ -112,6 +114,7 @@ def test_a_link_down_for_good_ends_the_run_with_a_verdict(files, relayed, capsys
     assert "link lost" in capsys.readouterr().out
 
 
+@pytest.mark.realtime  # the cut is timed on the wall clock, the flight too
 def test_a_link_that_comes_back_too_late_lands_the_vehicle(files, relayed):
     vehicle, relay = relayed
     cut = cut_in_auto(vehicle, relay, after_s=1.0, for_s=4.5)  # > the 3 s timeout, < two
