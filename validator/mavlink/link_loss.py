@@ -30,18 +30,20 @@ PARAM_PATIENCE_S = 2.0
 COMMAND_EVERY_S = 1.0  # LAND is repeated this often while the link is down
 
 # What each autopilot does when it stops hearing the ground station, by the value of its
-# parameter (ArduCopter 4.5 FS_GCS_ENABLE after FS_GCS_TIMEOUT s, default 0 and 5 s; PX4 1.15
-# NAV_DLL_ACT after COM_DL_LOSS_T s, default 0 and 10 s).
+# parameter (ArduCopter 4.5 FS_GCS_ENABLE after FS_GCS_TIMEOUT s, default 0 and 5 s, where
+# FS_OPTIONS bit 1 keeps a vehicle in AUTO on its mission; PX4 1.15 NAV_DLL_ACT after
+# COM_DL_LOSS_T s, default 0 and 10 s).
 ARDUCOPTER_GCS_FAILSAFE = {
     0: "its ground-station failsafe is off: it flies the mission on to its end",
     1: "it flies RTL: a straight line home at RTL_ALT, which the audit has not checked",
-    2: "it flies the mission on in AUTO (else RTL)",
+    2: "it flies RTL (value 2 is read as 1 since ArduCopter 4.0)",
     3: "it flies SmartRTL back along its flown path, else RTL",
     4: "it flies SmartRTL back along its flown path, else lands",
     5: "it lands where it is",
     6: "it flies to the mission's DO_LAND_START, else RTL",
     7: "it brakes and holds, else lands",
 }
+ARDUCOPTER_CONTINUE_IN_AUTO = 1 << 1  # FS_OPTIONS: "Continue if in Auto on GCS failsafe"
 PX4_GCS_FAILSAFE = {
     0: "its data-link failsafe is off: it flies the mission on to its end",
     1: "it holds where it is",
@@ -78,9 +80,14 @@ def gcs_failsafe(link: Connection, patience_s: float = PARAM_PATIENCE_S) -> str:
     action = table.get(int(value), f"{name} {int(value)}: an action this tool does not know")
     if int(value) == 0:
         return f"{action} ({name} 0)"
+    if not link.vehicle.is_px4:
+        options = _read_quickly(link, "FS_OPTIONS", patience_s)
+        if options is not None and int(options) & ARDUCOPTER_CONTINUE_IN_AUTO:
+            action = ("it flies the mission on in AUTO (FS_OPTIONS continues it), "
+                      f"else {action.removeprefix('it ')}")
     after = _read_quickly(link, after_name, patience_s)
-    when = f" after {after:g} s without us" if after is not None else ""
-    return f"{action}{when} ({name} {int(value)})"
+    when = f"after {after:g} s without us, " if after is not None else ""
+    return f"{when}{action} ({name} {int(value)})"
 
 
 def land_mode(modes: ModeNumbers) -> int:

@@ -16,6 +16,7 @@ from tests.validator.mavlink.sitl_binaries import REPO, plan_for, sitl_binary
 from validator.autopilot.param_file import read_params
 from validator.mavlink.driver import wait_until_ready
 from validator.mavlink.link import Link, LinkError, upload_plan, upload_to, verify_lists
+from validator.mavlink.link_loss import gcs_failsafe
 from validator.mavlink.lossy_relay import LinkFaults, LossyRelay
 from validator.mavlink.sitl_process import ardupilot_sitl, find_defaults
 from validator.mavlink.wire import MissionType, mavlink, plan_to_wire
@@ -134,3 +135,14 @@ def test_a_reboot_mid_upload_behind_the_relay_never_reports_what_it_does_not_hol
         assert holds(sitl_url, plan)
     upload_plan(plan, sitl_url, timeout_s=30, params=params)
     assert holds(sitl_url, plan)
+
+
+def test_the_lost_link_verdict_reads_arducopters_own_failsafe(sitl_url):
+    with Link(sitl_url, timeout_s=10) as link:
+        assert gcs_failsafe(link).endswith("(FS_GCS_ENABLE 0)")  # the autotest defaults
+        link.set_param("FS_GCS_ENABLE", 5)
+        try:
+            assert gcs_failsafe(link) == ("after 5 s without us, it lands where it is "
+                                          "(FS_GCS_ENABLE 5)")
+        finally:
+            link.set_param("FS_GCS_ENABLE", 0)
