@@ -186,3 +186,59 @@ def test_a_link_that_stays_down_fails_the_upload_in_one_line(plan, start_vehicle
             with pytest.raises(LinkError, match=r"^mission upload: vehicle stopped answering"):
                 upload_to(link, plan)
     assert held_lists(vehicle) == before
+
+
+def test_a_tcp_vehicle_is_relayed_packet_by_packet_and_reached_again_after_it_closes():
+    """ArduPilot SITL's SERIAL0: a byte stream (here sent in halves), closed by a reboot."""
+    server = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    server.bind(("127.0.0.1", 0))
+    server.listen(2)
+    server.settimeout(5.0)
+    gcs = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    gcs.bind(("127.0.0.1", 0))
+    gcs.settimeout(5.0)
+    with LossyRelay(f"tcp:127.0.0.1:{server.getsockname()[1]}", LinkFaults()) as relay:
+        first, _ = server.accept()
+        gcs.sendto(packet(1), ("127.0.0.1", relay.port))  # the relay learns where we are
+        first.settimeout(5.0)
+        assert first.recv(1000) == packet(1)
+        a, b = packet(2), packet(3)
+        first.sendall((a + b)[:7])
+        first.sendall((a + b)[7:])
+        assert [gcs.recv(1000), gcs.recv(1000)] == [a, b]  # one datagram per packet
+        first.close()  # the vehicle reboots
+        second, _ = server.accept()  # the relay connects again
+        second.sendall(packet(4))
+        assert gcs.recv(1000) == packet(4)
+        second.close()
+    server.close()
+    gcs.close()
+
+
+def test_a_vehicle_that_sends_first_is_relayed_from_udpin():
+    """PX4's onboard link sends to a port the ground station listens on."""
+    probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    probe.bind(("127.0.0.1", 0))
+    port = probe.getsockname()[1]
+    probe.close()
+    vehicle = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    vehicle.settimeout(5.0)
+    gcs = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    gcs.settimeout(5.0)
+    with LossyRelay(f"udpin:127.0.0.1:{port}", LinkFaults()) as relay:
+        gcs.sendto(packet(1), ("127.0.0.1", relay.port))
+        vehicle.sendto(packet(2), ("127.0.0.1", port))
+        assert gcs.recv(1000) == packet(2)
+        gcs.sendto(packet(3), ("127.0.0.1", relay.port))
+        assert vehicle.recv(1000) == packet(3)  # answered where the vehicle sent from
+    vehicle.close()
+    gcs.close()
+
+
+def test_the_command_relays_for_its_duration_and_says_what_it_did(capsys):
+    assert main(["--upstream", "udpout:127.0.0.1:9", "--loss", "0.1", "--duration", "0.3"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("relaying udpout:127.0.0.1:") and out[0].endswith(
+        "<-> udpout:127.0.0.1:9 for 0.3 s")
+    assert out[1] == ("to vehicle: 0 passed, 0 dropped; to ground station: 0 passed, "
+                      "0 dropped")
