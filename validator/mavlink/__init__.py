@@ -3,12 +3,13 @@
 The wire format of a plan (:mod:`~validator.mavlink.wire`, :mod:`~validator.mavlink.storage`);
 a ground station's connection (:mod:`~validator.mavlink.connection`), mission and parameter
 protocols (:mod:`~validator.mavlink.mission_protocol`, :mod:`~validator.mavlink.param_protocol`)
-and their use (:mod:`~validator.mavlink.link`), signed with :mod:`~validator.mavlink.signing`;
+and their use (:mod:`~validator.mavlink.link`), signed with :mod:`~validator.mavlink.signing`,
+tried on a bad link with :mod:`~validator.mavlink.lossy_relay`;
 a simulated ArduCopter (:mod:`validator.mavlink.sim`, flying
 :mod:`~validator.mavlink.autoflight`); flying a plan on any vehicle
 (:mod:`~validator.mavlink.driver`, :mod:`~validator.mavlink.modes`,
-:mod:`~validator.mavlink.telemetry`); real SITL binaries (:mod:`~validator.mavlink.sitl_process`)
-and the commands (:mod:`~validator.mavlink.cli`).
+:mod:`~validator.mavlink.telemetry`, :mod:`~validator.mavlink.link_loss`); real SITL
+binaries (:mod:`~validator.mavlink.sitl_process`) and the commands (:mod:`~validator.mavlink.cli`).
 """
 
 import re

@@ -9,6 +9,8 @@ vehicle has not answered for ``timeout_s`` fails with :class:`LinkError`; nothin
 
 from __future__ import annotations
 
+import contextlib
+import io
 import select
 import time
 from collections import deque
@@ -34,6 +36,11 @@ class LinkError(UserError):
     Not bad input, but something the user can act on: commands report it like one, on one line
     with exit status 2 (:class:`~validator.errors.UserError`).
     """
+
+
+class LinkClosed(LinkError):
+    """The vehicle closed a TCP connection: it rebooted, or its process stopped. Nothing sent
+    after that reached it; a new connection (a new command) can reach it again."""
 
 
 @dataclass(frozen=True)
@@ -72,13 +79,14 @@ def open_connection(url: str, *, source_system: int, source_component: int,
     """A pymavlink connection for ``url``; failures to open raise :class:`LinkError`."""
     _check_url(url)
     try:
-        return mavutil.mavlink_connection(
-            url,
-            source_system=source_system,
-            source_component=source_component,
-            autoreconnect=False,
-            retries=max(0, int(timeout_s) - 1),
-        )
+        with contextlib.redirect_stdout(io.StringIO()):  # pymavlink prints each TCP retry
+            return mavutil.mavlink_connection(
+                url,
+                source_system=source_system,
+                source_component=source_component,
+                autoreconnect=False,
+                retries=max(0, int(timeout_s) - 1),
+            )
     except Exception as err:  # pymavlink raises OSError, ValueError, SerialException...
         raise LinkError(f"--connect {url}: cannot open ({err})") from None
 
@@ -118,6 +126,10 @@ class Connection:
         self.conn = open_connection(url, source_system=source_system,
                                     source_component=source_component, timeout_s=timeout_s)
         self.mav = self.conn.mav
+        self.closed = False  # the vehicle closed the TCP connection
+        if hasattr(self.conn, "handle_eof"):
+            # pymavlink prints a line and retries at every read of a closed TCP socket
+            self.conn.handle_eof = self.conn.handle_disconnect = self._peer_closed
         # with a key: everything sent is signed, everything unsigned or signed otherwise is
         # refused, and counted here to explain a vehicle that seems silent
         self.refused: RefusedTraffic | None = None
@@ -150,6 +162,9 @@ class Connection:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
+    def _peer_closed(self) -> None:
+        self.closed = True
+
     def _keep_statustext(self, msg: Any) -> None:
         if msg.get_type() == "STATUSTEXT":
             self.statustexts.append(str(msg.text))
@@ -172,8 +187,15 @@ class Connection:
         misses nothing while a request waits for its answer."""
         wanted = set(types)
         while True:
+            if self.closed:
+                raise LinkClosed("the vehicle closed the connection (it rebooted or stopped)")
             self._heartbeat_if_due()
-            msg = self.conn.recv_msg()
+            try:
+                msg = self.conn.recv_msg()
+            except OSError as err:  # a TCP reset: pymavlink re-raises it after handle_disconnect
+                if self.closed:
+                    continue
+                raise LinkError(f"--connect {self.url}: {err.strerror or err}") from None
             if msg is None:
                 remaining = deadline - time.monotonic()
                 if remaining <= 0:

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 from validator.flight import Finding, Flight
 from validator.mavlink.connection import LinkError, command_name
 from validator.mavlink.link import Link, fence_problems, upload_to
+from validator.mavlink.link_loss import after_link_loss, gcs_failsafe
 from validator.mavlink.modes import (
     ARDUCOPTER_MODES,
     PX4_MODES,
@@ -38,7 +39,13 @@ from validator.mavlink.modes import (
     mode_name,
     modes_for,
 )
-from validator.mavlink.telemetry import Recorder, Telemetry, recorded_track, telemetry_track
+from validator.mavlink.telemetry import (
+    LinkLost,
+    Recorder,
+    Telemetry,
+    recorded_track,
+    telemetry_track,
+)
 from validator.mavlink.wire import mavlink
 from validator.motion.profile import Profile
 from validator.plan_format import Cmd, Plan
@@ -74,6 +81,7 @@ READY_PATIENCE_S = 120.0  # wall seconds for a freshly started SITL to pass its 
 # PX4 reports its pre-arm bit healthy before the estimator has a position (measured on SIH):
 # it sends no GLOBAL_POSITION_INT until then, ~30 vehicle seconds after start.
 POSITION_PATIENCE_S = ARM_PATIENCE_S
+LAND_RECORD_S = 180.0  # vehicle seconds of a LAND after a lost link that are still recorded
 TELEMETRY_HZ = 20.0
 MISSION_CURRENT_HZ = 10.0  # the item changes are the timing signal: MISSION_ITEM_REACHED is not
 
@@ -136,8 +144,13 @@ def fly_mission(
 ) -> Telemetry:
     """Fly the mission the vehicle holds (uploaded from ``plan``) and record it.
 
-    ``time_limit_s`` bounds the mission in vehicle seconds from MISSION_START. Raises
-    :class:`LinkError` when the vehicle refuses a step or falls silent for ``link.timeout_s``.
+    ``time_limit_s`` bounds the mission in vehicle seconds from MISSION_START. The vehicle
+    flies on through link gaps (the track misses them: :meth:`Telemetry.gaps`). A link silent
+    for ``link.timeout_s`` once the vehicle is armed is lost: LAND is commanded for another
+    timeout (:func:`~validator.mavlink.link_loss.after_link_loss`) and the recording ends,
+    its verdict in :attr:`Telemetry.link_lost` (raised as :class:`LinkError` before the
+    mission started). Raises :class:`LinkError` when the vehicle refuses a step, or falls
+    silent before arming.
     """
     say = progress or (lambda _text: None)
     modes = modes_for(link)
@@ -148,10 +161,38 @@ def fly_mission(
     if not rec.pump(time.monotonic() + position_patience_s, lambda: bool(rec.rows)):
         raise LinkError(f"the vehicle sent no GLOBAL_POSITION_INT within "
                         f"{position_patience_s:g} s")
-    if modes.px4:
-        takeoff_s = start_s = _start_px4_mission(link, rec, modes, say)
-    else:
-        takeoff_s, start_s = _start_ardupilot_mission(link, rec, modes, alt, say)
+    own_failsafe = gcs_failsafe(link)  # read while the link is up: said if it goes down
+    takeoff_s = start_s = math.nan
+    try:
+        if modes.px4:
+            takeoff_s = start_s = _start_px4_mission(link, rec, modes, say)
+        else:
+            takeoff_s, start_s = _start_ardupilot_mission(link, rec, modes, alt, say)
+        reason = _record_mission(link, rec, plan, modes, time_limit_s, start_s)
+    except LinkError as err:
+        if not (isinstance(err, LinkLost) or time.monotonic() - rec.last_heard
+                >= link.timeout_s):
+            raise  # the vehicle answers: a refusal, not a lost link
+        landed, verdict = after_link_loss(link, modes, own_failsafe, say)
+        if landed:
+            try:  # record the descent too: it is part of the flight
+                rec.pump_vehicle_time(LAND_RECORD_S, lambda: not rec.armed)
+            except LinkLost:
+                pass
+        when = (f" {rec.t_s - start_s:.1f} s into the mission"
+                if math.isfinite(start_s) and math.isfinite(rec.t_s) else "")
+        text = f"link lost{when} ({err}): {verdict}"
+        if not math.isfinite(start_s):
+            raise LinkError(text) from None
+        say(text)
+        return rec.telemetry(takeoff_s, start_s, "link lost", link_lost=text)
+    say(f"recorded {len(rec.rows)} samples: {reason}")
+    return rec.telemetry(takeoff_s, start_s, reason)
+
+
+def _record_mission(link: Link, rec: Recorder, plan: Plan, modes: ModeNumbers,
+                    time_limit_s: float, start_s: float) -> str:
+    """Record the mission from ``start_s`` until it ends or ``time_limit_s``; why it ended."""
     nav = [i for i, it in enumerate(plan.items) if 16 <= it.command < 100]
     last_seq = (nav[-1] if nav else len(plan.items) - 1) + (1 if link.vehicle.is_ardupilot else 0)
     flown = {"airborne": False}
@@ -165,24 +206,21 @@ def fly_mission(
             return True
         return any(seq == last_seq for _, seq in rec.reached)
 
-    if rec.pump_vehicle_time(time_limit_s, finished, since_s=start_s):
-        if modes.px4 and not rec.armed and not rec.airborne:
-            # PX4 disarms COM_DISARM_PRFLT seconds after arming when it never takes off
-            said = [t for t in link.statustexts][-3:]
-            raise LinkError("the vehicle disarmed without taking off"
-                            + (f" (last: {'; '.join(said)})" if said else ""))
-        if rec.armed and plan.items[nav[-1] if nav else -1].command in LANDING_COMMANDS:
-            # the last item lands: ArduCopter reports its completion just before the disarm,
-            # PX4 when the descent starts (then MPC_LAND_SPEED, ~0.7 m/s, near the ground)
-            wait_s = DISARM_WAIT_S
-            if modes.px4 and rec.rows:
-                wait_s += max(float(rec.rows[-1][3]), 0.0) / PX4_MIN_DESCENT_MPS
-            rec.pump_vehicle_time(wait_s, lambda: not rec.armed)
-        reason = "landed" if not rec.armed else "mission complete"
-    else:
-        reason = f"time limit ({time_limit_s:g} s)"
-    say(f"recorded {len(rec.rows)} samples: {reason}")
-    return rec.telemetry(takeoff_s, start_s, reason)
+    if not rec.pump_vehicle_time(time_limit_s, finished, since_s=start_s):
+        return f"time limit ({time_limit_s:g} s)"
+    if modes.px4 and not rec.armed and not rec.airborne:
+        # PX4 disarms COM_DISARM_PRFLT seconds after arming when it never takes off
+        said = [t for t in link.statustexts][-3:]
+        raise LinkError("the vehicle disarmed without taking off"
+                        + (f" (last: {'; '.join(said)})" if said else ""))
+    if rec.armed and plan.items[nav[-1] if nav else -1].command in LANDING_COMMANDS:
+        # the last item lands: ArduCopter reports its completion just before the disarm,
+        # PX4 when the descent starts (then MPC_LAND_SPEED, ~0.7 m/s, near the ground)
+        wait_s = DISARM_WAIT_S
+        if modes.px4 and rec.rows:
+            wait_s += max(float(rec.rows[-1][3]), 0.0) / PX4_MIN_DESCENT_MPS
+        rec.pump_vehicle_time(wait_s, lambda: not rec.armed)
+    return "landed" if not rec.armed else "mission complete"
 
 
 def _start_ardupilot_mission(link: Link, rec: Recorder, modes: ModeNumbers, alt: float,
@@ -311,12 +349,34 @@ def fly_and_score(
     extra += [Finding("warning", f"the vehicle left the mission for {mode} at "
                                  f"{t - telemetry.mission_start_s:.1f} s into it", None)
               for t, mode in telemetry.mode_changes]
+    extra += link_findings(telemetry)
     if telemetry.end_reason.startswith("time limit"):
         extra.append(Finding("warning", f"the flight was cut at the {telemetry.end_reason}",
                              None))
     if extra:
         report = dataclasses.replace(report, findings=(*report.findings, *extra))
     return SitlResult(report, telemetry, up.summary(), vehicle, ardupilot)
+
+
+def link_findings(telemetry: Telemetry) -> list[Finding]:
+    """What a bad link took from the recorded flight: the gaps in its track (a warning: the
+    vehicle flew on, the track runs straight from the last report before a gap to the first
+    after it), and a link lost for good (a violation: the flight was not followed to its
+    end)."""
+    out: list[Finding] = []
+    gaps = telemetry.gaps()
+    if gaps:
+        start, longest = max(gaps, key=lambda g: g[1])
+        into = start - telemetry.flight_start_s
+        out.append(Finding("warning", (
+            f"the link dropped {len(gaps)} time(s) in flight: the track misses "
+            f"{sum(g[1] for g in gaps):.1f} s (longest {longest:.1f} s, {into:.1f} s after the "
+            "takeoff) and is scored there as a straight line between the reports either side"),
+            None))
+    if telemetry.link_lost:
+        out.append(Finding("violation", f"{telemetry.link_lost}; the flight was not followed "
+                                        "to its end", None))
+    return out
 
 
 @contextmanager

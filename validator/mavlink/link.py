@@ -38,6 +38,7 @@ from validator.mavlink.mission_protocol import (
     RESENDS_BEFORE_RESTART,
     RESTART_AFTER_S,
     TRANSFER_ATTEMPTS,
+    UnconfirmedUpload,
 )
 from validator.mavlink.param_protocol import ParamValue
 from validator.mavlink.storage import first_stored_difference, storage_losses
@@ -94,9 +95,16 @@ class Link(Connection):
         return mission_protocol.download_list(self, mission_type)
 
     def upload(self, lists: WireLists) -> None:
-        """Upload mission, fence and rally lists, in that order."""
+        """Upload mission, fence and rally lists, in that order. A list whose last item drew
+        a NACK that a lost ACK also explains is read back at once: held as sent, it is
+        uploaded; otherwise the NACK is the error."""
         for mtype in MissionType:
-            self.upload_list(lists.of(mtype), mtype)
+            try:
+                self.upload_list(lists.of(mtype), mtype)
+            except UnconfirmedUpload as err:
+                if _held_difference(self, lists.of(mtype), self.download_list(mtype),
+                                    mtype) is not None:
+                    raise LinkError(str(err)) from None
 
     def download(self) -> WireLists:
         """Download all three lists."""
@@ -142,12 +150,18 @@ def verify_lists(link: Link, sent: WireLists) -> None:
     :mod:`validator.mavlink.storage`)."""
     held = link.download()
     for mtype in MissionType:
-        diff = first_stored_difference(sent.of(mtype), held.of(mtype), mtype,
-                                       link.vehicle.autopilot,
-                                       skip_seq0=mtype == MissionType.MISSION
-                                       and link.vehicle.is_ardupilot)
+        diff = _held_difference(link, sent.of(mtype), held.of(mtype), mtype)
         if diff is not None:
             raise LinkError(f"read-back differs from the upload: {diff}")
+
+
+def _held_difference(link: Connection, sent: tuple[WireItem, ...], held: tuple[WireItem, ...],
+                     mtype: MissionType) -> str | None:
+    """The first item of a list the vehicle does not hold as sent (by its autopilot's
+    storage rules; ArduPilot's home item is its own), or None."""
+    return first_stored_difference(sent, held, mtype, link.vehicle.autopilot,
+                                   skip_seq0=mtype == MissionType.MISSION
+                                   and link.vehicle.is_ardupilot)
 
 
 def fence_problems(link: Link, plan: Plan) -> list[str]:

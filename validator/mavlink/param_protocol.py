@@ -24,8 +24,9 @@ class ParamValue:
     param_type: int
 
 
-def _decode_param(value: float, param_type: int, bytewise: bool) -> float:
-    """PARAM_VALUE's float field as the parameter's value (PX4 packs integers bytewise)."""
+def decode_param(value: float, param_type: int, bytewise: bool) -> float:
+    """PARAM_VALUE's float field as the parameter's value (PX4 packs integers bytewise:
+    ``bytewise`` for a PX4 vehicle)."""
     if not bytewise or param_type in _FLOATS:
         return float(value)
     raw = struct.pack("<f", value)
@@ -53,7 +54,7 @@ def read_param(link: Connection, name: str) -> ParamValue:
         ["PARAM_VALUE"], lambda m: m.param_id == name,
     ):
         if msg is not None:
-            return ParamValue(name, _decode_param(msg.param_value, msg.param_type,
+            return ParamValue(name, decode_param(msg.param_value, msg.param_type,
                                                   link.vehicle.is_px4), int(msg.param_type))
     raise LinkError(f"parameter {name}: vehicle did not report it within "
                     f"{link.timeout_s:g} s (unknown parameter?)")
@@ -72,7 +73,7 @@ def set_param(link: Connection, name: str, value: float) -> float:
         ["PARAM_VALUE"], lambda m: m.param_id == name,
     ):
         if msg is not None:
-            held = _decode_param(msg.param_value, msg.param_type, link.vehicle.is_px4)
+            held = decode_param(msg.param_value, msg.param_type, link.vehicle.is_px4)
             if _same_param(held, value, current.param_type):
                 return held
             # An answer to an earlier request may still carry the old value: ask again.

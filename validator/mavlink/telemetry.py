@@ -25,6 +25,31 @@ from validator.replay import Track, track_from_geodetic
 from validator.site import Site
 from validator.track_file import RecordedTrack
 
+# Vehicle seconds without a position report that make a gap in the recorded track: telemetry
+# comes at 20 Hz, so even a link losing a third of its packets leaves nothing this long.
+LINK_GAP_S = 1.0
+
+
+class LinkLost(LinkError):
+    """The vehicle fell silent for the link's whole timeout during a flight; ``t_s`` is the
+    vehicle time of its last report."""
+
+    def __init__(self, message: str, t_s: float) -> None:
+        super().__init__(message)
+        self.t_s = t_s
+
+
+def track_gaps(t_s: NDArray[np.float64], min_gap_s: float = LINK_GAP_S
+               ) -> list[tuple[float, float]]:
+    """(start, length) in vehicle seconds of each stretch longer than ``min_gap_s`` between
+    two consecutive position reports: what a recorded track misses."""
+    t = np.asarray(t_s, dtype=float)
+    t = t[np.isfinite(t)]
+    if t.size < 2:
+        return []
+    dt = np.diff(t)
+    return [(float(t[i]), float(dt[i])) for i in np.flatnonzero(dt > min_gap_s)]
+
 
 @dataclass
 class Telemetry:
@@ -38,7 +63,8 @@ class Telemetry:
     is never reported); ``mode_changes`` (t_s, mode name) each time the vehicle left the
     mission mode on its own (a fence breach action, a failsafe); ``messages`` (t_s, text) what
     the vehicle said (STATUSTEXT); ``takeoff_start_s`` and ``mission_start_s`` when
-    NAV_TAKEOFF and MISSION_START were asked for; ``end_reason`` why recording stopped.
+    NAV_TAKEOFF and MISSION_START were asked for; ``end_reason`` why recording stopped;
+    ``link_lost`` the verdict when the link went down for good (empty when it did not).
     """
 
     t_s: NDArray[np.float64]
@@ -55,10 +81,15 @@ class Telemetry:
     mission_start_s: float = math.nan
     takeoff_start_s: float = math.nan
     end_reason: str = ""
+    link_lost: str = ""
 
     @property
     def samples(self) -> int:
         return int(self.t_s.size)
+
+    def gaps(self, min_gap_s: float = LINK_GAP_S) -> list[tuple[float, float]]:
+        """The gaps in the track from the takeoff on (:func:`track_gaps`)."""
+        return track_gaps(self.t_s[self.t_s >= self.flight_start_s], min_gap_s)
 
     @property
     def flight_start_s(self) -> float:
@@ -104,8 +135,8 @@ class Recorder:
             if now >= until:
                 return False
             if now - self.last_heard > self.link.timeout_s:
-                raise LinkError(f"the vehicle stopped reporting for {self.link.timeout_s:g} s "
-                                "during the flight")
+                raise LinkLost(f"the vehicle stopped reporting for {self.link.timeout_s:g} s "
+                               "during the flight", self.t_s)
             self.link.recv((), min(until, now + 0.05))  # messages reach take() as listener
 
     def pump_vehicle_time(self, limit_s: float, stop: Callable[[], bool],
@@ -128,6 +159,8 @@ class Recorder:
         self.last_heard = time.monotonic()
         kind = m.get_type()
         if kind == "GLOBAL_POSITION_INT":
+            if self.rows and m.time_boot_ms / 1000.0 <= self.rows[-1][0]:
+                return  # a duplicate, or overtaken on the link: its time is already past
             self.t_s = m.time_boot_ms / 1000.0
             self.home_amsl_m = (m.alt - m.relative_alt) / 1000.0
             self.rows.append((self.t_s, float(from_int_e7(m.lat)), float(from_int_e7(m.lon)),
@@ -161,7 +194,7 @@ class Recorder:
                 self.airborne = True
 
     def telemetry(self, takeoff_start_s: float, mission_start_s: float,
-                  end_reason: str) -> Telemetry:
+                  end_reason: str, link_lost: str = "") -> Telemetry:
         rows = self.rows or [(math.nan,) * 7 + (-1, False, False)]
         cols = list(zip(*rows, strict=True))
         return Telemetry(
@@ -179,6 +212,7 @@ class Recorder:
             mission_start_s=mission_start_s,
             takeoff_start_s=takeoff_start_s,
             end_reason=end_reason,
+            link_lost=link_lost,
         )
 
 

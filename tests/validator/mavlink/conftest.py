@@ -105,7 +105,11 @@ class FakeVehicle:
     first arrives, fall silent for ``reboot_gap_s`` (no heartbeat, input discarded), then come
     back with the transfer forgotten and the mission list it held before (``lists`` at boot:
     a stale mission, as a reboot reloads it from storage). ``reorder_seed``: request the
-    items of a mission upload in a shuffled order (seeded), each once.
+    items of a mission upload in a shuffled order (seeded), each once. ``ardupilot_nacks``:
+    answer an item it did not ask for as ArduPilot 4.5 does, INVALID_SEQUENCE mid-transfer
+    (which goes on) and MAV_MISSION_ERROR once the transfer is complete. ``lose_final_acks``:
+    that many final ACKs of uploads are lost on the way. ``counts_received`` counts the
+    MISSION_COUNTs that arrived (one per list unless a transfer restarts).
     """
 
     def __init__(self, *, nack: int | None = None, silent_after: int | None = None,
@@ -115,7 +119,10 @@ class FakeVehicle:
                  wire: FaultyWire | None = None, impostors: tuple[int, ...] = (),
                  stray_acks: bool = False, ack_type: int | None = None,
                  reboot_at: int | None = None, reboot_gap_s: float = 1.0,
-                 reorder_seed: int | None = None) -> None:
+                 reorder_seed: int | None = None, ardupilot_nacks: bool = False,
+                 lose_final_acks: int = 0) -> None:
+        self.ardupilot_nacks, self.lose_final_acks = ardupilot_nacks, lose_final_acks
+        self.counts_received = 0
         self.conn = mavutil.mavlink_connection("udpin:127.0.0.1:0", source_system=sysid,
                                                source_component=1)
         self.wire = wire
@@ -193,6 +200,7 @@ class FakeVehicle:
                 count = 0
                 continue
             if kind == "MISSION_COUNT":
+                self.counts_received += 1
                 count, mtype = msg.count, msg.mission_type
                 self.incoming = {}
                 self.order = list(range(count))
@@ -228,9 +236,16 @@ class FakeVehicle:
                 elif len(self.incoming) == count:
                     self.lists[mtype] = [self.incoming[i] for i in range(count)]
                     ack_type = self.ack_type if self.ack_type is not None and mtype == 0 else mtype
-                    mav.mission_ack_send(*src, mavlink.MAV_MISSION_ACCEPTED, ack_type)
+                    if self.lose_final_acks > 0:
+                        self.lose_final_acks -= 1
+                    else:
+                        mav.mission_ack_send(*src, mavlink.MAV_MISSION_ACCEPTED, ack_type)
                 else:
                     mav.mission_request_int_send(*src, self.next_seq(), mtype)
+            elif kind == "MISSION_ITEM_INT" and self.ardupilot_nacks:
+                done = count == 0 or self.next_seq() is None
+                mav.mission_ack_send(*src, mavlink.MAV_MISSION_ERROR if done
+                                     else mavlink.MAV_MISSION_INVALID_SEQUENCE, msg.mission_type)
             elif kind == "MISSION_REQUEST_LIST":
                 self.list_requests += 1
                 self.serving = 0

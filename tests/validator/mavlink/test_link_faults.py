@@ -205,3 +205,31 @@ def test_a_reboot_before_the_final_ack_never_reports_success(plan):
             upload_plan(plan, fake.url, timeout_s=10, require_fence=False)
         assert fake.reboots == 1
         assert held_as_sent(fake.lists[0], tuple(stale_plan(plan)))
+
+
+# -- ArduPilot's NACKs on a bad link ---------------------------------------------------------
+
+
+def test_a_lost_final_ack_and_ardupilots_error_to_the_repeated_item_still_verify(plan):
+    # ArduPilot answers the repeated last item with MAV_MISSION_ERROR once its transfer is
+    # complete: the list is read back at once, and the vehicle holds it (a vehicle that does
+    # not: test_a_nack_at_each_step_fails_naming_it, the NACK after item 6)
+    with FakeVehicle(ardupilot_nacks=True, lose_final_acks=3) as fake:
+        report = upload_plan(plan, fake.url, timeout_s=10, require_fence=False)
+        sent = plan_to_wire(plan, home_item=True)
+        assert report.counts == {"mission": 7, "fence": 6, "rally": 2}
+        assert [held_as_sent(fake.lists[t], sent.of(t)) for t in MissionType] == [True] * 3
+
+
+def test_invalid_sequence_for_each_duplicated_item_does_not_restart_the_transfer(plan):
+    with FakeVehicle(ardupilot_nacks=True) as fake:
+        with Link(fake.url, timeout_s=10, retry_s=0.1) as link:
+            link.mav.file = FaultyWire(link.conn, duplicate=True)  # every item arrives twice
+            sent = plan_to_wire(plan, home_item=True)
+            link.upload(sent)
+            link.mav.file = link.conn
+            verify_lists(link, sent)
+        # MISSION_COUNT arrives twice per list (duplicated too), never more: no restart
+        assert fake.counts_received == 2 * 3
+        assert held_as_sent(fake.lists[0], sent.mission)
+
