@@ -2,7 +2,7 @@
 
     plan-mission SITE.yaml -o mission.plan [--scheme proposed|conventional|tangent]
         [--report R.json] [--dynamics vehicle|none] [--buffer-m B] [--autopilot ardupilot|px4]
-        [--cycles C]
+        [--cycles C] [--wind SPEED@FROM[,TURB]]
         [--fence-margin-m M] [--operating-area polygon|circle] [--operating-area-margin-m A]
         [--format plan|waypoints] [--params F.param] [--no-merge] [--stop-at-every-waypoint]
         [--second-start] [--geojson F.geojson] [--plot F.png] [--force] [--quiet]
@@ -18,7 +18,9 @@ parameter file the autopilot needs (``OUT.param`` or ``--params``;
 model of the autopilot set to those parameters (:mod:`mission_planner.flight_report`): the
 report gets a ``"flight"`` section and stderr a one-line warning when the flown cycle is more
 than 10 % longer (or shorter) than T, and another when the site's ``uav.max_speed`` is above the
-vehicle's real top speed (:func:`speed_warning`).
+vehicle's real top speed (:func:`speed_warning`). ``--wind`` (or the site's ``wind:``) plans
+for a forecast: the top speed holds in the air (:mod:`validator.wind`), the report and the
+plan's ``nfzMission`` say which wind it was made for.
 
 Exit status: 0 written; 1 refused by the safety gate (some leg inside an NFZ plus its buffer,
 or another problem of :func:`mission_planner.mission.plan_problems`), nothing written unless
@@ -62,6 +64,7 @@ from validator.geojson_format import dumps_geojson, plan_geojson
 from validator.plan_format import dumps_plan
 from validator.site import Site, load_site
 from validator.waypoints_format import waypoint_files
+from validator.wind import parse_wind_arg
 
 FORMATS = ("plan", "waypoints")
 DYNAMICS = ("vehicle", "none")  # PlannerOptions.dynamics; kept here so --help needs no cvxpy
@@ -232,6 +235,10 @@ def _parser() -> argparse.ArgumentParser:
                    "report (JSON)")
     p.add_argument("--buffer-m", type=float,
                    help="safety buffer added to every NFZ radius (m; default: the site's)")
+    p.add_argument("--wind", metavar="SPEED@FROM",
+                   help="the day's wind forecast at the flight altitude, overriding the "
+                   "site's wind: m/s and the direction it blows from in degrees true, "
+                   "e.g. 7@300; SPEED@FROM,TURB adds the turbulence (m/s); 0 for still air")
     p.add_argument("--autopilot", choices=tuple(AUTOPILOTS), default="ardupilot",
                    help="firmware the plan is for (default: ardupilot)")
     p.add_argument("--cycles", type=int, default=1,
@@ -306,6 +313,9 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
         site = load_site(args.site)
         if args.buffer_m is not None:
             site = site.with_buffer(args.buffer_m)
+        if args.wind is not None:
+            wind = parse_wind_arg(args.wind)
+            site = site.with_limits(wind=None if wind.calm else wind)
         options = MissionOptions(
             autopilot=args.autopilot,
             cycles=args.cycles,

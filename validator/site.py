@@ -16,6 +16,7 @@ A site file is YAML of this shape (see ``samples/paper-default.yaml``)::
         polygon: [{x: 0, y: 0}, {x: 120, y: 0}, {x: 120, y: 40}, {x: 0, y: 40}]
     airspace: zones.geojson   # optional: more zones (validator.airspace), relative to this file
     safety: {buffer_m: 2.0}
+    wind: {speed_mps: 6.0, from_deg: 270.0, turbulence_mps: 1.5}   # optional: validator.wind
 
 :func:`load_site` validates it with pydantic and resolves it into a :class:`Site` in SI units
 and local metres. Every mistake raises :class:`~validator.errors.InputError` naming the field:
@@ -46,6 +47,7 @@ from validator.input_files import (
     read_text,
     resolve_referenced_path,
 )
+from validator.wind import Wind, WindModel
 from validator.zones import MAX_VERTICES, PolygonZone, point_clearance_m, polygon_zone
 
 DEFAULT_BUFFER_M = 2.0
@@ -175,6 +177,7 @@ class SiteModel(_Strict):
     airspace: str | None = Field(default=None, min_length=1,
                                  description="GeoJSON file of more zones, beside the site")
     safety: SafetyModel = Field(default_factory=SafetyModel)
+    wind: WindModel | None = None  # the forecast (validator.wind); none: still air
 
 
 @dataclass(frozen=True)
@@ -206,6 +209,12 @@ class Site:
     nfz_radius_m: NDArray[np.float64]
     buffer_m: float = DEFAULT_BUFFER_M
     polygon_zones: tuple[PolygonZone, ...] = ()
+    wind: Wind | None = None  # the forecast the plan is made for; None: still air
+
+    @property
+    def flight_wind(self) -> Wind | None:
+        """The wind at the flight altitude (one layer), None in still air."""
+        return None if self.wind is None or self.wind.calm else self.wind.at(self.altitude_m)
 
     @property
     def num_gns(self) -> int:
@@ -424,6 +433,7 @@ def site_from_model(model: SiteModel, source: str = "site", *,
         nfz_radius_m=np.array([z.radius_m for z in circles], dtype=float),
         buffer_m=model.safety.buffer_m,
         polygon_zones=tuple(z.polygon for z in zones if z.polygon is not None),
+        wind=Wind.from_model(model.wind) if model.wind is not None else None,
     )
     _check_home_clear(site, f"{source}: home")
     return site
@@ -481,4 +491,5 @@ def site_to_dict(site: Site) -> dict[str, Any]:
             for z in site.polygon_zones
         ],
         "safety": {"buffer_m": site.buffer_m},
+        **({"wind": site.wind.to_dict()} if site.wind is not None else {}),
     }

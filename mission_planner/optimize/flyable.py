@@ -52,6 +52,7 @@ SEARCH_ITERATIONS = 15  # Algorithm 1 iterations per candidate top speed
 BRACKET_REL = 0.05  # the search stops bisecting within 5 % of the overrunning speed
 RAISE_FACTOR = 1.25  # a path that fits at the vehicle's top speed is planned again this much faster
 RAISE_LIMIT = 2.0  # ... up to this multiple of the top speed
+WIND_PLANNING_FACTOR = 1.05  # in wind, planning speeds at most this multiple of it are skipped
 
 
 @dataclass
@@ -83,6 +84,9 @@ def _retimed(
     and the ratio of the vehicle's move time to the paper's. With several start schedules
     each start's path is re-timed and the best flyable one kept: the best paper-model path
     is not always the best flown one."""
+    wind = site.flight_wind
+    if wind is not None and speed <= WIND_PLANNING_FACTOR * wind.speed_mps:
+        return None, np.inf  # no path at this speed keeps the air-frame limit in every slot
     planning_site = site.with_limits(max_speed_mps=speed)
     psc = scale_site(planning_site, opt.nfz_margin_m, opt.gamma)
     # The re-timing, not Algorithm 1's slow tail, decides these candidates: fewer iterations,

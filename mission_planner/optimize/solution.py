@@ -140,4 +140,14 @@ class Solution:
             **({"zone_clearance_min_m": self._zone_clearance_min_m()}
                if site.polygon_zones else {}),
             **({"notes": self.notes} if self.notes else {}),
+            **({"wind": wind_report(site)} if site.wind is not None else {}),
         }
+
+
+def wind_report(site: Site) -> dict[str, Any]:
+    """What wind a plan was made for: the site's forecast and its layer at the flight
+    altitude (:mod:`validator.wind`)."""
+    assert site.wind is not None
+    at = site.wind.at(site.altitude_m)
+    return {**site.wind.to_dict(), "at_flight_altitude": {
+        "speed_mps": at.speed_mps, "from_deg": at.from_deg, "turbulence_mps": at.turbulence_mps}}
