@@ -24,6 +24,7 @@ from validator.plan_format import Autopilot, Plan, read_plan
 from validator.replay import TrackReport, replay, score_track
 from validator.site import Site, load_site
 from validator.track_file import RecordedTrack
+from validator.wind import Wind
 
 
 @dataclass
@@ -49,6 +50,13 @@ class Validation:
     vehicle_params: dict[str, float] = field(default_factory=dict)
     param_findings: list[Finding] = field(default_factory=list)
     extra: dict[str, Any] = field(default_factory=dict)
+    planned_wind: Wind | None = None  # the wind the plan was made for (None: still air)
+    flown_wind: Wind | None = None  # the wind it is replayed (and flown in SITL) in
+
+    @property
+    def wind_as_planned(self) -> bool:
+        """Whether the flight's wind is the one the plan was made for."""
+        return _same_wind(self.planned_wind, self.flown_wind)
 
     @property
     def violations(self) -> list[Finding]:
@@ -83,6 +91,9 @@ class Validation:
             "param_findings": [f.as_dict() for f in self.param_findings],
             "replay": track(self.replay),
             "sitl": track(self.sitl),
+            "wind": {"planned_for": _wind_dict(self.planned_wind),
+                     "flown_in": _wind_dict(self.flown_wind),
+                     "as_planned": self.wind_as_planned},
             **self.extra,
         })
 
@@ -96,6 +107,21 @@ def _json_safe(obj: Any) -> Any:
     if isinstance(obj, (list, tuple)):
         return [_json_safe(v) for v in obj]
     return obj
+
+
+def _wind_dict(wind: Wind | None) -> dict[str, object] | None:
+    return None if wind is None else wind.to_dict()
+
+
+def _same_wind(a: Wind | None, b: Wind | None) -> bool:
+    a = None if a is None or a.calm else a
+    b = None if b is None or b.calm else b
+    return a == b
+
+
+def wind_label(wind: Wind | None) -> str:
+    """``6 m/s from 270°`` (or ``still air``)."""
+    return "still air" if wind is None or wind.calm else wind.label()
 
 
 def default_profile_name(plan: Plan) -> str:
@@ -112,6 +138,7 @@ def validate_mission(
     params: dict[str, float] | None = None,
     dt_s: float = 0.05,
     vehicle_params: dict[str, float] | None = None,
+    wind: Wind | None = None,
 ) -> Validation:
     """Audit ``plan_path`` against ``site_path`` and, with ``replay_flight``, replay it.
 
@@ -119,8 +146,11 @@ def validate_mission(
     choose the flight model; the track is sampled every ``dt_s`` seconds. ``vehicle_params``
     are the parameters the vehicle will hold (a parameter file): those of the flight model
     replay the flight under ``params``' overrides, and a geofence they leave off or unsafe is
-    flagged in ``param_findings`` (for a plan with a fence). Raises :class:`InputError` for bad
-    input.
+    flagged in ``param_findings`` (for a plan with a fence). ``wind`` is the wind to fly in
+    (:mod:`validator.wind`; default: the one the plan was made for, its ``nfzMission.wind``,
+    else the site's): a plan replayed in another wind is reported as such
+    (:attr:`Validation.wind_as_planned`). Raises :class:`InputError` for bad input, and for a
+    wind the vehicle cannot fly against (naming the leg).
     """
     if not (dt_s > 0 and dt_s <= 0.05):
         raise InputError(f"--dt: must be > 0 and <= 0.05 s (at least 20 Hz), got {dt_s}")
@@ -128,8 +158,13 @@ def validate_mission(
     plan = read_plan(plan_path)
     flight = resolve_flight(plan, site, str(plan_path))
     report = audit(plan, site, flight, source=str(plan_path))
+    planned = flight.service.wind if flight.service is not None else site.wind
+    flown = planned if wind is None else wind
+    flown = None if flown is None or flown.calm else flown
+    site = site.with_limits(wind=flown)  # the replay's (and a SITL flight's) air
     v = Validation(str(plan_path), str(site_path), plan, site, flight, report, dt_s=dt_s,
-                   vehicle_params=dict(vehicle_params or {}))
+                   vehicle_params=dict(vehicle_params or {}), planned_wind=planned,
+                   flown_wind=flown)
     if vehicle_params is not None and (plan.circles or plan.polygons):
         rules = FENCE_RULES["px4" if plan.firmware_type == Autopilot.PX4 else "ardupilot"]
         v.param_findings = [Finding("warning", f"parameter file: {p}", None)

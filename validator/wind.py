@@ -90,6 +90,12 @@ class Wind:
                 chosen = Wind(a.speed_mps, a.from_deg, a.turbulence_mps)
         return chosen
 
+    def scaled(self, factor: float) -> Wind:
+        """The same wind with every speed (and turbulence) times ``factor``."""
+        return Wind(self.speed_mps * factor, self.from_deg, self.turbulence_mps * factor,
+                    tuple(WindLayer(a.above_m, a.speed_mps * factor, a.from_deg,
+                                    a.turbulence_mps * factor) for a in self.layers))
+
     @property
     def calm(self) -> bool:
         return self.speed_mps == 0.0 and not any(a.speed_mps for a in self.layers)
