@@ -96,10 +96,19 @@ def _retimed(
     # 0.1 % and moved the rest by -9.7 % to +0.6 %: the best paper path is not the best flown).
     search = replace(opt, max_iterations=min(opt.max_iterations, SEARCH_ITERATIONS),
                      overrelax=False)
+    paths = [(planning_site, psc, state) for state in _start_states(psc, scheme, search,
+                                                                     progress)]
+    if site.wind is not None and opt.wind_blind_paths:
+        # The still-air path, re-timed honestly in the wind, is a candidate too: the air-frame
+        # cone shapes the paper model's path for flight without acceleration limits, which is
+        # not always the best flown one (PlannerOptions.wind_blind_paths).
+        still = scale_site(planning_site.with_limits(wind=None), opt.nfz_margin_m, opt.gamma)
+        paths += [(planning_site, still, state)
+                  for state in _start_states(still, scheme, search, None)]
     best: _Flyable | None = None
     overrun = np.inf
-    for state in _start_states(psc, scheme, search, progress):
-        cand, ratio = _retimed_path(site, scheme, speed, opt, planning_site, psc, state)
+    for p_site, p_sc, state in paths:
+        cand, ratio = _retimed_path(site, scheme, speed, opt, p_site, p_sc, state)
         overrun = min(overrun, ratio)
         if cand is not None and (best is None or cand.min_rate > best.min_rate):
             best = cand
