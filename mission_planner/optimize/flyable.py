@@ -338,7 +338,9 @@ def _search(site: Site, scheme: str, opt: PlannerOptions, progress: Progress | N
     tries = 0
 
     def evaluate(v: float, report: Progress | None) -> tuple[_Flyable | None, float]:
-        return _retimed(site, scheme, v, opt, report, still_path)
+        if still_path:
+            return _retimed(site, scheme, v, opt, report, still_path=True)
+        return _retimed(site, scheme, v, opt, report)
 
     with _Ahead(evaluate, opt.search_ahead and _spare_core()) as ahead:
         for attempt in range(opt.retime_attempts):
