@@ -369,7 +369,8 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
         f"cycle {summary['cycle_duration_s']:.1f} s (T = {summary['period_s']:g} s), "
         f"min rate {mission.solution.min_rate_bps_hz:.4f} bps/Hz, min NFZ clearance "
         + ("none (no NFZ)" if clearance is None else f"{clearance:.3f} m")
-        + f"; {flight.profile.name} replay: " + _replay_summary(flight),
+        + f"; {flight.profile.name} replay: " + _replay_summary(flight)
+        + (f"; planned for wind {site.wind.label()}" if site.wind is not None else ""),
         file=sys.stderr,
     )
     return 0

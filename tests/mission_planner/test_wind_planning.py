@@ -114,6 +114,12 @@ def windy_plan(tmp_path_factory):
     return d, out
 
 
+def test_the_summary_line_says_the_wind(tmp_path, capsys) -> None:
+    out = tmp_path / "w.plan"
+    assert plan_mission_main([SAMPLE, "-o", str(out), "--wind", "3@90", "--quiet"]) == 0
+    assert "planned for wind 3 m/s from 90°" in capsys.readouterr().err
+
+
 def test_windy_plan_says_its_wind_and_commands_ground_speeds(windy_plan) -> None:
     d, out = windy_plan
     plan_file = read_plan(out)
@@ -175,3 +181,11 @@ def test_validate_mission_refuses_a_wind_the_plan_cannot_fly(windy_plan, capsys)
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1
     assert "cannot be flown: wind 12 m/s from 180°" in err and "mission item" in err
+
+
+@pytest.mark.parametrize("arg", ["7@", "7", "7@400", "x@3", "-2@30"])
+def test_plan_mission_refuses_a_malformed_wind(tmp_path, capsys, arg) -> None:
+    code = plan_mission_main([SAMPLE, "-o", str(tmp_path / "m.plan"), "--wind", arg])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "--wind" in err
+    assert not list(tmp_path.iterdir())
