@@ -185,7 +185,7 @@ def test_validate_mission_refuses_a_wind_the_plan_cannot_fly(windy_plan, capsys)
 
 @pytest.mark.parametrize("arg", ["7@", "7", "7@400", "x@3", "-2@30"])
 def test_plan_mission_refuses_a_malformed_wind(tmp_path, capsys, arg) -> None:
-    code = plan_mission_main([SAMPLE, "-o", str(tmp_path / "m.plan"), "--wind", arg])
+    code = plan_mission_main([SAMPLE, "-o", str(tmp_path / "m.plan"), f"--wind={arg}"])
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and "--wind" in err
     assert not list(tmp_path.iterdir())
