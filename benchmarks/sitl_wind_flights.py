@@ -10,9 +10,10 @@ still-air plan, both flown with ``validate-mission --sitl-binary BINARY --wind W
 SIM_WIND_SPD / DIR / TURB, SIM_WIND_T 1) and replayed in the same wind by the arducopter model
 (the prediction). Per flight it keeps figures, not logs: T, the predicted and the flown cycle,
 the replayed and the flown min rate (per flown second), the flown and the replayed clearance of
-every zone, the cross-track deviation (max, rms) and how the flight ended. Flights already in
-``--out`` are skipped (re-run to resume); the file is rewritten after each flight. Then the
-per-flight table is printed (``--table`` prints it from ``--out`` alone).
+every zone, the cross-track deviation (max, rms), how the flight ended, the site's buffer and
+the buffer the plan was made with (larger in wind: :func:`validator.wind_track.wind_buffer_m`).
+Flights already in ``--out`` are skipped (re-run to resume); the file is rewritten after each
+flight. Then the per-flight table is printed (``--table`` prints it from ``--out`` alone).
 """
 
 from __future__ import annotations
@@ -143,20 +144,21 @@ def main() -> None:
                     for kind in kinds:
                         if (name, wind, kind) in done:
                             continue
-                        if kind == "blind" or wind == "0@0":
-                            if blind_report is None:
-                                blind_report = _plan(site, blind, None)
-                            plan = blind
-                        else:
-                            plan = Path(tmp) / f"{name}-{wind.replace('@', 'at')}.plan"
-                            _plan(site, plan, wind)
                         try:
+                            if kind == "blind" or wind == "0@0":
+                                if blind_report is None:
+                                    blind_report = _plan(site, blind, None)
+                                plan, planned = blind, blind_report
+                            else:
+                                plan = Path(tmp) / f"{name}-{wind.replace('@', 'at')}.plan"
+                                planned = _plan(site, plan, wind)
                             flown = _fly(plan, site, wind, args.binary, args.speedup)
                         except RuntimeError as err:
                             print(f"{name} {wind} {kind}: {err}", file=sys.stderr)
                             continue
                         row = _summary(name, wind, kind, flown)
                         row["buffer_m"] = float(_site_buffer(site))
+                        row["plan_buffer_m"] = float(planned["buffer_m"])
                         flights.append(row)
                         args.out.write_text(json.dumps(flights, indent=1) + "\n")
                         print(table([row]).splitlines()[-1], flush=True)

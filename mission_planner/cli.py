@@ -65,6 +65,7 @@ from validator.plan_format import dumps_plan
 from validator.site import Site, load_site
 from validator.waypoints_format import waypoint_files
 from validator.wind import parse_wind_arg
+from validator.wind_track import wind_buffer_m
 
 FORMATS = ("plan", "waypoints")
 DYNAMICS = ("vehicle", "none")  # PlannerOptions.dynamics; kept here so --help needs no cvxpy
@@ -162,16 +163,22 @@ def plan_and_build(
     progress: Progress | None = None,
     pass_through_corners: bool = True,
     second_start: bool = False,
+    wind_buffer: bool = True,
 ) -> Mission:
     """Optimise ``site`` with the paper's Algorithm 1 and lay out its mission.
 
     ``dynamics`` "vehicle" keeps speed changes within the site's acceleration and jerk
     limits; "none" is the paper's kinematic model. ``pass_through_corners`` False stops the
     vehicle at every waypoint; ``second_start`` also runs Algorithm 1 from 1/K schedule
-    shares and keeps the better (:class:`~mission_planner.optimize.PlannerOptions`). Options
+    shares and keeps the better (:class:`~mission_planner.optimize.PlannerOptions`). In wind
+    (``site.wind``) with ``wind_buffer`` the safety buffer grows by how much closer the flown
+    track comes in that wind (:func:`validator.wind_track.wind_buffer_m`), so the flown track
+    keeps the site's buffer; plan-mission does so unless ``--buffer-m`` is given. Options
     are checked before the (slow) optimisation. The safety verdict is in ``Mission.problems``;
     nothing is written here.
     """
+    if wind_buffer and site.flight_wind is not None:
+        site = site.with_buffer(wind_buffer_m(site.buffer_m, site.flight_wind))
     opt = options or MissionOptions()
     check_options(site, opt)
     if dynamics not in DYNAMICS:
@@ -329,7 +336,8 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
             mission = plan_and_build(site, args.scheme, options, dynamics=args.dynamics,
                                      progress=progress,
                                      pass_through_corners=not args.stop_at_every_waypoint,
-                                     second_start=args.second_start)
+                                     second_start=args.second_start,
+                                     wind_buffer=args.buffer_m is None)
         finally:
             if progress is not None and progress.tty:
                 print(file=sys.stderr)

@@ -40,6 +40,7 @@ from validator.validation import (
     wind_label,
 )
 from validator.wind import parse_wind_arg
+from validator.wind_track import buffer_share
 
 __all__ = ["Validation", "build_parser", "default_profile_name", "format_report",
            "validate_mission", "validate_mission_main"]
@@ -124,6 +125,11 @@ def format_report(v: Validation) -> str:
                   f"{wind_label(v.flown_wind)}"
                   + ("" if v.wind_as_planned else " (NOT the plan's wind: the cycle, clearance "
                      "and rates below are for the flown wind)")]
+        share = buffer_share(site.buffer_m, v.flown_wind)
+        lines.append(f"  the flown wind eats {share['track_deviation_m']:.2f} m of the "
+                     f"{site.buffer_m:g} m buffer ({share['share_of_buffer']:.0%}; the flown "
+                     f"track's extra closeness at the {share['deviation_quantile']:.0%} quantile "
+                     "of SITL flights)")
     if v.replay is not None and v.profile is not None:
         params = " ".join(f"{k}={v.profile.params[k]:g}" for k in KEY_PARAMS[v.profile.name])
         lines += ["", *_track_lines(f"Replay ({v.profile.name}, {1 / v.dt_s:g} Hz, "

@@ -25,6 +25,7 @@ from validator.replay import TrackReport, replay, score_track
 from validator.site import Site, load_site
 from validator.track_file import RecordedTrack
 from validator.wind import Wind
+from validator.wind_track import buffer_share
 
 
 @dataclass
@@ -93,7 +94,8 @@ class Validation:
             "sitl": track(self.sitl),
             "wind": {"planned_for": _wind_dict(self.planned_wind),
                      "flown_in": _wind_dict(self.flown_wind),
-                     "as_planned": self.wind_as_planned},
+                     "as_planned": self.wind_as_planned,
+                     **buffer_share(self.site.buffer_m, self.flown_wind)},
             **self.extra,
         })
 
