@@ -73,8 +73,9 @@ DEVIATION_MODEL = DeviationModel(intercept_m=0.2622844853655352,
 
 def wind_buffer_m(buffer_m: float, wind: Wind | None) -> float:
     """The safety buffer (m) that keeps a plan's flown track ``buffer_m`` from the zones in
-    ``wind`` at the model's quantile: ``buffer_m`` plus :data:`DEVIATION_MODEL`'s deviation."""
-    return buffer_m + DEVIATION_MODEL.deviation_m(wind)
+    ``wind`` at the model's quantile: ``buffer_m`` plus :data:`DEVIATION_MODEL`'s deviation,
+    rounded up to the centimetre (the waypoint radius and fence margin follow from it)."""
+    return math.ceil((buffer_m + DEVIATION_MODEL.deviation_m(wind)) * 100.0 - 1e-9) / 100.0
 
 
 def buffer_share(buffer_m: float, wind: Wind | None) -> dict[str, float]:
