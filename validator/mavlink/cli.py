@@ -437,6 +437,8 @@ def run_sitl(v: Validation, args: argparse.Namespace,
     home = (v.plan.home_lat_deg, v.plan.home_lon_deg, v.plan.home_alt_m)
     if args.sitl_url:
         kind = "external"
+        if v.flown_wind is not None:
+            v.extra["sitl_wind"] = "an external vehicle flies in its own air (--wind: the replay)"
         result = fly_and_score(v.plan, v.site, v.flight, args.sitl_url, time_limit_s=limit,
                                timeout_s=args.sitl_timeout, sysid=args.sitl_sysid,
                                params=sent or None, signing_key=key)
