@@ -189,3 +189,14 @@ def test_plan_mission_refuses_a_malformed_wind(tmp_path, capsys, arg) -> None:
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and "--wind" in err
     assert not list(tmp_path.iterdir())
+
+
+def test_a_malformed_plan_wind_is_refused_naming_the_field(windy_plan, tmp_path, capsys) -> None:
+    _, out = windy_plan
+    plan = json.loads(out.read_text())
+    plan["nfzMission"]["wind"] = {"speed_mps": 3.0, "from_deg": 10.0, "gust": 1.0}
+    bad = tmp_path / "bad.plan"
+    bad.write_text(json.dumps(plan))
+    assert validate_mission_main([str(bad), "--site", SAMPLE]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "nfzMission.wind.gust: unknown key" in err
