@@ -2,7 +2,7 @@
 
     plan-mission SITE.yaml -o mission.plan [--scheme proposed|conventional|tangent]
         [--report R.json] [--dynamics vehicle|none] [--buffer-m B] [--autopilot ardupilot|px4]
-        [--cycles C]
+        [--cycles C] [--wind SPEED@FROM[,TURB]]
         [--fence-margin-m M] [--operating-area polygon|circle] [--operating-area-margin-m A]
         [--format plan|waypoints] [--params F.param] [--no-merge] [--stop-at-every-waypoint]
         [--second-start] [--geojson F.geojson] [--plot F.png] [--html F.html [--html-map]]
@@ -19,7 +19,9 @@ parameter file the autopilot needs (``OUT.param`` or ``--params``;
 model of the autopilot set to those parameters (:mod:`mission_planner.flight_report`): the
 report gets a ``"flight"`` section and stderr a one-line warning when the flown cycle is more
 than 10 % longer (or shorter) than T, and another when the site's ``uav.max_speed`` is above the
-vehicle's real top speed (:func:`speed_warning`).
+vehicle's real top speed (:func:`speed_warning`). ``--wind`` (or the site's ``wind:``) plans
+for a forecast: the top speed holds in the air (:mod:`validator.wind`), the report and the
+plan's ``nfzMission`` say which wind it was made for.
 
 A site whose ``airspace:`` holds UAS zones (ED-269, ED-318) is planned among the zones that
 apply at ``--at`` for the mission's duration (:mod:`mission_planner.airspace_time`), less
@@ -70,6 +72,8 @@ from validator.plan_format import dumps_plan
 from validator.site import Site
 from validator.uas_zones.applicability import AirspaceOptions, parse_at
 from validator.waypoints_format import waypoint_files
+from validator.wind import parse_wind_arg
+from validator.wind_track import wind_buffer_m
 
 FORMATS = ("plan", "waypoints")
 DYNAMICS = ("vehicle", "none")  # PlannerOptions.dynamics; kept here so --help needs no cvxpy
@@ -191,16 +195,22 @@ def plan_and_build(
     progress: Progress | None = None,
     pass_through_corners: bool = True,
     second_start: bool = False,
+    wind_buffer: bool = True,
 ) -> Mission:
     """Optimise ``site`` with the paper's Algorithm 1 and lay out its mission.
 
     ``dynamics`` "vehicle" keeps speed changes within the site's acceleration and jerk
     limits; "none" is the paper's kinematic model. ``pass_through_corners`` False stops the
     vehicle at every waypoint; ``second_start`` also runs Algorithm 1 from 1/K schedule
-    shares and keeps the better (:class:`~mission_planner.optimize.PlannerOptions`). Options
+    shares and keeps the better (:class:`~mission_planner.optimize.PlannerOptions`). In wind
+    (``site.wind``) with ``wind_buffer`` the safety buffer grows by how much closer the flown
+    track comes in that wind (:func:`validator.wind_track.wind_buffer_m`), so the flown track
+    keeps the site's buffer; plan-mission does so unless ``--buffer-m`` is given. Options
     are checked before the (slow) optimisation. The safety verdict is in ``Mission.problems``;
     nothing is written here.
     """
+    if wind_buffer and site.flight_wind is not None:
+        site = site.with_buffer(wind_buffer_m(site.buffer_m, site.flight_wind))
     opt = options or MissionOptions()
     check_options(site, opt)
     if dynamics not in DYNAMICS:
@@ -264,6 +274,10 @@ def _parser() -> argparse.ArgumentParser:
                    "report (JSON)")
     p.add_argument("--buffer-m", type=float,
                    help="safety buffer added to every NFZ radius (m; default: the site's)")
+    p.add_argument("--wind", metavar="SPEED@FROM",
+                   help="the day's wind forecast at the flight altitude, overriding the "
+                   "site's wind: m/s and the direction it blows from in degrees true, "
+                   "e.g. 7@300; SPEED@FROM,TURB adds the turbulence (m/s); 0 for still air")
     p.add_argument("--autopilot", choices=tuple(AUTOPILOTS), default="ardupilot",
                    help="firmware the plan is for (default: ardupilot)")
     p.add_argument("--cycles", type=int, default=1,
@@ -331,6 +345,7 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
         check_output_paths(outputs)
         airspace = AirspaceOptions(parse_at(args.at) if args.at else None,
                                    authorised=frozenset(args.authorised))
+        wind = parse_wind_arg(args.wind) if args.wind is not None else None
         options = MissionOptions(
             autopilot=args.autopilot,
             cycles=args.cycles,
@@ -341,10 +356,13 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
         )
 
         def made(site: Site) -> tuple[Mission, AutopilotParams, FlightCheck]:
+            if wind is not None:  # the day's forecast overrides the site's wind
+                site = site.with_limits(wind=None if wind.calm else wind)
             mission = plan_and_build(site, args.scheme, options, dynamics=args.dynamics,
                                      progress=progress if progress.shown else None,
                                      pass_through_corners=not args.stop_at_every_waypoint,
-                                     second_start=args.second_start)
+                                     second_start=args.second_start,
+                                     wind_buffer=args.buffer_m is None)
             params = recommended_params(mission)
             return mission, params, replay_mission(mission, params)
 
@@ -392,7 +410,8 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
         f"cycle {summary['cycle_duration_s']:.1f} s (T = {summary['period_s']:g} s), "
         f"min rate {mission.solution.min_rate_bps_hz:.4f} bps/Hz, min NFZ clearance "
         + ("none (no NFZ)" if clearance is None else f"{clearance:.3f} m")
-        + f"; {flight.profile.name} replay: " + _replay_summary(flight),
+        + f"; {flight.profile.name} replay: " + _replay_summary(flight)
+        + (f"; planned for wind {site.wind.label()}" if site.wind is not None else ""),
         file=sys.stderr,
     )
     return 0

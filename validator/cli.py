@@ -3,6 +3,7 @@
     validate-mission PLAN --site SITE [--report OUT] [--replay] [--profile ideal|arducopter|px4]
                      [--params FILE] [--param NAME=VALUE ...] [--dt SECONDS]
                      [--flown TRACK.csv] [--html OUT.html [--html-map]]
+                     [--wind SPEED@FROM[,TURB]]
                      [--sitl [--sitl-binary PATH | --sitl-url URL] ...]
                      [--at ISO-8601] [--authorised ZONE ...]
 
@@ -39,7 +40,14 @@ from validator.motion.profile import PROFILES, parse_param_overrides
 from validator.replay import TrackReport
 from validator.track_file import write_track
 from validator.uas_zones.applicability import AirspaceOptions, parse_at
-from validator.validation import Validation, default_profile_name, validate_mission
+from validator.validation import (
+    Validation,
+    default_profile_name,
+    validate_mission,
+    wind_label,
+)
+from validator.wind import parse_wind_arg
+from validator.wind_track import buffer_share
 
 __all__ = ["Validation", "build_parser", "default_profile_name", "format_report",
            "validate_mission", "validate_mission_main"]
@@ -121,6 +129,16 @@ def format_report(v: Validation) -> str:
         lines.append("  (the site has no NFZ)")
     lines.append(f"  fence: {len(v.plan.circles)} circle(s), {len(v.plan.polygons)} polygon(s), "
                  f"{len(v.plan.rally)} rally point(s)")
+    if v.planned_wind is not None or v.flown_wind is not None:
+        lines += ["", f"Wind: planned for {wind_label(v.planned_wind)}; flown in "
+                  f"{wind_label(v.flown_wind)}"
+                  + ("" if v.wind_as_planned else " (NOT the plan's wind: the cycle, clearance "
+                     "and rates below are for the flown wind)")]
+        share = buffer_share(site.buffer_m, v.flown_wind)
+        lines.append(f"  the flown wind eats {share['track_deviation_m']:.2f} m of the "
+                     f"{site.buffer_m:g} m buffer ({share['share_of_buffer']:.0%}; the flown "
+                     f"track's extra closeness at the {share['deviation_quantile']:.0%} quantile "
+                     "of SITL flights)")
     if v.replay is not None and v.profile is not None:
         params = " ".join(f"{k}={v.profile.params[k]:g}" for k in KEY_PARAMS[v.profile.name])
         lines += ["", *_track_lines(f"Replay ({v.profile.name}, {1 / v.dt_s:g} Hz, "
@@ -132,6 +150,8 @@ def format_report(v: Validation) -> str:
         if "recorded_flight" in v.extra:
             who = f"the recorded flight {v.extra['recorded_flight']['file']}"
         lines += ["", *_track_lines(f"Flown by {who} ({v.sitl.source})", v.sitl)]
+        if v.extra.get("sitl_wind"):
+            lines.append(f"  {v.extra['sitl_wind']}")
     findings = list(rep.findings) + list(v.param_findings)
     for r in (v.replay, v.sitl):
         if r is not None:
@@ -179,6 +199,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--param", action="append", metavar="NAME=VALUE",
                    help="profile parameter in the autopilot's units, e.g. WPNAV_ACCEL=500 "
                         "(repeatable); implies --replay")
+    p.add_argument("--wind", metavar="SPEED@FROM",
+                   help="fly the replay (and ArduCopter SITL) in this wind: m/s and the "
+                        "direction it blows from, degrees true, e.g. 8@270; SPEED@FROM,TURB "
+                        "adds turbulence (m/s); 0 for still air (default: the wind the plan "
+                        "was made for); implies --replay")
     p.add_argument("--dt", type=float, default=0.05, metavar="SECONDS",
                    help="replay sample interval (default 0.05 = 20 Hz; at most 0.05)")
     p.add_argument("--at", metavar="ISO-8601",
@@ -222,9 +247,11 @@ def validate_mission_main(argv: Sequence[str] | None = None) -> int:
                              "or --sitl-url)")
         params = parse_param_overrides(args.param)
         vehicle_params = read_params(args.params) if args.params else None
-        v = validate_mission(args.plan, args.site, replay_flight=args.replay or bool(args.html),
+        wind = parse_wind_arg(args.wind) if args.wind is not None else None
+        v = validate_mission(args.plan, args.site,
+                             replay_flight=args.replay or bool(args.html) or wind is not None,
                              profile=args.profile, params=params or None, dt_s=args.dt,
-                             vehicle_params=vehicle_params, flown_track=args.flown,
+                             vehicle_params=vehicle_params, flown_track=args.flown, wind=wind,
                              airspace=AirspaceOptions(parse_at(args.at) if args.at else None,
                                                       authorised=frozenset(args.authorised)))
         if flying:

@@ -17,6 +17,7 @@ A site file is YAML of this shape (see ``samples/paper-default.yaml``)::
     airspace: zones.geojson   # optional: more zones, relative to this file: GeoJSON, ED-269
                               # or ED-318 (validator.site_airspace), one file or a list
     safety: {buffer_m: 2.0}
+    wind: {speed_mps: 6.0, from_deg: 270.0, turbulence_mps: 1.5}   # optional: validator.wind
 
 :func:`load_site` validates it with pydantic and resolves it into a :class:`Site` in SI units
 and local metres. Every mistake raises :class:`~validator.errors.InputError` naming the field:
@@ -48,6 +49,7 @@ from validator.input_files import (
 )
 from validator.site_airspace import SiteAirspace, site_airspace
 from validator.uas_zones.applicability import AirspaceOptions, Band
+from validator.wind import Wind, WindModel
 from validator.zones import MAX_VERTICES, PolygonZone, point_clearance_m, polygon_zone
 
 DEFAULT_BUFFER_M = 2.0
@@ -177,6 +179,7 @@ class SiteModel(_Strict):
     airspace: str | list[str] | None = Field(
         default=None, min_length=1, description="airspace file(s) of more zones, beside the site")
     safety: SafetyModel = Field(default_factory=SafetyModel)
+    wind: WindModel | None = None  # the forecast (validator.wind); none: still air
 
 
 @dataclass(frozen=True)
@@ -210,6 +213,12 @@ class Site:
     buffer_m: float = DEFAULT_BUFFER_M
     polygon_zones: tuple[PolygonZone, ...] = ()
     airspace: SiteAirspace = SiteAirspace()
+    wind: Wind | None = None  # the forecast the plan is made for; None: still air
+
+    @property
+    def flight_wind(self) -> Wind | None:
+        """The wind at the flight altitude (one layer), None in still air."""
+        return None if self.wind is None or self.wind.calm else self.wind.at(self.altitude_m)
 
     @property
     def num_gns(self) -> int:
@@ -434,6 +443,7 @@ def site_from_model(model: SiteModel, source: str = "site", *,
         buffer_m=model.safety.buffer_m,
         polygon_zones=tuple(z.polygon for z in zones if z.polygon is not None),
         airspace=air,
+        wind=Wind.from_model(model.wind) if model.wind is not None else None,
     )
     _check_home_clear(site, f"{source}: home")
     return site
@@ -495,4 +505,5 @@ def site_to_dict(site: Site) -> dict[str, Any]:
             for z in site.polygon_zones
         ],
         "safety": {"buffer_m": site.buffer_m},
+        **({"wind": site.wind.to_dict()} if site.wind is not None else {}),
     }

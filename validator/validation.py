@@ -25,6 +25,8 @@ from validator.replay import Track, TrackReport, replay, score_track
 from validator.site import Site, load_site
 from validator.track_file import RecordedTrack, read_track
 from validator.uas_zones.applicability import AirspaceOptions
+from validator.wind import Wind
+from validator.wind_track import buffer_share
 
 
 @dataclass
@@ -51,6 +53,13 @@ class Validation:
     vehicle_params: dict[str, float] = field(default_factory=dict)
     param_findings: list[Finding] = field(default_factory=list)
     extra: dict[str, Any] = field(default_factory=dict)
+    planned_wind: Wind | None = None  # the wind the plan was made for (None: still air)
+    flown_wind: Wind | None = None  # the wind it is replayed (and flown in SITL) in
+
+    @property
+    def wind_as_planned(self) -> bool:
+        """Whether the flight's wind is the one the plan was made for."""
+        return _same_wind(self.planned_wind, self.flown_wind)
 
     @property
     def violations(self) -> list[Finding]:
@@ -85,6 +94,10 @@ class Validation:
             "param_findings": [f.as_dict() for f in self.param_findings],
             "replay": track(self.replay),
             "sitl": track(self.sitl),
+            "wind": {"planned_for": _wind_dict(self.planned_wind),
+                     "flown_in": _wind_dict(self.flown_wind),
+                     "as_planned": self.wind_as_planned,
+                     **buffer_share(self.site.buffer_m, self.flown_wind)},
             **self.extra,
         })
 
@@ -98,6 +111,21 @@ def _json_safe(obj: Any) -> Any:
     if isinstance(obj, (list, tuple)):
         return [_json_safe(v) for v in obj]
     return obj
+
+
+def _wind_dict(wind: Wind | None) -> dict[str, object] | None:
+    return None if wind is None else wind.to_dict()
+
+
+def _same_wind(a: Wind | None, b: Wind | None) -> bool:
+    a = None if a is None or a.calm else a
+    b = None if b is None or b.calm else b
+    return a == b
+
+
+def wind_label(wind: Wind | None) -> str:
+    """``6 m/s from 270°`` (or ``still air``)."""
+    return "still air" if wind is None or wind.calm else wind.label()
 
 
 def default_profile_name(plan: Plan) -> str:
@@ -116,6 +144,7 @@ def validate_mission(
     vehicle_params: dict[str, float] | None = None,
     flown_track: str | Path | None = None,
     airspace: AirspaceOptions | None = None,
+    wind: Wind | None = None,
 ) -> Validation:
     """Audit ``plan_path`` against ``site_path`` and, with ``replay_flight``, replay it.
 
@@ -128,7 +157,11 @@ def validate_mission(
     ``sitl`` like a flight flown now, and kept in ``recorded``. ``airspace`` says when the plan
     flies and what it is authorised for: the site's UAS zones are decided for [at, at + the
     plan's replayed duration], and a leg in a zone that applies then is a violation (without a
-    time every zone is taken as active). Raises :class:`InputError` for bad input.
+    time every zone is taken as active). ``wind`` is the wind to fly in
+    (:mod:`validator.wind`; default: the one the plan was made for, its ``nfzMission.wind``,
+    else the site's): a plan replayed in another wind is reported as such
+    (:attr:`Validation.wind_as_planned`). Raises :class:`InputError` for bad input, and for a
+    wind the vehicle cannot fly against (naming the leg).
     """
     if not (dt_s > 0 and dt_s <= 0.05):
         raise InputError(f"--dt: must be > 0 and <= 0.05 s (at least 20 Hz), got {dt_s}")
@@ -142,8 +175,13 @@ def validate_mission(
         site = load_site(site_path, replace(airspace, duration_s=duration_s))
         flight = resolve_flight(plan, site, str(plan_path))
     report = audit(plan, site, flight, source=str(plan_path))
+    planned = flight.service.wind if flight.service is not None else site.wind
+    flown = planned if wind is None else wind
+    flown = None if flown is None or flown.calm else flown
+    site = site.with_limits(wind=flown)  # the replay's (and a SITL flight's) air
     v = Validation(str(plan_path), str(site_path), plan, site, flight, report, dt_s=dt_s,
-                   vehicle_params=dict(vehicle_params or {}))
+                   vehicle_params=dict(vehicle_params or {}), planned_wind=planned,
+                   flown_wind=flown)
     if site.airspace.uas:
         v.extra["airspace"] = site.airspace.report()
     if vehicle_params is not None and (plan.circles or plan.polygons):

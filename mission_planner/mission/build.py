@@ -19,7 +19,7 @@ from mission_planner.mission.options import (
     fence_margin_for,
     leg_margin_m,
 )
-from mission_planner.mission.speeds import assign_speeds, stop_lags
+from mission_planner.mission.speeds import assign_speeds, stop_lags, wind_speeds
 from mission_planner.mission.steps import (
     CycleStep,
     merge_straight_steps,
@@ -139,6 +139,8 @@ def _service_cycle(solution: Solution, opt: MissionOptions) -> _Cycle:
     q = place_on_legs(q, delta, steps)
     inner = [n for s in steps for n in s.slots[:s.moving_slots - 1]]
     merge_offset = (float(np.max(np.hypot(*(q[inner] - planned_q[inner]).T))) if inner else 0.0)
+    if isinstance(waypoint_slots, list) and site.flight_wind is not None:
+        steps = wind_speeds(steps, q, site, solution.notes, timed_speed)
     steps, problems = assign_speeds(steps, q, site.max_speed_mps, opt.min_speed_mps)
     if opt.autopilot == "ardupilot" and solution.notes.get("dynamics") == "vehicle":
         steps = stop_lags(steps)
@@ -215,6 +217,7 @@ def build_mission(solution: Solution, options: MissionOptions | None = None) -> 
             "schedule": [site.gn_names[k] if k >= 0 else None for k in solution.schedule],
             "cycle_items": [first, closing],
             "cycles": opt.cycles,
+            **({"wind": site.wind.to_dict()} if site.wind is not None else {}),
         },
     )
     problems += plan_problems(plan, site)

@@ -12,6 +12,10 @@
   (``solution.notes["dynamics"] == "vehicle"``) counts that lag as the start of the waypoint's
   hover (:mod:`mission_planner.optimize.retime`), so on ArduPilot each stop's hold is written
   net of it (``CycleStep.stop_lag_s``) and the cycle still lasts T.
+- **Wind.** A dynamics-aware plan made for a wind commands each leg the ground speed it was
+  timed with: the cruise speed, or upwind the lower ground speed the vehicle's top airspeed
+  leaves along the leg's course (:func:`wind_speeds`; ArduCopter's WPNAV_SPEED and
+  DO_CHANGE_SPEED are ground speeds), never above the still-air cruise speed.
 - **Whole-second holds.** ArduCopter stores a waypoint hold as whole seconds (it truncates).
   The build writes holds as :func:`validator.autopilot.rules.programmed_holds_s` says (for
   ArduPilot rounded by error diffusion along the cycle; PX4 keeps fractional holds); the
@@ -20,13 +24,20 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
 
-from mission_planner.mission.steps import CycleStep
+from mission_planner.mission.steps import CycleStep, timing_of
+from mission_planner.optimize.retime import motion_profile
 from validator.dynamics import STOP_LAG_S
+from validator.motion.arducopter import leg_speeds_mps
+from validator.motion.profile import profile_wind
+from validator.motion.px4_mission import px4_top_speed_mps
+from validator.site import Site
+from validator.wind import ground_speed_mps
 
 SPEED_EXCESS_ALLOWED = 0.01  # relative excess over V clipped silently (solver tolerance)
 
@@ -63,6 +74,36 @@ def assign_speeds(steps: list[CycleStep], trajectory_m: NDArray[np.float64], max
             speed = min_speed_mps
         out.append(replace(s, hold_s=hold, speed_mps=speed))
     return out, problems
+
+
+def wind_speeds(steps: list[CycleStep], trajectory_m: NDArray[np.float64], site: Site,
+                notes: Mapping[str, object], speed_mps: float) -> list[CycleStep]:
+    """The steps of a dynamics-aware plan with each S-curve leg's speed set to the ground
+    speed it was timed with in the site's wind: ``speed_mps`` (the cruise speed), or less
+    where the leg's course leaves less of the vehicle's top airspeed (the planner's own rule,
+    :func:`validator.motion.arducopter.leg_speeds_mps`; PX4's likewise)."""
+    autopilot, params = timing_of(notes)
+    profile = motion_profile(site, autopilot, params)
+    out: list[CycleStep] = []
+    prev = trajectory_m[0]
+    for s in steps:
+        here = trajectory_m[s.index]
+        d = here - prev
+        prev = here
+        length = float(np.hypot(*d))
+        if not s.scurve or s.speed_mps is None or length <= 0:
+            out.append(s)
+            continue
+        unit = (d / length)[None, :]
+        if profile.name == "px4":
+            wind = profile_wind(profile)
+            g = (ground_speed_mps(px4_top_speed_mps(profile), wind.vector_mps, unit)
+                 if wind is not None else np.array([speed_mps]))
+            speed = float(min(speed_mps, float(g[0])))
+        else:
+            speed = float(leg_speeds_mps(profile, speed_mps, unit)[0])
+        out.append(replace(s, speed_mps=speed))
+    return out
 
 
 def stop_lags(steps: list[CycleStep]) -> list[CycleStep]:

@@ -87,14 +87,24 @@ def _as_calibrated(opt: PlannerOptions) -> bool:
 
 
 def _retimed(
-    site: Site, scheme: str, speed: float, opt: PlannerOptions, progress: Progress | None
+    site: Site, scheme: str, speed: float, opt: PlannerOptions, progress: Progress | None,
+    still_path: bool = False,
 ) -> tuple[_Flyable | None, float]:
     """Plan with top speed ``speed`` (paper model), re-time it for the vehicle, and optimise
     schedule and power on the new timing. Returns the candidate (None if its moves overrun T)
     and the ratio of the vehicle's move time to the paper's. With several start schedules
     each start's path is re-timed and the best flyable one kept: the best paper-model path
-    is not always the best flown one."""
+    is not always the best flown one. ``still_path``: Algorithm 1 plans for still air (the
+    re-timing is in the site's wind all the same)."""
     planning_site = site.with_limits(max_speed_mps=speed)
+    if still_path:
+        planning_site = planning_site.with_limits(wind=None)
+    elif site.wind is not None:
+        # The planning speed scales the vehicle's whole ground-speed envelope in the wind,
+        # so the wind scales with it: slowing the air speed alone would leave upwind legs a
+        # sliver of their real speed (V − w at V = 8.1 m/s in 6 m/s of wind: 2.1, flown 4).
+        cruise = retime.cruise_speed_mps(site, opt.autopilot)
+        planning_site = planning_site.with_limits(wind=site.wind.scaled(speed / cruise))
     psc = scale_site(planning_site, opt.nfz_margin_m, opt.gamma)
     # The re-timing, not Algorithm 1's slow tail, decides these candidates: fewer iterations,
     # and no over-relaxation, which sharpens that tail (over 24 vehicle plans it left 20 within
@@ -300,28 +310,17 @@ def plan_flyable(
     site: Site, scheme: str, opt: PlannerOptions, progress: Progress | None, started: float
 ) -> Solution:
     """Algorithm 1 at the highest top speed whose path the vehicle flies within T (module
-    docstring)."""
-    search = _Search(retime.cruise_speed_mps(site, opt.autopilot), _as_calibrated(opt))
-    speed = search.start
-    tries = 0
-
-    def evaluate(v: float, report: Progress | None) -> tuple[_Flyable | None, float]:
-        return _retimed(site, scheme, v, opt, report)
-
-    with _Ahead(evaluate, opt.search_ahead and _spare_core()) as ahead:
-        for attempt in range(opt.retime_attempts):
-            if attempt + 1 < opt.retime_attempts:
-                ahead.guess(search.likely_next(speed))
-            if isinstance(progress, SearchProgress):
-                progress.candidate(attempt + 1, opt.retime_attempts, speed)
-            cand, overrun = ahead.run(speed, progress)
-            search.record(speed, cand)
-            tries += 1
-            after = search.next_speed(speed, overrun)
-            ahead.keep_only(after)
-            if after is None:
-                break
-            speed = after
+    docstring). In wind with ``opt.wind_blind_paths`` a second search plans still-air paths
+    (re-timed in the wind all the same) and the better plan is kept: the air-frame cone
+    shapes the paper model's path for flight without acceleration limits, which is not always
+    the best flown one."""
+    search, tries = _search(site, scheme, opt, progress, still_path=False)
+    if site.wind is not None and opt.wind_blind_paths:
+        still, more = _search(site, scheme, opt, None, still_path=True)
+        tries += more
+        if still.best is not None and (search.best is None
+                                       or still.best.min_rate > search.best.min_rate):
+            search = still
     best = search.best
     if best is None:
         raise InputError(
@@ -340,6 +339,35 @@ def plan_flyable(
         "move_s": best.move_s,
     }
     return _solution(site, scheme, sc, best.state, started, notes)
+
+
+def _search(site: Site, scheme: str, opt: PlannerOptions, progress: Progress | None,
+            still_path: bool) -> tuple[_Search, int]:
+    """The top-speed search (module docstring) and how many speeds it tried."""
+    search = _Search(retime.cruise_speed_mps(site, opt.autopilot), _as_calibrated(opt))
+    speed = search.start
+    tries = 0
+
+    def evaluate(v: float, report: Progress | None) -> tuple[_Flyable | None, float]:
+        if still_path:
+            return _retimed(site, scheme, v, opt, report, still_path=True)
+        return _retimed(site, scheme, v, opt, report)
+
+    with _Ahead(evaluate, opt.search_ahead and _spare_core()) as ahead:
+        for attempt in range(opt.retime_attempts):
+            if attempt + 1 < opt.retime_attempts:
+                ahead.guess(search.likely_next(speed))
+            if isinstance(progress, SearchProgress):
+                progress.candidate(attempt + 1, opt.retime_attempts, speed)
+            cand, overrun = ahead.run(speed, progress)
+            search.record(speed, cand)
+            tries += 1
+            after = search.next_speed(speed, overrun)
+            ahead.keep_only(after)
+            if after is None:
+                break
+            speed = after
+    return search, tries
 
 
 def _waypoint_slots(trajectory_m: NDArray[np.float64], sk: retime.Skeleton) -> list[int]:

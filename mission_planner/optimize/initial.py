@@ -185,6 +185,9 @@ def _feasible(sc: Scaled, q: NDArray[np.float64], delta: float, radii: NDArray[n
     legs = np.linalg.norm(q - np.roll(q, 1, axis=0), axis=1)
     if np.any(legs > sc.speed * delta * (1 - 1e-9)):
         return False
+    if np.any(sc.air_excess(q - np.roll(q, 1, axis=0), np.full(len(q), delta))
+              > -1e-9 * sc.speed * delta):
+        return False
     prev = np.roll(q, 1, axis=0)
     for part in sc.parts:  # every leg, whole, keeps the clearance
         if np.any(leg_separation(part, prev, q)[1] < sc.clearance):
@@ -207,18 +210,20 @@ def initial_tour(sc: Scaled) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         zones = unary_union([zones, polygons])
     hub = _hub(sc, zones)
     order = visiting_order(sc.gn) if sc.num_gns > 1 else [0]
+    # In wind a leg of any heading fits its slot at the speed the headwind leaves.
+    speed = sc.speed if sc.wind is None else sc.speed - float(np.hypot(*sc.wind))
     for shrink in (1.0, 0.75, 0.5, 0.3, 0.15):
         stops = [_push_out(hub + shrink * (sc.gn[j] - hub), zones) for j in order]
         loop = _bend(stops, zones)
         if polygons.is_empty:
             pts = np.array([*loop, loop[0]])
             length = float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
-            travel = int(np.ceil(1.15 * length / sc.speed)) if length > 0 else 0
+            travel = int(np.ceil(1.15 * length / speed)) if length > 0 else 0
             moving = _resample(loop, travel) if 0 < travel <= n else np.zeros((0, 2))
         else:
             outline = polygons.boundary
             corner = shapely.distance(outline, shapely.points(np.array(loop))) < 1e-9
-            moving = _resample_corners(loop, corner, sc.speed / 1.15)
+            moving = _resample_corners(loop, corner, speed / 1.15)
             travel = len(moving)
         if travel > n:
             continue

@@ -37,12 +37,15 @@ def flyable_slots(
     sc: Scaled, q: NDArray[np.float64], delta: NDArray[np.float64]
 ) -> NDArray[np.float64] | None:
     """Slot lengths close to ``delta`` in which every leg of ``q`` is flown at top speed at most
-    (‖q[n] − q[n−1]‖ ≤ Ṽ δ̃[n], δ̃ ≥ MIN_SLOT, Σ δ̃ = N): the short slots are raised to what
-    their leg needs and the time is taken from the others in proportion to their spare time.
-    None when the legs need more than N in all."""
+    (‖q[n] − q[n−1]‖ ≤ Ṽ δ̃[n], in wind in the air frame too, δ̃ ≥ MIN_SLOT, Σ δ̃ = N): the
+    short slots are raised to what their leg needs and the time is taken from the others in
+    proportion to their spare time. None when the legs need more than N in all."""
     n = sc.num_slots
     prev = np.r_[n - 1, np.arange(n - 1)]
-    need = np.maximum(np.linalg.norm(q - q[prev], axis=1) / sc.speed, MIN_SLOT)
+    legs = q - q[prev]
+    need = np.maximum(np.linalg.norm(legs, axis=1) / sc.leg_speed(legs), MIN_SLOT)
+    if not np.all(np.isfinite(need)):
+        return None
     if float(np.sum(need)) >= n:
         return None
     d = np.maximum(delta, need)
@@ -77,6 +80,8 @@ def feasible(
     if abs(float(np.sum(delta)) - n) > tol * n or np.any(delta < MIN_SLOT):
         return False
     if np.any(np.linalg.norm(q - q[prev], axis=1) > sc.speed * delta * (1.0 + tol)):
+        return False
+    if np.any(sc.air_excess(q - q[prev], delta) > tol * sc.speed * delta):
         return False
     if float(delta @ power) / n > 1.0 + tol:
         return False

@@ -16,6 +16,7 @@ from mission_planner.optimize.flyable import plan_flyable
 from mission_planner.optimize.solution import SCHEMES, Solution
 from validator.errors import InputError
 from validator.site import Site
+from validator.wind import check_flyable
 
 
 def plan(
@@ -29,7 +30,9 @@ def plan(
     ``tangent`` zone rule (:data:`~.solution.SCHEMES`; polygons: every leg under proposed and
     tangent, waypoints under conventional).
 
-    Deterministic: the same site and options give the same solution.
+    Deterministic: the same site and options give the same solution. In the site's wind
+    (``site.wind``, at the flight altitude) the top speed holds in the air frame; a wind at or
+    above the vehicle's top airspeed is refused (:class:`InputError`).
     """
     if scheme not in SCHEMES:
         raise InputError(f"scheme: expected one of {', '.join(SCHEMES)}, got {scheme!r}")
@@ -41,6 +44,13 @@ def plan(
     if not opt.start_schedules or set(opt.start_schedules) - set(START_SCHEDULES):
         raise InputError(f"start_schedules: expected some of {', '.join(START_SCHEDULES)}, "
                          f"got {opt.start_schedules!r}")
+    wind = site.flight_wind
+    if wind is not None:  # a wind the vehicle cannot fly against has no plan
+        from mission_planner.optimize.retime import cruise_speed_mps
+
+        air = site.max_speed_mps if opt.dynamics == "none" else cruise_speed_mps(
+            site, opt.autopilot)
+        check_flyable(air, wind, "wind")
     started = time.perf_counter()
     if opt.dynamics == "none":
         return plan_paper(site, scheme, opt, progress, started)

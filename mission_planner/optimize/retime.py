@@ -43,14 +43,15 @@ from mission_planner.optimize.corners import (
     path_clearance_m,
     stop_everywhere,
 )
+from mission_planner.optimize.simplify import douglas_peucker
 from mission_planner.waypoint_radius import radius_params
 from validator.autopilot.rules import STATIONARY_M, stored_hold_s
-from validator.geometry import segment_point_distance
 from validator.motion.arducopter import (
     STOP_LAG_S,
     ScurveLimits,
     arducopter_top_speed_mps,
     jerk_ramp_s,
+    leg_speeds_mps,
     scurve_limits,
 )
 from validator.motion.limits import site_limits
@@ -100,6 +101,14 @@ class Skeleton:
         """(W,) length of each leg, the last one back to the first waypoint."""
         nxt = np.roll(self.points_m, -1, axis=0)
         return np.asarray(np.linalg.norm(nxt - self.points_m, axis=1), dtype=float)
+
+    @property
+    def leg_units(self) -> NDArray[np.float64]:
+        """(W, 2) each leg's direction (zeros for a leg of no length)."""
+        d = np.roll(self.points_m, -1, axis=0) - self.points_m
+        length = np.linalg.norm(d, axis=1)
+        return np.divide(d, length[:, None], out=np.zeros_like(d, dtype=float),
+                         where=length[:, None] > 0)
 
 
 def skeleton(
@@ -195,33 +204,6 @@ def _simplify(
     return keep
 
 
-def douglas_peucker(pts: NDArray[np.float64], tolerance_m: float,
-                    keeps: Callable[[int, int], bool],
-                    tightest: Callable[[int, int], int]) -> list[int]:
-    """Indices of the polyline ``pts`` (P, 2) kept by Douglas-Peucker within ``tolerance_m``,
-    where a chord i→j also replaces the points between only if ``keeps(i, j)`` (here: no
-    closer to a zone than they were); a chord refused for that alone is split at
-    ``tightest(i, j)`` (the point between them closest to a zone), not at the farthest one.
-    Deciding chord by chord lets a stretch far from every zone lose its wiggles while one
-    hugging a zone keeps its vertices (a whole-path check would keep them all)."""
-    last = len(pts) - 1
-    kept = {0, last}
-    todo = [(0, last)]
-    while todo:
-        i, j = todo.pop()
-        if j <= i + 1:
-            continue
-        off = segment_point_distance(pts[i], pts[j], pts[i + 1:j])
-        k = i + 1 + int(np.argmax(off))
-        if float(off[k - i - 1]) <= tolerance_m:
-            if keeps(i, j):
-                continue
-            k = tightest(i, j)
-        kept.add(k)
-        todo += [(i, k), (k, j)]
-    return sorted(kept)
-
-
 def motion_profile(site: Site, autopilot: str = "ardupilot",
                    params: Mapping[str, float] | None = None) -> Profile:
     """The validator's model of ``autopilot`` ("ardupilot": ``arducopter``, "px4": ``px4``)
@@ -251,25 +233,30 @@ def cruise_speed_mps(site: Site, autopilot: str = "ardupilot") -> float:
 
 def leg_profiles(site: Site, lengths_m: ArrayLike, speed_mps: float | None = None,
                  autopilot: str = "ardupilot",
-                 params: Mapping[str, float] | None = None) -> LegMotion:
+                 params: Mapping[str, float] | None = None,
+                 unit_xy: ArrayLike | None = None) -> LegMotion:
     """Straight legs flown from rest to rest as the autopilot flies them (the validator's
     model, :func:`motion_profile`) at ``speed_mps`` (default: :func:`cruise_speed_mps`), never
     above the vehicle's top speed. ArduCopter: S-curves with acceleration ``uav.max_accel``
     capped by the lean angle and jerk ``uav.max_jerk`` with ArduCopter's jerk ramp. PX4: its
     own braking rule and velocity smoothing, a leg ending when the vehicle is within
-    NAV_ACC_RAD of its waypoint (:func:`validator.motion.px4.rest_to_rest`)."""
+    NAV_ACC_RAD of its waypoint (:func:`validator.motion.px4.rest_to_rest`). In the site's
+    wind each leg, along its direction ``unit_xy`` (n, 2), is timed at most at the ground
+    speed its course leaves (:func:`leg_speeds_mps`)."""
     profile = motion_profile(site, autopilot, params)
     lengths = np.atleast_1d(np.asarray(lengths_m, dtype=float))
     if profile.name == "px4":
         top = px4_top_speed_mps(profile)
         speed = top if speed_mps is None else min(speed_mps, top)
-        return px4_rest_to_rest(profile, lengths, speed)
+        return px4_rest_to_rest(profile, lengths, speed, unit_xy)
     lim = scurve_limits(profile)
     jerk = np.full(lengths.shape, lim.jerk_mps3)
     speed = _scurve_speed_mps(lim, speed_mps)
+    speeds = (np.full(lengths.shape, float(speed)) if unit_xy is None
+              else leg_speeds_mps(profile, speed, unit_xy))
     return scurve_rest_to_rest(
         lengths,
-        np.full(lengths.shape, float(speed)),
+        speeds,
         np.full(lengths.shape, lim.accel_mps2),
         jerk,
         jerk_ramp_s(profile, jerk),
@@ -304,7 +291,8 @@ def time_cycle(
     the timeline each stop's hover begins with the stop lag (:func:`arrival_lag_s`) and then
     holds as :func:`fit_holds` says (whole seconds but one, at least a second). A PX4 leg
     begins with its departure crawl (:func:`px4_departures_s`), settled with the holds."""
-    profiles = leg_profiles(site, sk.leg_lengths_m, autopilot=autopilot, params=params)
+    profiles = leg_profiles(site, sk.leg_lengths_m, autopilot=autopilot, params=params,
+                            unit_xy=sk.leg_units if site.flight_wind is not None else None)
     motion = cycle_motion(site, sk, profiles, autopilot, params, pass_through)
     lag = motion.arrival_lag_s
     holds = fit_holds(sk.hold_s, motion.move_s + float(np.sum(lag)), period_s,

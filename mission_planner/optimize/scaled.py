@@ -13,6 +13,11 @@ With a fixed ``gamma`` (the paper's γ1 = γ2 = 100), the shifts are moved by th
 normalisation takes out of each logarithm, so the quadratic-transform surrogate is exactly the
 paper's; by default they are set per rate term at each SCA point instead
 (:func:`.trajectory.qt_shifts`).
+
+Wind (the site's forecast at the flight altitude, :mod:`validator.wind`) enters as ``wind``,
+the distance the air moves in a unit slot length: the top speed then holds in the air frame,
+‖q[n] − q[n−1] − w̃ δ̃[n]‖ ≤ Ṽ δ̃[n], beside the ground-speed limit ‖q[n] − q[n−1]‖ ≤ Ṽ δ̃[n]
+(the fastest speed the plan commands over the ground, which Theorem 1's radius is built on).
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from validator.site import Site
+from validator.wind import ground_speed_mps
 
 LENGTH_UNIT_M = 100.0
 
@@ -48,11 +54,34 @@ class Scaled:
     parts: tuple[NDArray[np.float64], ...] = ()  # convex parts of the polygon zones, (Q, 2) each
     part_zone: tuple[int, ...] = ()  # index into Site.polygon_zones of each part
     clearance: float = 0.0  # buffer + margin
+    wind: NDArray[np.float64] | None = None  # (2,) w̃: air's move per unit slot; None: still air
 
     @property
     def slot_s(self) -> float:
         """Seconds per unit slot length (T/N)."""
         return self.period_s / self.num_slots
+
+    def leg_speed(self, legs: NDArray[np.float64]) -> NDArray[np.float64]:
+        """(N,) the fastest each leg ``legs`` (N, 2, displacement) can be flown, in length
+        per unit slot: Ṽ, or in wind the lower of Ṽ and the ground speed its heading leaves
+        (:func:`validator.wind.ground_speed_mps`; NaN where none)."""
+        if self.wind is None:
+            return np.full(len(legs), self.speed)
+        length = np.linalg.norm(legs, axis=1)
+        unit = np.divide(legs, length[:, None], out=np.zeros_like(legs),
+                         where=length[:, None] > 0)
+        g = ground_speed_mps(self.speed, self.wind, unit)
+        return np.asarray(np.where(length > 0, np.minimum(g, self.speed), self.speed),
+                          dtype=float)
+
+    def air_excess(self, legs: NDArray[np.float64], delta: NDArray[np.float64]
+                   ) -> NDArray[np.float64]:
+        """(N,) ‖leg − w̃ δ̃‖ − Ṽ δ̃, above 0 where a leg breaks the air-frame limit; −inf
+        in still air, where the ground limit alone holds."""
+        if self.wind is None:
+            return np.full(len(legs), -np.inf)
+        air = legs - delta[:, None] * self.wind[None, :]
+        return np.asarray(np.linalg.norm(air, axis=1) - self.speed * delta, dtype=float)
 
 
 def scale_site(site: Site, margin_m: float, gamma: float | None = None) -> Scaled:
@@ -79,6 +108,8 @@ def scale_site(site: Site, margin_m: float, gamma: float | None = None) -> Scale
         parts=tuple(p / LENGTH_UNIT_M for z in site.polygon_zones for p in z.parts),
         part_zone=tuple(i for i, z in enumerate(site.polygon_zones) for _ in z.parts),
         clearance=(site.buffer_m + margin_m) / LENGTH_UNIT_M,
+        wind=(None if site.flight_wind is None
+              else site.flight_wind.vector_mps * slot_s / LENGTH_UNIT_M),
     )
 
 

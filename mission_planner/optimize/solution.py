@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 from validator.channel import hover_upper_bound, spectral_efficiency
 from validator.geometry import expanded_radius, leg_clearances
 from validator.site import Site
+from validator.wind_track import buffer_share
 from validator.zones import path_clearances_m
 
 # The zone rule: proposed = Theorem 1's expanded radius (6-1), conventional = waypoints only (5),
@@ -140,4 +141,16 @@ class Solution:
             **({"zone_clearance_min_m": self._zone_clearance_min_m()}
                if site.polygon_zones else {}),
             **({"notes": self.notes} if self.notes else {}),
+            **({"wind": wind_report(site)} if site.wind is not None else {}),
         }
+
+
+def wind_report(site: Site) -> dict[str, Any]:
+    """What wind a plan was made for: the site's forecast, its layer at the flight altitude
+    (:mod:`validator.wind`) and what it eats of the buffer the plan keeps
+    (:func:`validator.wind_track.buffer_share`)."""
+    assert site.wind is not None
+    at = site.wind.at(site.altitude_m)
+    return {**site.wind.to_dict(), "at_flight_altitude": {
+        "speed_mps": at.speed_mps, "from_deg": at.from_deg, "turbulence_mps": at.turbulence_mps},
+        **buffer_share(site.buffer_m, site.flight_wind)}

@@ -8,6 +8,7 @@ For fixed schedule s and power p, around the current point (q^r, δ^r):
          Ã = 2(q^r − w)ᵀ(q − q^r) + ‖q^r − w‖² + H̃²                          (22)
          B̃ = (2D − H̃² − ‖q − w‖²) / D²,   D = ‖q^r − w‖² + H̃²                  (23)
          ‖q[n] − q[n−1]‖ ≤ Ṽ δ̃[n],  Σ δ̃ = N,  δ̃ > 0,  q[0] = q[N]             (1)–(4)
+         in wind w̃ also ‖q[n] − q[n−1] − w̃ δ̃[n]‖ ≤ Ṽ δ̃[n]  (the air-frame limit, :mod:`.scaled`)
          Σ δ̃ p̃ / N ≤ 1                                                       (7)
          proposed:     G_m(q[n]) ≥ R̃² + (Ṽδ̃[n]/2)²  and  G_m(q[n−1]) ≥ R̃² + (Ṽδ̃[n]/2)²   (6-1)
          conventional: G_m(q[n]) ≥ R̃²                                                   (5)
@@ -319,6 +320,17 @@ class TrajectoryProblem:
             (c["qy"][:, None], [0.0, 0.0, 1.0]),
             (c["qy"][prev][:, None], [0.0, 0.0, -1.0]),
         )
+        if sc.wind is not None:
+            # In wind the top speed holds in the air: ‖q[n] − q[n−1] − w̃ δ̃[n]‖ ≤ Ṽ δ̃[n].
+            wx, wy = float(sc.wind[0]), float(sc.wind[1])
+            form.soc(
+                np.zeros((n, 3)),
+                (c["delta"][:, None], [sc.speed, -wx, -wy]),
+                (c["qx"][:, None], [0.0, 1.0, 0.0]),
+                (c["qx"][prev][:, None], [0.0, -1.0, 0.0]),
+                (c["qy"][:, None], [0.0, 0.0, 1.0]),
+                (c["qy"][prev][:, None], [0.0, 0.0, -1.0]),
+            )
         # ι δ̃ ≥ 1: ‖(ι − δ̃, 2)‖ ≤ ι + δ̃.
         form.soc(
             np.tile([0.0, 0.0, 2.0], (n, 1)),

@@ -27,7 +27,7 @@ class TrajectoryModel:
 
     def __init__(
         self, num_slots: int, num_gns: int, num_nfzs: int, scheme: str, terms: int = 1,
-        num_parts: int = 0,
+        num_parts: int = 0, wind: bool = False,
     ) -> None:
         def rows(x: cp.Expression, count: int) -> cp.Expression:
             """Broadcast an (N,) expression into (count, N)."""
@@ -94,6 +94,12 @@ class TrajectoryModel:
             # steps of several hundred metres that the surrogate barely distinguishes.
             cp.abs(self.q - self.q_ref) <= TRUST_REGION,
         ]
+        self.wind = cp.Parameter(2) if wind else None  # w̃, the air's move per unit slot
+        if self.wind is not None:  # the top speed holds in the air frame
+            air_move = cp.reshape(self.delta, (n, 1), order="C") @ cp.reshape(
+                self.wind, (1, 2), order="C")
+            constraints.append(cp.SOC(self.speed * self.delta,
+                                      (self.q - self.q[prev] - air_move).T, axis=0))
         if m:
             self.gx = cp.Parameter((m, n))  # 2 (q^r − c)_x
             self.gy = cp.Parameter((m, n))
@@ -139,6 +145,8 @@ class TrajectoryModel:
         route = np.zeros((k, j, n))  # term (j, n) to its GN's row
         route[pt.top, np.arange(j)[:, None], cols[None, :]] = 1.0
         self.speed.value = sc.speed
+        if self.wind is not None:
+            self.wind.value = np.zeros(2) if sc.wind is None else sc.wind
         for name in ("ax", "ay", "a0", "a_ref", "bx", "by", "b0", "b_ref", "ashift", "bshift"):
             getattr(self, name).value = getattr(pt, name)
         self.w_lambda.value = (route * pt.w_lambda[None]).reshape(k, j * n)

@@ -1,9 +1,12 @@
-"""``nfz-study``: reproduce the paper's Fig. 3 and Fig. 4 (thin wrapper over fig3/fig4).
+"""``nfz-study``: the paper's Fig. 3 and Fig. 4, and a wind sweep (thin wrapper over fig3, fig4
+and wind).
 
     nfz-study fig3 SITE -o DIR [--buffer-m B] [--max-iterations I]
     nfz-study fig4 -o DIR [--trials N] [--radii 10,20,30,40,50] [--counts 1,2,3,4,5] [--seed S]
                    [--slots N] [--max-iterations I] [--workers W | --scheduler tcp://HOST:PORT]
                    [--format csv|parquet] [--retry-errors] [--no-progress]
+    nfz-study wind SITE -o DIR [--speeds 0,2,4,6,8] [--directions 0,90,180,270]
+                   [--turbulence M/S] [--autopilot ardupilot|px4] [--workers W | --scheduler ...]
 
 Bad input: one line on stderr, exit 2, no output. Interrupted: exit 130; run the same command
 again to resume. Any failed trials: listed in the table, a warning on stderr, exit 0 (exit 1
@@ -84,6 +87,29 @@ def build_parser() -> argparse.ArgumentParser:
     p4.add_argument("--no-progress", "--quiet", action="store_true",
                     help="no progress bar (trials done, rate, time left; shown only on a "
                          "terminal)")
+
+    pw = sub.add_parser("wind", help="one site planned for and flown in a sweep of winds")
+    pw.add_argument("site", help="site YAML file")
+    pw.add_argument("-o", "--out", required=True, help="output directory (re-run to resume)")
+    pw.add_argument("--speeds", type=_list_of(float), default=(0.0, 2.0, 4.0, 6.0, 8.0),
+                    help="wind speeds, m/s (0,2,4,6,8)")
+    pw.add_argument("--directions", type=_list_of(float), default=(0.0, 90.0, 180.0, 270.0),
+                    help="directions the wind blows from, degrees true (0,90,180,270)")
+    pw.add_argument("--turbulence", type=float, default=0.0,
+                    help="turbulence of every windy trial, m/s (0)")
+    pw.add_argument("--autopilot", choices=("ardupilot", "px4"), default="ardupilot",
+                    help="the plans' autopilot and flight model (ardupilot)")
+    pw.add_argument("--workers", type=int, default=None,
+                    help="local worker processes (all CPUs); 1 runs in this process")
+    pw.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                    help="run the trials on this Dask scheduler instead")
+    pw.add_argument("--format", dest="table_format", default="csv",
+                    help="trial table format: csv or parquet (needs pyarrow)")
+    pw.add_argument("--retry-errors", action="store_true",
+                    help="re-run logged trials that ended in an error")
+    pw.add_argument("--no-progress", "--quiet", action="store_true",
+                    help="no progress bar (trials done, rate, time left; shown only on a "
+                         "terminal)")
     return parser
 
 
@@ -142,13 +168,35 @@ def _fig4(args: argparse.Namespace) -> int:
     return 0
 
 
+def _wind(args: argparse.Namespace) -> int:
+    from mission_planner.study.wind import run_wind_study
+    from validator.site import load_site
+
+    result = run_wind_study(
+        load_site(args.site), args.out, speeds_mps=args.speeds, directions_deg=args.directions,
+        turbulence_mps=args.turbulence, autopilot=args.autopilot, workers=args.workers,
+        scheduler=args.scheduler, progress=False if args.no_progress else None,
+        table_format=args.table_format, retry_errors=args.retry_errors,
+    )
+    run = result.run
+    print(f"{len(run.rows)} trials ({run.executed} run now, {run.skipped} from {args.out})")
+    for path in result.files:
+        print(path)
+    if run.failed:
+        print(f"warning: {len(run.failed)} trials failed, e.g. {run.failed[0]['key']}: "
+              f"{run.failed[0]['error']}", file=sys.stderr)
+        if len(run.failed) == len(run.rows):
+            return 1
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``nfz-study``; returns the exit status."""
     from mission_planner.study.executors import ExecutorError
 
     try:
         args = build_parser().parse_args(argv)
-        return _fig3(args) if args.command == "fig3" else _fig4(args)
+        return {"fig3": _fig3, "fig4": _fig4, "wind": _wind}[args.command](args)
     except UserError as err:
         return report_error("nfz-study", err)
     except ModuleNotFoundError as err:

@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from mission_planner.study.store import TrialLog, check_manifest, read_log
-from mission_planner.study.trials import TrialSpec, is_failed, run_trial
+from mission_planner.study.trials import is_failed, run_trial
 from validator.errors import InputError
 
 CONNECT_TIMEOUT_S = 10
@@ -64,7 +64,7 @@ def check_scheduler(address: str) -> str:
     return address
 
 
-def _map_inline(fn: Callable[[TrialSpec], dict[str, Any]], specs: Sequence[TrialSpec]
+def _map_inline(fn: Callable[[Any], dict[str, Any]], specs: Sequence[Any]
                 ) -> Iterator[dict[str, Any]]:
     for spec in specs:
         yield fn(spec)
@@ -78,7 +78,7 @@ def _process_context() -> multiprocessing.context.BaseContext:
     return multiprocessing.get_context("spawn")
 
 
-def _map_processes(fn: Callable[[TrialSpec], dict[str, Any]], specs: Sequence[TrialSpec],
+def _map_processes(fn: Callable[[Any], dict[str, Any]], specs: Sequence[Any],
                    workers: int) -> Iterator[dict[str, Any]]:
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=_process_context())
     finished = False
@@ -125,7 +125,7 @@ def _connect(address: str) -> Any:
         raise InputError(f"--scheduler: cannot reach {address} ({err})") from None
 
 
-def _map_dask(fn: Callable[[TrialSpec], dict[str, Any]], specs: Sequence[TrialSpec],
+def _map_dask(fn: Callable[[Any], dict[str, Any]], specs: Sequence[Any],
               client: Any) -> Iterator[dict[str, Any]]:
     from distributed import as_completed
 
@@ -144,7 +144,7 @@ def _map_dask(fn: Callable[[TrialSpec], dict[str, Any]], specs: Sequence[TrialSp
 
 
 def run_trials(
-    specs: Sequence[TrialSpec],
+    specs: Sequence[Any],
     directory: str | Path,
     *,
     options: Any = None,
@@ -154,6 +154,7 @@ def run_trials(
     retry_errors: bool = False,
     on_row: Callable[[dict[str, Any]], None] | None = None,
     manifest: dict[str, Any] | None = None,
+    trial: Callable[..., dict[str, Any]] = run_trial,
 ) -> StudyRun:
     """Run the ``specs`` not yet logged in ``directory``; return every spec's row, in order.
 
@@ -164,6 +165,9 @@ def run_trials(
     - ``retry_errors``: run again the logged trials that ended in an error.
     - ``on_row``: called with each new row after it is logged.
     - ``manifest``: settings recorded beside the log (see :func:`check_manifest`).
+    - ``trial``: what runs one spec, ``trial(spec, options=options) -> row`` (default
+      :func:`run_trial`; the wind study's :func:`~mission_planner.study.wind.run_wind_trial`);
+      any spec with a ``key`` and its function's row with the same ``key`` will do.
 
     Duplicate specs run once. Raises :class:`ExecutorError` if a worker dies.
     """
@@ -180,7 +184,7 @@ def run_trials(
         s for s in wanted
         if s.key not in done or (retry_errors and is_failed(done[s.key]))
     ]
-    fn = functools.partial(run_trial, options=options)
+    fn = functools.partial(trial, options=options)
     if manifest is not None:
         check_manifest(directory, manifest)
     rows: Iterator[dict[str, Any]]

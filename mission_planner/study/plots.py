@@ -240,3 +240,50 @@ def plot_fig4(summary: Sequence[dict[str, Any]], config: Fig4Config) -> tuple[Fi
     fig_b = _plot_sweeps(summary, config, "outage_probability", "outage_ci_low",
                          "outage_ci_high", "outage probability")
     return fig_a, fig_b
+
+
+def plot_wind(rows: Sequence[dict[str, Any]], site_name: str,
+              directions_deg: Sequence[float], buffer_m: float | None = None) -> Figure:
+    """The wind study (:mod:`mission_planner.study.wind`): against wind speed, one colour per
+    direction, the min rate per flown second, the flown cycle over T and the least flown
+    clearance (the safety buffer ``buffer_m`` marked); the plan made for the wind solid, the
+    still-air plan flown in it dashed."""
+    fig = Figure(figsize=(13.5, 4.0))
+    axes = fig.subplots(1, 3)
+    panels = (("flown_min_rate_bps_hz", "blind_flown_min_rate_bps_hz",
+               "min rate per flown second (bps/Hz)"),
+              ("cycle_ratio", "blind_cycle_ratio", "flown cycle / T"),
+              ("clearance_min_m", "blind_clearance_min_m", "least flown clearance (m)"))
+    ok = [r for r in rows if not r.get("error")]
+    still = [r for r in ok if float(r["speed_mps"]) == 0.0]
+    tab10 = colormaps["tab10"]
+    for i, d in enumerate(directions_deg):
+        pts = sorted([r for r in ok if float(r["speed_mps"]) > 0
+                      and math.isclose(float(r["from_deg"]), float(d) % 360.0)] + still,
+                     key=lambda r: float(r["speed_mps"]))
+        if not pts:
+            continue
+        speed = [float(r["speed_mps"]) for r in pts]
+        for ax, (aware, blind, _) in zip(axes, panels, strict=True):
+            ax.plot(speed, [_value(r[aware]) for r in pts], "-o", color=tab10(i % 10),
+                    markersize=4, label=f"from {float(d):g}°")
+            ax.plot(speed, [_value(r[blind]) for r in pts], "--", color=tab10(i % 10),
+                    alpha=0.7)
+    for ax, (_, _, label) in zip(axes, panels, strict=True):
+        ax.set_xlabel("wind speed (m/s)")
+        ax.set_ylabel(label)
+        ax.grid(True, alpha=0.3)
+    axes[1].axhline(1.0, color="black", linewidth=0.8)
+    if buffer_m is not None:
+        axes[2].axhline(buffer_m, color=VIOLATION_COLOR, linewidth=0.8, label="buffer")
+    handles, labels = axes[0].get_legend_handles_labels()
+    handles += [Line2D([], [], color="grey", linestyle="-"),
+                Line2D([], [], color="grey", linestyle="--")]
+    labels += ["planned for the wind", "still-air plan in the wind"]
+    axes[0].legend(handles, labels, fontsize=8)
+    fig.suptitle(f"{site_name}: planned for and flown in wind (validator model)")
+    return fig
+
+
+def _value(x: Any) -> float:
+    return math.nan if x is None or x == "" else float(x)

@@ -14,7 +14,8 @@ MAV_PARAM_TYPE_REAL32 = 9
 
 # A vehicle limit a flight model puts in place of the autopilot's default (the field of
 # :class:`validator.motion.limits.VehicleLimits` it reads).
-LimitName = Literal["speed_mps", "accel_mps2", "jerk_mps3", "alt_amsl_m"]
+LimitName = Literal["speed_mps", "accel_mps2", "jerk_mps3", "alt_amsl_m", "wind_speed_mps",
+                    "wind_from_deg"]
 
 
 @dataclass(frozen=True)

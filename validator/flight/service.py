@@ -1,6 +1,7 @@
 """The planner's metadata a plan carries (``Plan.extra`` under ``nfzMission``, format 1): its
-slots, schedule, powers and where the service cycle sits among the items, read and checked
-against the site.
+slots, schedule, powers and where the service cycle sits among the items, and the wind it was
+made for (``wind``, optional: :class:`validator.wind.WindModel`), read and checked against the
+site.
 """
 
 from __future__ import annotations
@@ -10,9 +11,11 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from pydantic import ValidationError
 
 from validator.errors import InputError
 from validator.site import Site
+from validator.wind import Wind, WindModel
 
 
 @dataclass(frozen=True)
@@ -33,6 +36,7 @@ class ServicePlan:
     schedule: NDArray[np.int64]  # (N,), GN index or -1
     cycle_items: tuple[int, int]
     cycles: int
+    wind: Wind | None = None  # the wind the plan was made for (absent: still air)
 
     @property
     def period_s(self) -> float:
@@ -45,7 +49,7 @@ class ServicePlan:
 
 _SERVICE_KEYS = {
     "format", "site", "scheme", "trajectory_m", "delta_s", "power_w", "schedule", "cycle_items",
-    "cycles",
+    "cycles", "wind",
 }
 
 
@@ -73,7 +77,7 @@ def parse_service(extra: Any, site: Site, source: str = "plan") -> ServicePlan |
     unknown = sorted(set(extra) - _SERVICE_KEYS)
     if unknown:
         raise InputError(f"{where}.{unknown[0]}: unknown key")
-    missing = sorted(_SERVICE_KEYS - {"site", "scheme"} - set(extra))
+    missing = sorted(_SERVICE_KEYS - {"site", "scheme", "wind"} - set(extra))
     if missing:
         raise InputError(f"{where}.{missing[0]}: missing field")
     if extra["format"] != 1:
@@ -122,5 +126,19 @@ def parse_service(extra: Any, site: Site, source: str = "plan") -> ServicePlan |
         schedule=schedule,
         cycle_items=(int(ci[0]), int(ci[1])),
         cycles=int(cycles),
+        wind=_wind(extra.get("wind"), f"{where}.wind"),
     )
+
+
+def _wind(value: Any, where: str) -> Wind | None:
+    """The ``wind`` a plan was made for (:class:`validator.wind.WindModel`), None if absent."""
+    if value is None:
+        return None
+    try:
+        return Wind.from_model(WindModel.model_validate(value))
+    except ValidationError as err:
+        e = err.errors()[0]
+        loc = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in e["loc"])
+        msg = "unknown key" if e["type"] == "extra_forbidden" else str(e["msg"])
+        raise InputError(f"{where}{loc}: {msg}") from None
 

@@ -39,7 +39,7 @@ DEFAULT_BINARY_SPEEDUP = 10.0  # ArduCopter SITL in lockstep; the shared real fl
 DEFAULT_PX4_SPEEDUP = 4.0
 # Profile parameters that are the model's, not an autopilot's: never sent with PARAM_SET.
 MODEL_ONLY_PARAMS = frozenset({"VEHICLE_SPEED_MAX", "SPEED", "SPEED_UP", "SPEED_DN",
-                               "VEHICLE_DRAG", "ALT_AMSL"})
+                               "VEHICLE_DRAG", "ALT_AMSL", "WIND_SPEED", "WIND_FROM"})
 
 
 def _positive(text: str) -> float:
@@ -413,6 +413,7 @@ def run_sitl(v: Validation, args: argparse.Namespace,
         autopilot_sitl,
         find_binary,
         is_px4,
+        sitl_wind_params,
         terminate_on_sigterm,
     )
     from validator.plan_format import Autopilot
@@ -436,6 +437,8 @@ def run_sitl(v: Validation, args: argparse.Namespace,
     home = (v.plan.home_lat_deg, v.plan.home_lon_deg, v.plan.home_alt_m)
     if args.sitl_url:
         kind = "external"
+        if v.flown_wind is not None:
+            v.extra["sitl_wind"] = "an external vehicle flies in its own air (--wind: the replay)"
         result = fly_and_score(v.plan, v.site, v.flight, args.sitl_url, time_limit_s=limit,
                                timeout_s=args.sitl_timeout, sysid=args.sitl_sysid,
                                params=sent or None, signing_key=key)
@@ -444,6 +447,11 @@ def run_sitl(v: Validation, args: argparse.Namespace,
         speedup = args.sitl_speedup or (DEFAULT_PX4_SPEEDUP if is_px4(binary)
                                         else DEFAULT_BINARY_SPEEDUP)
         terminate_on_sigterm()
+        if is_px4(binary):
+            if v.flown_wind is not None:
+                v.extra["sitl_wind"] = "PX4's SIH has no wind model: flown in still air"
+        else:  # ArduPilot SITL flies in the flight's wind (SIM_WIND_*)
+            sent = {**sent, **sitl_wind_params(v.flown_wind)}
         with autopilot_sitl(binary, home, speedup=speedup, defaults=args.sitl_defaults) as url:
             result = fly_and_score(v.plan, v.site, v.flight, url, time_limit_s=limit,
                                    timeout_s=args.sitl_timeout, params=sent or None,

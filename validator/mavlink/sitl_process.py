@@ -45,6 +45,7 @@ from types import FrameType
 
 from validator.errors import InputError
 from validator.geodesy import to_int_e7
+from validator.wind import Wind
 
 BINARY_ENV = "ARDUPILOT_SITL"
 PX4_BINARY_ENV = "PX4_SITL"
@@ -200,6 +201,18 @@ def ardupilot_sitl(
     with _workdir("nfz-sitl-") as workdir, _started(binary, argv, workdir) as (proc, log):
         _wait_listening(port, proc, log, start_patience_s)
         yield f"tcp:127.0.0.1:{port}"
+
+
+def sitl_wind_params(wind: Wind | None) -> dict[str, float]:
+    """ArduPilot SITL's simulated wind for ``wind`` (its flight-altitude layer): SIM_WIND_SPD
+    (m/s), SIM_WIND_DIR (degrees the wind comes FROM, as ours: SIM_Aircraft's update_wind
+    negates the vector), SIM_WIND_TURB (m/s), and SIM_WIND_T 1, a flat wind at every height
+    (its default 0 scales the wind by sqrt(alt / 60 m) below 60 m: 0.71 of it at 30 m).
+    Still air: all zero, which also undoes a wind left from an earlier flight."""
+    if wind is None:
+        return {"SIM_WIND_SPD": 0.0, "SIM_WIND_TURB": 0.0}
+    return {"SIM_WIND_SPD": wind.speed_mps, "SIM_WIND_DIR": wind.from_deg,
+            "SIM_WIND_TURB": wind.turbulence_mps, "SIM_WIND_T": 1.0}
 
 
 def is_px4(binary: Path) -> bool:

@@ -15,7 +15,9 @@ ALT_AMSL). A takeoff from the
 ground climbs after the lift-off delay; a landing descends at WPNAV_SPEED_DN to LAND_ALT_LOW,
 then at LAND_SPEED, and ends when the land detector fires; every stop at a waypoint is counted
 STOP_LAG_S after the S-curve ends (all three fitted to ArduCopter 4.5.6 SITL flights,
-``../shared/data/arducopter-sitl-2``).
+``../shared/data/arducopter-sitl-2``). In wind (WIND_SPEED, WIND_FROM) the top speed holds
+in the air: each leg is capped at the ground speed its course leaves
+(:func:`leg_speed_caps_mps`); gusts do not move the modelled track.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from validator.autopilot.rules import stored_hold_s
 from validator.flight import Flight
@@ -43,8 +45,9 @@ from validator.motion.path import (
     superpose,
     time_grid,
 )
-from validator.motion.profile import Profile
+from validator.motion.profile import Profile, profile_wind
 from validator.motion.scurve import SEG_CRUISE, SEG_DECEL_START, Profiles1D, scurve_to_touchdown
+from validator.wind import check_flyable, ground_speed_mps
 
 CORNER_SEARCH_STEP_S = 0.0025  # ArduCopter checks the corner condition at its 400 Hz loop rate
 # Arming to the start of the climb: the arming delay, motor spool-up and throttle slew until
@@ -102,6 +105,37 @@ def scurve_limits(profile: Profile) -> ScurveLimits:
                         arducopter_accel_mps2(profile), profile.si("WPNAV_JERK"))
 
 
+def leg_speed_caps_mps(profile: Profile, unit: NDArray[np.float64],
+                       names: list[str] | None = None) -> NDArray[np.float64]:
+    """(n,) the fastest ground speed (m/s) an ``arducopter`` profile's vehicle holds along
+    each leg's direction ``unit`` (n, 3): its top speed (:func:`arducopter_top_speed_mps`),
+    which in wind (WIND_SPEED, WIND_FROM) holds in the air, so less upwind and more downwind
+    (:func:`validator.wind.ground_speed_mps`). A wind at or above the top speed is refused
+    (:class:`InputError` naming the first leg, of ``names``, it cannot fly)."""
+    top = arducopter_top_speed_mps(profile)
+    wind = profile_wind(profile)
+    if wind is None:
+        return np.full(len(unit), top)
+    horiz = np.hypot(unit[:, 0], unit[:, 1])
+    flat = horiz > 1e-9
+    u = np.divide(unit[:, :2], horiz[:, None], out=np.zeros((len(unit), 2)),
+                  where=flat[:, None])
+    check_flyable(top, wind, "wind", u[flat], [n for n, f in zip(names or [], flat,
+                                                                   strict=False) if f] or None)
+    return np.asarray(np.where(flat, ground_speed_mps(top, wind.vector_mps, u), top),
+                      dtype=float)
+
+
+def leg_speeds_mps(profile: Profile, speed_mps: float, unit_xy: ArrayLike) -> NDArray[np.float64]:
+    """(n,) the ground speed (m/s) an ``arducopter`` profile's legs along ``unit_xy`` (n, 2)
+    fly at when commanded ``speed_mps``: that speed, or in wind the lower ground speed the
+    course leaves of the vehicle's top airspeed
+    (:func:`leg_speed_caps_mps`, the replay's own cap)."""
+    unit = np.atleast_2d(np.asarray(unit_xy, dtype=float))
+    caps = leg_speed_caps_mps(profile, np.column_stack([unit, np.zeros(len(unit))]))
+    return np.asarray(np.minimum(float(speed_mps), caps), dtype=float)
+
+
 def _ardu_limits(
     flight: Flight, profile: Profile, geom: LegGeometry
 ) -> tuple[Profiles1D, NDArray[np.float64]]:
@@ -115,7 +149,8 @@ def _ardu_limits(
         dtype=float,
     )
     unit = geom.unit
-    speed = kinematic_limit(unit, np.minimum(cmd, lim.top_speed_mps),
+    caps = leg_speed_caps_mps(profile, unit, [f"mission item {leg.item}" for leg in legs])
+    speed = kinematic_limit(unit, np.minimum(cmd, caps),
                             profile.si("WPNAV_SPEED_UP"), profile.si("WPNAV_SPEED_DN"))
     a_z = profile.si("WPNAV_ACCEL_Z")
     accel = kinematic_limit(unit, np.full(len(legs), lim.accel_mps2), a_z, a_z)

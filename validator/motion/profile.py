@@ -7,7 +7,11 @@ ranges are the autopilots' own tables (:mod:`validator.autopilot.ardupilot`,
 :class:`~validator.motion.limits.VehicleLimits`, from which speeds, accelerations and jerks
 default (a site's ``uav.max_speed``, ``max_accel``, ``max_jerk``). A few parameters are our
 model's own, in SI units: ``VEHICLE_SPEED_MAX`` (m/s, every profile) is the vehicle's real top
-speed (default: its speed limit), e.g. 10.4 for ArduPilot's SITL quad; drag and altitude.
+speed (default: its speed limit), e.g. 10.4 for ArduPilot's SITL quad; drag and altitude;
+and (``arducopter``, ``px4``) the wind the vehicle flies in, ``WIND_SPEED`` (m/s) from
+``WIND_FROM`` (degrees true; default: the site's ``wind:`` at the flight altitude): the top
+speed then holds in the air, so the ground speed along each leg is what
+:func:`validator.wind.ground_speed_mps` leaves of it.
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ from validator.autopilot import ardupilot, px4
 from validator.autopilot.spec import ParamSpec, model_param
 from validator.errors import InputError
 from validator.motion.limits import SITL_QUAD_DRAG_PER_M, VehicleLimits
+from validator.wind import Wind
 
 ProfileName = Literal["ideal", "arducopter", "px4"]
 PROFILES: tuple[ProfileName, ...] = ("ideal", "arducopter", "px4")
@@ -36,6 +41,12 @@ PX4_FLOWN = tuple(n for n in px4.PARAMS if n != "GF_ACTION")
 _COMMON = {
     "VEHICLE_SPEED_MAX": model_param("m/s", "the vehicle's real top speed (default: its speed "
                                      "limit, the site's V)", limit="speed_mps"),
+}
+_WIND = {
+    "WIND_SPEED": model_param("m/s", "mean wind speed at the flight altitude (default: the "
+                              "site's wind:)", limit="wind_speed_mps", zero_ok=True),
+    "WIND_FROM": model_param("deg", "direction the wind blows from, degrees true",
+                             limit="wind_from_deg", zero_ok=True),
 }
 PARAM_SPECS: dict[str, dict[str, ParamSpec]] = {
     "ideal": {
@@ -55,12 +66,14 @@ PARAM_SPECS: dict[str, dict[str, ParamSpec]] = {
                                 "density (default: the site's ground altitude + H)",
                                 limit="alt_amsl_m", zero_ok=True),
         **_COMMON,
+        **_WIND,
     },
     "px4": {
         **{n: px4.PARAMS[n] for n in PX4_FLOWN},
         "VEHICLE_LIN_DRAG": model_param("1/s", "drag deceleration over speed (default: PX4 "
                                         "SIH's quad, SIH_KDV / SIH_MASS)", 1.0),
         **_COMMON,
+        **_WIND,
     },
 }
 
@@ -84,6 +97,14 @@ class Profile:
         spec = PARAM_SPECS[self.name][param]
         value = float(self.params[param]) * spec.to_si
         return math.radians(value) if spec.unit.startswith("cdeg") else value
+
+
+def profile_wind(profile: Profile) -> Wind | None:
+    """The wind a profile flies in (WIND_SPEED from WIND_FROM), None in still air."""
+    speed = float(profile.params.get("WIND_SPEED", 0.0))
+    if speed <= 0.0:
+        return None
+    return Wind(speed, float(profile.params["WIND_FROM"]) % 360.0)
 
 
 def make_profile(

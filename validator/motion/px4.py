@@ -146,7 +146,11 @@ class Tracking:
     MPC_TILTMAX_AIR) against the air's drag, ``drag_per_s`` times the speed (SIH: SIH_KDV /
     SIH_MASS = 1/s; it caps the speed at g·tan(tilt)/drag, 9.8 m/s for SIH). The trajectory
     waits for a vehicle that falls behind it by up to MPC_XY_ERR_MAX (PositionSmoothing's
-    time stretch)."""
+    time stretch). In wind the drag acts on the speed through the air: ``wind_along_mps``
+    (m/s, the wind's part along the path) is taken off the speed, and holding the path against
+    ``wind_cross_mps`` across it takes drag·w_cross of the tilt's acceleration, so the
+    fastest ground speed along the path is w_along + sqrt(V² − w_cross²), V = g·tan(tilt)/drag
+    (:func:`validator.wind.ground_speed_mps`)."""
 
     pos_p: float = 0.95
     vel_p: float = 1.8
@@ -154,6 +158,8 @@ class Tracking:
     tilt_max_deg: float = 45.0
     drag_per_s: float = 1.0
     err_max_m: float = 2.0
+    wind_along_mps: float = 0.0
+    wind_cross_mps: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -213,6 +219,11 @@ def fly_run(
     done_at = math.inf
     x = v = integral = 0.0  # the vehicle: on the trajectory, or following it with tracking
     a_tilt = 9.80665 * math.tan(math.radians(tracking.tilt_max_deg)) if tracking else 0.0
+    if tracking is not None and tracking.wind_along_mps:  # hovering, it already leans into it
+        integral = -tracking.drag_per_s * tracking.wind_along_mps
+    if tracking is not None and tracking.wind_cross_mps:  # the tilt left after the crosswind
+        a_tilt = math.sqrt(max(a_tilt**2 - (tracking.drag_per_s * tracking.wind_cross_mps)**2,
+                               0.0))
     while t < done_at and t < 1e5:
         while j < last and ends[j] - x <= acceptance_m:
             reached[j] = t
@@ -246,7 +257,7 @@ def fly_run(
             acc = max(-a_tilt, min(a_tilt, want))
             if acc == want:  # anti-windup: no integration while the tilt limit holds
                 integral += tracking.vel_i * e_v * dt_s
-            v += (acc - tracking.drag_per_s * v) * dt_s
+            v += (acc - tracking.drag_per_s * (v - tracking.wind_along_mps)) * dt_s
             x += v * dt_s
         else:
             x, v = vs.x, vs.v

@@ -12,7 +12,10 @@ against a linear drag (VEHICLE_LIN_DRAG, SIH's quad by default) within MPC_TILTM
 also sets its top speed. Takeoff climbs after PX4_LIFTOFF_DELAY_S; a landing descends at
 MPC_Z_V_AUTO_DN, slowing to MPC_LAND_SPEED between MPC_LAND_ALT1 and MPC_LAND_ALT2, and ends
 PX4_LAND_DETECT_S after touchdown. Holds keep fractional seconds. Checked on PX4 v1.15.4 SIH
-flights of our plans (``tests/data/px4-sih``).
+flights of our plans (``tests/data/px4-sih``). In wind (WIND_SPEED, WIND_FROM) the drag acts
+on the speed through the air, each run's along and cross parts taken along its chord
+(:class:`validator.motion.px4.Tracking`); PX4's SIH itself has no wind, so this part is
+not calibrated on flights.
 """
 
 from __future__ import annotations
@@ -27,7 +30,8 @@ from validator.flight import Flight
 from validator.motion import px4
 from validator.motion.limits import GRAVITY_MPS2
 from validator.motion.path import FlownPath, active_leg, leg_geometry, time_grid
-from validator.motion.profile import Profile
+from validator.motion.profile import Profile, profile_wind
+from validator.wind import check_flyable, ground_speed_mps
 
 # PX4 v1.15 SIH (quad x), measured on flights of our plans: arming to the start of the climb
 # (spool-up and the MPC_TKO_RAMP_T takeoff ramp), and touchdown to disarm (land detector, then
@@ -136,6 +140,7 @@ def fly(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
     legs = flight.legs
     n = len(legs)
     geom = leg_geometry(legs)
+    px4_check_wind(profile, geom.unit[:, :2], [f"mission item {leg.item}" for leg in legs])
     vcap = min(profile.si("MPC_XY_VEL_MAX"), profile.si("VEHICLE_SPEED_MAX"))
     cruise = np.minimum([leg.speed_mps or profile.si("MPC_XY_CRUISE") for leg in legs], vcap)
     jerk = profile.si("MPC_JERK_AUTO")
@@ -175,7 +180,8 @@ def fly(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
             flown = px4.fly_run(path.waypoint_s_m, path.through_mps, cruise[run],
                                 profile.si("MPC_ACC_HOR"), jerk, profile.si("NAV_ACC_RAD"),
                                 legs[run[-1]].hold_s, cap_s_m=path.s_m, cap_mps=path.cap_mps,
-                                tracking=_tracking(profile), arrival_lag_s=PX4_ARRIVAL_LAG_S)
+                                tracking=_tracking(profile, ends[-1] - here),
+                                arrival_lag_s=PX4_ARRIVAL_LAG_S)
         t_run = flown.t_s + clock
         xyz = np.stack([np.interp(flown.s_m, path.s_m, path.points_m[:, c]) for c in range(3)],
                        axis=1)
@@ -232,20 +238,60 @@ def px4_top_speed_mps(profile: Profile) -> float:
 
 
 def px4_rest_to_rest(profile: Profile, lengths_m: NDArray[np.float64],
-                     speed_mps: float) -> px4.SampledLegs:
+                     speed_mps: float, unit_xy: ArrayLike | None = None) -> px4.SampledLegs:
     """Straight horizontal legs flown alone from rest to a hold by a ``px4`` profile at
     ``speed_mps`` (capped by :func:`px4_top_speed_mps`); see
-    :func:`validator.motion.px4.rest_to_rest`."""
-    return px4.rest_to_rest(lengths_m, min(speed_mps, px4_top_speed_mps(profile)),
-                            profile.si("MPC_ACC_HOR"), profile.si("MPC_JERK_AUTO"),
-                            profile.si("NAV_ACC_RAD"), _tracking(profile),
-                            PX4_ARRIVAL_LAG_S)
+    :func:`validator.motion.px4.rest_to_rest`. In the profile's wind each leg, along its
+    direction ``unit_xy`` (n, 2), is flown at most at the ground speed its course leaves
+    (:func:`validator.wind.ground_speed_mps`), against the drag of the air it moves through."""
+    top = px4_top_speed_mps(profile)
+    speed = min(speed_mps, top)
+    args = (profile.si("MPC_ACC_HOR"), profile.si("MPC_JERK_AUTO"), profile.si("NAV_ACC_RAD"))
+    wind = profile_wind(profile)
+    if wind is None or unit_xy is None:
+        return px4.rest_to_rest(lengths_m, speed, *args, _tracking(profile), PX4_ARRIVAL_LAG_S)
+    unit = np.atleast_2d(np.asarray(unit_xy, dtype=float))
+    px4_check_wind(profile, unit)
+    ground = np.minimum(ground_speed_mps(top, wind.vector_mps, unit), speed)
+    parts = [px4.rest_to_rest(np.atleast_1d(float(length)), float(g), *args,
+                              _tracking(profile, u), PX4_ARRIVAL_LAG_S)
+             for length, g, u in zip(np.atleast_1d(lengths_m), ground, unit, strict=True)]
+    return px4.SampledLegs(
+        np.asarray(lengths_m, dtype=float), np.concatenate([p.total_s for p in parts]),
+        tuple(t for p in parts for t in p.t_s), tuple(x for p in parts for x in p.s_m),
+        np.concatenate([p.arrival for p in parts]).reshape(-1, 3))
 
 
-def _tracking(profile: Profile) -> px4.Tracking:
+def _tracking(profile: Profile, heading: ArrayLike | None = None) -> px4.Tracking:
+    """PX4's tracking of a path along the horizontal direction ``heading`` (in the profile's
+    wind: WIND_SPEED, WIND_FROM; none, or no heading: still air)."""
+    along = cross = 0.0
+    wind = profile_wind(profile)
+    if wind is not None and heading is not None:
+        h = np.asarray(heading, dtype=float)[:2]
+        norm = float(np.hypot(*h))
+        if norm > 1e-9:
+            w = wind.vector_mps
+            along = float(w @ h) / norm
+            cross = abs(float(w[0] * h[1] - w[1] * h[0])) / norm
     return px4.Tracking(profile.si("MPC_XY_P"), profile.si("MPC_XY_VEL_P_ACC"),
                         profile.si("MPC_XY_VEL_I_ACC"), profile.si("MPC_TILTMAX_AIR"),
-                        profile.si("VEHICLE_LIN_DRAG"), profile.si("MPC_XY_ERR_MAX"))
+                        profile.si("VEHICLE_LIN_DRAG"), profile.si("MPC_XY_ERR_MAX"),
+                        along, cross)
+
+
+def px4_check_wind(profile: Profile, headings: NDArray[np.float64],
+                   names: list[str] | None = None) -> None:
+    """Refuse a wind at or above the ``px4`` profile's top airspeed
+    (:func:`validator.wind.check_flyable`; ``headings`` (n, 2) of the legs, ``names``)."""
+    wind = profile_wind(profile)
+    if wind is None:
+        return
+    h = np.atleast_2d(np.asarray(headings, dtype=float))
+    norm = np.hypot(h[:, 0], h[:, 1])
+    flat = norm > 1e-9
+    named = [n for n, f in zip(names, flat, strict=True) if f] if names else None
+    check_flyable(px4_top_speed_mps(profile), wind, "wind", h[flat] / norm[flat, None], named)
 
 
 def _land_schedule(profile: Profile, alt_m: float) -> tuple[NDArray[np.float64],

@@ -1,0 +1,125 @@
+"""Plans in wind: planning time against still air, and wind-aware against wind-blind plans
+flown in the same wind (the validator's arducopter model).
+
+Run by hand (figures, not pass/fail):
+
+    .venv/bin/python benchmarks/bench_wind.py                 # 4 sites x 6 winds
+    .venv/bin/python benchmarks/bench_wind.py --sites realistic --winds 6@270 8@45
+
+For each site (samples/realistic.yaml and the realistic SITL sites c, d, e of
+``../shared/data/arducopter-sitl-2``) the still-air plan is made once and timed (CPU seconds of
+the planner, median of ``--repeat`` runs); then for each wind the wind-aware plan is made and
+timed, and both plans are replayed in that wind with the arducopter model at their own
+parameter files (in wind with the buffer plan-mission then uses,
+:func:`validator.wind_track.wind_buffer_m`). Printed per row: planning CPU and wall time and
+their ratio to still air, the wind-aware plan's replayed cycle / T and min rate (per flown
+second), the wind-blind plan's replayed cycle / T and min rate in the same wind, and the
+least replayed clearance of each.
+The target (issue 26): planning time in wind within 1.2x of still air.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+from dataclasses import replace
+from pathlib import Path
+
+from mission_planner.autopilot_params import recommended_params
+from mission_planner.flight_report import FlightCheck, replay_mission
+from mission_planner.mission import Mission, MissionOptions, build_mission
+from mission_planner.optimize import PlannerOptions, plan
+from mission_planner.optimize.retime import cruise_speed_mps
+from mission_planner.waypoint_radius import radius_params
+from validator.site import Site, load_site
+from validator.wind import Wind, parse_wind_arg
+from validator.wind_track import wind_buffer_m
+
+ROOT = Path(__file__).resolve().parents[1]
+SITL2 = ROOT.parent / "shared" / "data" / "arducopter-sitl-2"
+SITES = {
+    "realistic": ROOT / "samples" / "realistic.yaml",
+    "site-c": SITL2 / "site-c-vehicle" / "site.yaml",
+    "site-d": SITL2 / "site-d-vehicle" / "site.yaml",
+    "site-e": SITL2 / "site-e-vehicle" / "site.yaml",
+}
+WINDS = ("3@270", "6@270", "6@135,1.5", "8@0,2", "4@90,1", "7@200")
+
+
+def _planned(site: Site, repeat: int, both: bool = False) -> tuple[Mission, float, float]:
+    """The plan (plan-mission's defaults; ``both``: PlannerOptions.wind_blind_paths) and the
+    median CPU and wall seconds of planning it."""
+    cpu, wall = [], []
+    mission = None
+    if site.flight_wind is not None:  # as plan-mission: the buffer grows with the wind
+        site = site.with_buffer(wind_buffer_m(site.buffer_m, site.flight_wind))
+    options = PlannerOptions(timing_params=radius_params(site, "ardupilot"),
+                             wind_blind_paths=both)
+    for _ in range(repeat):
+        t0, w0 = time.process_time(), time.perf_counter()
+        mission = build_mission(plan(site, options=options), MissionOptions())
+        cpu.append(time.process_time() - t0)
+        wall.append(time.perf_counter() - w0)
+    assert mission is not None
+    return mission, statistics.median(cpu), statistics.median(wall)
+
+
+def _flown_in(mission: Mission, wind: Wind | None) -> FlightCheck:
+    """``mission`` replayed (arducopter model, its own parameter file) in ``wind``."""
+    site = mission.solution.site.with_limits(wind=wind)
+    flown = replace(mission, solution=replace(mission.solution, site=site))
+    return replay_mission(flown, recommended_params(mission))
+
+
+def _row(flight: FlightCheck) -> str:
+    ratio = flight.cycle_ratio
+    rate = flight.replayed_min_rate_bps_hz
+    clear = min(flight.clearance_by_nfz_m.values(), default=float("nan"))
+    return (f"{'-' if ratio is None else f'{ratio:.3f}':>6} "
+            f"{'-' if rate is None else f'{rate:.4f}':>7} {clear:>6.2f}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sites", nargs="*", default=list(SITES), choices=list(SITES))
+    ap.add_argument("--winds", nargs="*", default=list(WINDS))
+    ap.add_argument("--repeat", type=int, default=1, help="planning runs per timing (median)")
+    ap.add_argument("--wind-blind-paths", action="store_true",
+                    help="PlannerOptions.wind_blind_paths: a second search of still-air paths")
+    args = ap.parse_args()
+    print(f"{'site':<10} {'wind':<11} {'cpu s':>6} {'x still':>7} {'wall x':>6} | aware: "
+          f"{'cyc/T':>6} {'rate':>7} {'clear':>6} | blind: {'cyc/T':>6} {'rate':>7} "
+          f"{'clear':>6}")
+    ratios, walls, better = [], [], 0
+    rows = 0
+    for name in args.sites:
+        site = load_site(SITES[name])
+        blind, cpu_still, wall_still = _planned(site, args.repeat)
+        print(f"{name:<10} {'still':<11} {cpu_still:>6.2f} {1.0:>7.2f} {1.0:>6.2f} | "
+              f"       {_row(_flown_in(blind, None))}")
+        for text in args.winds:
+            wind = parse_wind_arg(text)
+            if wind.speed_mps >= cruise_speed_mps(site):
+                print(f"{name:<10} {text:<11} refused: at or above the top airspeed")
+                continue
+            windy = site.with_limits(wind=wind)
+            aware, cpu, wall = _planned(windy, args.repeat, args.wind_blind_paths)
+            a, b = _flown_in(aware, wind), _flown_in(blind, wind)
+            ratios.append(cpu / cpu_still)
+            walls.append(wall / wall_still)
+            rows += 1
+            if (a.replayed_min_rate_bps_hz or 0.0) >= (b.replayed_min_rate_bps_hz or 0.0):
+                better += 1
+            print(f"{name:<10} {text:<11} {cpu:>6.2f} {cpu / cpu_still:>7.2f} "
+                  f"{wall / wall_still:>6.2f} | "
+                  f"       {_row(a)} |        {_row(b)}", flush=True)
+    if ratios:
+        print(f"planning CPU in wind / still air: median {statistics.median(ratios):.2f}, "
+              f"max {max(ratios):.2f}; wall median {statistics.median(walls):.2f}, max "
+              f"{max(walls):.2f} (target 1.2); wind-aware min rate >= wind-blind's per "
+              f"flown second on {better} of {rows}")
+
+
+if __name__ == "__main__":
+    main()

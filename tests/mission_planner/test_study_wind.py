@@ -1,0 +1,53 @@
+"""nfz-study wind: the sweep's trials, its table and figure, and its refusals."""
+
+from __future__ import annotations
+
+import csv
+
+import pytest
+
+from mission_planner.study.cli import main
+from mission_planner.study.wind import run_wind_trial, wind_specs
+from validator.errors import InputError
+from validator.site import load_site
+
+SAMPLE = "samples/realistic.yaml"
+
+
+def test_specs_run_still_air_once() -> None:
+    specs = wind_specs(load_site(SAMPLE), (0.0, 5.0), (0.0, 90.0, 450.0 - 360.0), 1.0)
+    assert [(s.speed_mps, s.from_deg, s.turbulence_mps) for s in specs] == [
+        (0.0, 0.0, 0.0), (5.0, 0.0, 1.0), (5.0, 90.0, 1.0)]
+    assert len({s.key for s in specs}) == 3
+
+
+@pytest.mark.parametrize("args,msg", [
+    (((-1.0,), (0.0,)), "--speeds"), (((1.0,), (400.0,)), "--directions"),
+])
+def test_specs_refuse_bad_figures(args, msg) -> None:
+    with pytest.raises(InputError, match=msg):
+        wind_specs(load_site(SAMPLE), *args)
+
+
+def test_a_wind_beyond_the_vehicle_is_a_failed_row_not_a_crash() -> None:
+    (spec,) = wind_specs(load_site(SAMPLE), (12.0,), (45.0,))
+    row = run_wind_trial(spec)
+    assert "top airspeed" in row["error"] and row["flown_min_rate_bps_hz"] is None
+
+
+def test_wind_study_writes_its_table_and_figure(tmp_path, capsys) -> None:
+    out = tmp_path / "w"
+    code = main(["wind", SAMPLE, "-o", str(out), "--speeds", "0,5", "--directions", "270",
+                 "--workers", "1", "--no-progress"])
+    assert code == 0
+    rows = list(csv.DictReader((out / "wind_trials.csv").open()))
+    assert [float(r["speed_mps"]) for r in rows] == [0.0, 5.0]
+    windy = rows[1]
+    assert abs(float(windy["cycle_ratio"]) - 1.0) < 0.05  # planned for it: on time
+    assert float(windy["blind_cycle_ratio"]) > 1.05  # the still-air plan runs late
+    assert float(rows[0]["cycle_ratio"]) == pytest.approx(float(rows[0]["blind_cycle_ratio"]))
+    assert (out / "wind.png").read_bytes()[:4] == b"\x89PNG"
+    # run again: resumed, nothing re-run
+    assert main(["wind", SAMPLE, "-o", str(out), "--speeds", "0,5", "--directions", "270",
+                 "--workers", "1", "--no-progress"]) == 0
+    assert "0 run now, 2 from" in capsys.readouterr().out

@@ -1,0 +1,169 @@
+"""Wind geometry (validator.wind), the site's wind: and the flight models in wind."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from validator.dynamics import make_profile, site_limits
+from validator.errors import InputError
+from validator.flight import Flight, Leg
+from validator.motion.arducopter import arducopter_top_speed_mps, leg_speed_caps_mps
+from validator.motion.profile import profile_wind
+from validator.motion.px4_mission import px4_rest_to_rest, px4_top_speed_mps
+from validator.plan_format import Autopilot
+from validator.replay import replay
+from validator.site import load_site, parse_site, site_to_dict
+from validator.wind import (
+    Wind,
+    check_flyable,
+    ground_speed_mps,
+    heading_deg,
+    parse_wind_arg,
+    wind_vector_mps,
+)
+
+SAMPLE = "samples/realistic.yaml"
+
+
+def _unit(course_deg: float) -> np.ndarray:
+    b = math.radians(course_deg)
+    return np.array([[math.sin(b), math.cos(b)]])
+
+
+def test_wind_vector_points_where_the_air_goes() -> None:
+    # From the west (270°) the air moves east; from the north (0°) it moves south.
+    assert wind_vector_mps(5.0, 270.0) == pytest.approx([5.0, 0.0], abs=1e-12)
+    assert wind_vector_mps(5.0, 0.0) == pytest.approx([0.0, -5.0], abs=1e-12)
+    assert wind_vector_mps(4.0, 135.0) == pytest.approx(
+        [-4.0 / math.sqrt(2), 4.0 / math.sqrt(2)], abs=1e-12)
+
+
+@pytest.mark.parametrize("course", [0.0, 37.0, 90.0, 181.0, 270.0, 333.0])
+@pytest.mark.parametrize("wind", [(0.0, 0.0), (3.0, 270.0), (7.0, 45.0), (9.5, 200.0)])
+def test_ground_speed_keeps_the_air_speed(course: float, wind: tuple[float, float]) -> None:
+    v_air = 10.0
+    w = wind_vector_mps(*wind)
+    u = _unit(course)
+    g = float(ground_speed_mps(v_air, w, u)[0])
+    assert g > 0
+    # |g u - w| = V: the vehicle flies at exactly its air-speed limit
+    assert float(np.linalg.norm(g * u[0] - w)) == pytest.approx(v_air, rel=1e-12)
+
+
+def test_head_tail_and_cross_wind() -> None:
+    w = wind_vector_mps(4.0, 270.0)  # blows east
+    east, west, north = _unit(90.0), _unit(270.0), _unit(0.0)
+    assert ground_speed_mps(10.0, w, east)[0] == pytest.approx(14.0)  # tailwind
+    assert ground_speed_mps(10.0, w, west)[0] == pytest.approx(6.0)  # headwind
+    assert ground_speed_mps(10.0, w, north)[0] == pytest.approx(math.sqrt(100 - 16))
+    assert heading_deg(np.array([[1.0, 0.0], [0.0, -1.0]])) == pytest.approx([90.0, 180.0])
+
+
+def test_no_ground_speed_against_a_wind_above_the_air_speed() -> None:
+    w = wind_vector_mps(12.0, 270.0)
+    assert np.isnan(ground_speed_mps(10.0, w, _unit(270.0))[0])  # upwind: none
+    assert ground_speed_mps(10.0, w, _unit(90.0))[0] == pytest.approx(22.0)
+    with pytest.raises(InputError, match=r"leg A \(course 270°\) cannot be flown: wind 12 m/s "
+                                         r"from 270° is at or above .* 10\.00 m/s"):
+        check_flyable(10.0, Wind(12.0, 270.0), "wind", np.vstack([_unit(90), _unit(270)]),
+                      ["leg B", "leg A"])
+    check_flyable(10.0, Wind(9.99, 270.0), "wind")  # below the air speed: flyable
+
+
+@pytest.mark.parametrize("text,expect", [
+    ("7@300", (7.0, 300.0, 0.0)), ("6@135,1.5", (6.0, 135.0, 1.5)), (" 0 ", (0.0, 0.0, 0.0)),
+    ("8@360", (8.0, 0.0, 0.0)),
+])
+def test_parse_wind_arg(text: str, expect: tuple[float, float, float]) -> None:
+    w = parse_wind_arg(text)
+    assert (w.speed_mps, w.from_deg, w.turbulence_mps) == expect
+
+
+@pytest.mark.parametrize("text", ["7", "7@", "@300", "7@400", "-1@30", "7@30,x", "nan@3",
+                                  "500@3"])
+def test_parse_wind_arg_refuses(text: str) -> None:
+    with pytest.raises(InputError, match=r"^--wind "):
+        parse_wind_arg(text)
+
+
+def test_site_wind_with_layers_round_trips() -> None:
+    d = site_to_dict(load_site(SAMPLE))
+    d["wind"] = {"speed_mps": 4.0, "from_deg": 90.0, "turbulence_mps": 1.0,
+                 "layers": [{"above_m": 50.0, "speed_mps": 8.0, "from_deg": 100.0},
+                            {"above_m": 20.0, "speed_mps": 6.0, "from_deg": 95.0}]}
+    site = parse_site(d)
+    assert site.wind is not None and site.flight_wind is not None
+    # 30 m above ground: the 20 m layer
+    assert (site.flight_wind.speed_mps, site.flight_wind.from_deg) == (6.0, 95.0)
+    assert site.wind.at(60.0).speed_mps == 8.0 and site.wind.at(10.0).speed_mps == 4.0
+    assert parse_site(site_to_dict(site)).wind == site.wind
+    lim = site_limits(site)
+    assert (lim.wind_speed_mps, lim.wind_from_deg) == (6.0, 95.0)
+
+
+@pytest.mark.parametrize("wind,msg", [
+    ({"speed_mps": 4.0, "from_deg": 90.0, "gust": 3.0}, "wind.gust: unknown key"),
+    ({"speed_mps": 4.0}, "wind.from_deg: missing field"),
+    ({"speed_mps": -1.0, "from_deg": 90.0}, "wind.speed_mps"),
+    ({"speed_mps": 4.0, "from_deg": 400.0}, "wind.from_deg"),
+])
+def test_site_wind_refuses_mistakes(wind: dict[str, float], msg: str) -> None:
+    d = site_to_dict(load_site(SAMPLE))
+    d["wind"] = wind
+    with pytest.raises(InputError, match=msg):
+        parse_site(d, "site.yaml")
+
+
+def _legs(course_deg: float, length_m: float = 200.0) -> Flight:
+    u = _unit(course_deg)[0]
+    legs = (Leg(item=1, first_item=1, kind="waypoint", start_xy_m=np.zeros(2),
+                end_xy_m=u * length_m, start_alt_m=30.0, end_alt_m=30.0, speed_mps=10.0,
+                hold_s=1.0),)
+    return Flight(legs=legs, home_xy_m=np.zeros(2), firmware_type=int(Autopilot.ARDUPILOTMEGA),
+                  findings=(), cycle=None, service=None)
+
+
+def test_arducopter_caps_each_leg_at_its_ground_speed() -> None:
+    site = load_site(SAMPLE)
+    still = make_profile("arducopter", site_limits(site))
+    windy = make_profile("arducopter", site_limits(site), {"WIND_SPEED": 5.0, "WIND_FROM": 270.0})
+    assert profile_wind(still) is None and profile_wind(windy) == Wind(5.0, 270.0)
+    top = arducopter_top_speed_mps(windy)
+    units = np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    caps = leg_speed_caps_mps(windy, units)
+    assert caps[0] == pytest.approx(top + 5.0) and caps[1] == pytest.approx(top - 5.0)
+    assert caps[2] == top  # a climb: the horizontal cap does not bind
+    assert np.all(leg_speed_caps_mps(still, units) == arducopter_top_speed_mps(still))
+    # Flown upwind the leg takes longer than in still air, downwind (commanded 10) no less.
+    t_still = replay(_legs(270.0), still).leg_done_s[-1]
+    t_up = replay(_legs(270.0), windy).leg_done_s[-1]
+    t_down = replay(_legs(90.0), windy).leg_done_s[-1]
+    assert t_up > t_still + 5.0
+    assert t_down == pytest.approx(replay(_legs(90.0), still).leg_done_s[-1])
+
+
+def test_arducopter_refuses_a_wind_beyond_its_top_speed() -> None:
+    site = load_site(SAMPLE)
+    prof = make_profile("arducopter", site_limits(site), {"WIND_SPEED": 12.0, "WIND_FROM": 90.0})
+    with pytest.raises(InputError, match=r"mission item 1 \(course 90°\) cannot be flown"):
+        replay(_legs(90.0), prof)
+
+
+def test_px4_flies_slower_upwind_through_its_drag() -> None:
+    site = load_site(SAMPLE)
+    still = make_profile("px4", site_limits(site))
+    windy = make_profile("px4", site_limits(site), {"WIND_SPEED": 4.0, "WIND_FROM": 90.0})
+    top = px4_top_speed_mps(windy)
+    lengths = np.array([300.0, 300.0, 300.0])
+    units = np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0]])  # upwind, downwind, across
+    legs = px4_rest_to_rest(windy, lengths, top, units)
+    calm = px4_rest_to_rest(still, lengths, top, units)
+    assert legs.total_s[0] > calm.total_s[0] * 1.2  # against 4 m/s of its ~9.8
+    assert legs.total_s[2] > calm.total_s[2]  # a crosswind eats tilt too
+    # Upwind cruise close to the ground speed the wind leaves (V - w)
+    t, s = legs.t_s[0], legs.s_m[0]
+    cruise = float(np.max(np.gradient(s, t)))
+    assert cruise == pytest.approx(top - 4.0, rel=0.03)

@@ -1,0 +1,76 @@
+"""The buffer that matches the air: the track-deviation model pinned to real SITL wind flights.
+
+``tests/data/arducopter-sitl-wind/flights.json``: ArduCopter 4.5.6 SITL flights in SITL wind
+(``benchmarks/sitl_wind_flights.py``), summary figures per flight.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from validator.wind import Wind
+from validator.wind_track import (
+    DEVIATION_MODEL,
+    buffer_share,
+    fit_deviation_model,
+    wind_buffer_m,
+)
+
+DATA = Path(__file__).resolve().parents[1] / "data" / "arducopter-sitl-wind"
+
+
+def _flights(name: str = "flights.json") -> list[dict]:
+    return list(json.loads((DATA / name).read_text()))
+
+
+def _deviation(f: dict) -> float:
+    """Replayed minus flown clearance at the zone the flown track came closest to."""
+    flown, replayed = f["flown_clearance_m"], f["replayed_clearance_m"]
+    closest = min(flown, key=flown.get)
+    return float(replayed[closest] - flown[closest])
+
+
+def _aware(flights: list[dict]) -> list[dict]:
+    return [f for f in flights if f["plan"] == "aware" and f["flown_clearance_m"]]
+
+
+def test_the_model_is_the_fit_of_the_recorded_flights() -> None:
+    aware = _aware(_flights())
+    assert len(aware) >= 20 and sum(f["wind_speed_mps"] > 0 for f in aware) >= 20
+    assert len({f["site"] for f in aware}) >= 2
+    fit = fit_deviation_model([f["wind_speed_mps"] for f in aware],
+                              [f["turbulence_mps"] for f in aware],
+                              [_deviation(f) for f in aware])
+    assert fit == pytest.approx(DEVIATION_MODEL)  # refit and pin when the data changes
+
+
+def test_the_model_covers_its_quantile_of_the_flights() -> None:
+    aware = _aware(_flights())
+    covered = [_deviation(f) <= DEVIATION_MODEL.deviation_m(
+        Wind(f["wind_speed_mps"], f["wind_from_deg"], f["turbulence_mps"])) + 1e-9
+        for f in aware]
+    assert sum(covered) / len(covered) >= DEVIATION_MODEL.quantile
+
+
+def test_fit_on_known_data() -> None:
+    wind = [0.0, 2.0, 4.0, 6.0, 8.0] * 4
+    turb = [0.0, 0.5, 1.0, 1.5, 2.0] * 4
+    dev = [0.1 + 0.05 * w + 0.1 * t for w, t in zip(wind, turb, strict=True)]
+    fit = fit_deviation_model(wind, turb, dev)
+    assert fit.deviation_m(Wind(8.0, 0.0, 2.0)) == pytest.approx(0.1 + 0.4 + 0.2)
+    assert fit.deviation_m(None) == pytest.approx(0.1)
+    # a slope that comes out negative is clipped: more wind never brings the track away
+    fit = fit_deviation_model(wind, turb, [0.5 - 0.05 * w for w in wind])
+    assert fit.per_wind == 0.0 and fit.per_turbulence == 0.0
+
+
+def test_the_buffer_grows_by_the_deviation_and_the_reports_say_its_share() -> None:
+    wind = Wind(8.0, 45.0, 2.0)
+    d = DEVIATION_MODEL.deviation_m(wind)
+    assert 3.0 + d <= wind_buffer_m(3.0, wind) <= 3.0 + d + 0.01  # up to the centimetre
+    assert round(wind_buffer_m(3.0, wind) * 100) == pytest.approx(wind_buffer_m(3.0, wind) * 100)
+    share = buffer_share(3.0, wind)
+    assert share["share_of_buffer"] == pytest.approx(d / 3.0)

@@ -1,0 +1,195 @@
+"""Wind: what the air does at a site, and what it leaves of a multicopter's speed over ground.
+
+Conventions are aviation's: a wind's speed in m/s and the direction it blows FROM in degrees
+true (0 = from the north, 90 = from the east; "7@300" is 7 m/s from west-north-west), its
+turbulence as the standard deviation of the gusts in m/s (ArduPilot SITL's SIM_WIND_TURB).
+A site's ``wind:`` may give layers by height above ground; the wind at an altitude is the
+highest layer at or below it (the top-level figures are the layer at the ground).
+
+A multicopter's speed is limited relative to the air (its lean against drag), not the ground.
+Flying along a unit heading u over the ground at ground speed g in a wind w (m/s, the vector
+the air moves along), its air velocity is g·u − w, so the fastest it can hold along u with
+air-speed limit V is the positive root of |g·u − w| = V:
+
+    g(u) = u·w + sqrt(V² − |w|² + (u·w)²)
+
+It exists for every heading exactly when |w| < V; at or above, the vehicle can neither hold
+position nor fly upwind, and such a wind is refused (:func:`check_flyable`).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from pydantic import BaseModel, ConfigDict, Field
+
+from validator.errors import InputError
+
+MAX_WIND_MPS = 100.0  # far beyond any wind a multicopter flies in: catches unit mistakes
+MAX_LAYERS = 32
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
+class WindLayerModel(_Strict):
+    """The wind from ``above_m`` metres above ground upward (to the next layer)."""
+
+    above_m: float = Field(gt=0, le=1e5)
+    speed_mps: float = Field(ge=0, le=MAX_WIND_MPS)
+    from_deg: float = Field(ge=0, le=360)
+    turbulence_mps: float = Field(default=0.0, ge=0, le=MAX_WIND_MPS)
+
+
+class WindModel(_Strict):
+    """A site file's ``wind:`` exactly as written (pydantic schema)."""
+
+    speed_mps: float = Field(ge=0, le=MAX_WIND_MPS, description="mean wind speed, m/s")
+    from_deg: float = Field(ge=0, le=360, description="direction it blows from, degrees true")
+    turbulence_mps: float = Field(default=0.0, ge=0, le=MAX_WIND_MPS,
+                                  description="gusts' standard deviation, m/s")
+    layers: list[WindLayerModel] = Field(default_factory=list, max_length=MAX_LAYERS)
+
+
+@dataclass(frozen=True)
+class WindLayer:
+    """Wind from ``above_m`` metres above ground upward."""
+
+    above_m: float
+    speed_mps: float
+    from_deg: float
+    turbulence_mps: float = 0.0
+
+
+@dataclass(frozen=True)
+class Wind:
+    """A forecast: mean ``speed_mps`` from ``from_deg`` (degrees true), ``turbulence_mps``,
+    at the ground and (``layers``, sorted by height) higher up."""
+
+    speed_mps: float
+    from_deg: float
+    turbulence_mps: float = 0.0
+    layers: tuple[WindLayer, ...] = ()
+
+    @classmethod
+    def from_model(cls, model: WindModel) -> Wind:
+        layers = sorted((WindLayer(a.above_m, a.speed_mps, a.from_deg % 360.0, a.turbulence_mps)
+                         for a in model.layers), key=lambda a: a.above_m)
+        return cls(model.speed_mps, model.from_deg % 360.0, model.turbulence_mps, tuple(layers))
+
+    def at(self, above_m: float) -> Wind:
+        """The wind (one layer) at ``above_m`` metres above ground."""
+        chosen = Wind(self.speed_mps, self.from_deg, self.turbulence_mps)
+        for a in self.layers:
+            if a.above_m <= above_m:
+                chosen = Wind(a.speed_mps, a.from_deg, a.turbulence_mps)
+        return chosen
+
+    def scaled(self, factor: float) -> Wind:
+        """The same wind with every speed (and turbulence) times ``factor``."""
+        return Wind(self.speed_mps * factor, self.from_deg, self.turbulence_mps * factor,
+                    tuple(WindLayer(a.above_m, a.speed_mps * factor, a.from_deg,
+                                    a.turbulence_mps * factor) for a in self.layers))
+
+    @property
+    def calm(self) -> bool:
+        return self.speed_mps == 0.0 and not any(a.speed_mps for a in self.layers)
+
+    @property
+    def vector_mps(self) -> NDArray[np.float64]:
+        """(east, north) velocity of the air at the ground layer, m/s: it blows TOWARD
+        from_deg + 180°."""
+        return wind_vector_mps(self.speed_mps, self.from_deg)
+
+    def label(self) -> str:
+        """``7 m/s from 300°`` (and its turbulence)."""
+        turb = f", turbulence {self.turbulence_mps:g} m/s" if self.turbulence_mps else ""
+        return f"{self.speed_mps:g} m/s from {self.from_deg:g}°{turb}"
+
+    def to_dict(self) -> dict[str, object]:
+        """The ``wind:`` mapping :class:`WindModel` reads back."""
+        out: dict[str, object] = {"speed_mps": self.speed_mps, "from_deg": self.from_deg,
+                                  "turbulence_mps": self.turbulence_mps}
+        if self.layers:
+            out["layers"] = [{"above_m": a.above_m, "speed_mps": a.speed_mps,
+                              "from_deg": a.from_deg, "turbulence_mps": a.turbulence_mps}
+                             for a in self.layers]
+        return out
+
+
+def wind_vector_mps(speed_mps: float, from_deg: float) -> NDArray[np.float64]:
+    """(east, north) velocity (m/s) of a wind of ``speed_mps`` blowing from ``from_deg``."""
+    b = math.radians(from_deg)
+    return np.array([-speed_mps * math.sin(b), -speed_mps * math.cos(b)], dtype=float)
+
+
+_ARG = re.compile(r"^\s*([0-9.eE+-]+)\s*@\s*([0-9.eE+-]+)\s*(?:,\s*([0-9.eE+-]+)\s*)?$")
+
+
+def parse_wind_arg(text: str, flag: str = "--wind") -> Wind:
+    """``SPEED@FROM`` or ``SPEED@FROM,TURBULENCE`` (m/s, degrees true, m/s) from a command
+    line, e.g. ``7@300`` or ``6@135,1.5``; ``0`` or ``calm`` for still air."""
+    if text.strip().lower() in ("0", "calm"):
+        return Wind(0.0, 0.0)
+    m = _ARG.match(text)
+    if m is None:
+        raise InputError(f"{flag} {text}: expected SPEED@FROM (m/s and degrees the wind blows "
+                         "from, e.g. 7@300) or SPEED@FROM,TURBULENCE")
+    try:
+        speed, frm = float(m.group(1)), float(m.group(2))
+        turb = float(m.group(3)) if m.group(3) is not None else 0.0
+    except ValueError:
+        raise InputError(f"{flag} {text}: not a number") from None
+    if not (math.isfinite(speed) and 0 <= speed <= MAX_WIND_MPS):
+        raise InputError(f"{flag} {text}: speed must be 0 to {MAX_WIND_MPS:g} m/s")
+    if not (math.isfinite(frm) and 0 <= frm <= 360):
+        raise InputError(f"{flag} {text}: direction must be 0 to 360 degrees (from)")
+    if not (math.isfinite(turb) and 0 <= turb <= MAX_WIND_MPS):
+        raise InputError(f"{flag} {text}: turbulence must be 0 to {MAX_WIND_MPS:g} m/s")
+    return Wind(speed, frm % 360.0, turb)
+
+
+def ground_speed_mps(air_speed_mps: float, wind_mps: ArrayLike,
+                     unit: ArrayLike) -> NDArray[np.float64]:
+    """The fastest ground speed (m/s) along each horizontal unit heading ``unit`` (n, 2) with
+    air-speed limit ``air_speed_mps`` in the wind vector ``wind_mps`` (east, north): the
+    positive root g of |g·u − w| = V (module docstring); NaN where there is none."""
+    u = np.atleast_2d(np.asarray(unit, dtype=float))
+    w = np.asarray(wind_mps, dtype=float)
+    uw = u @ w
+    disc = air_speed_mps**2 - float(w @ w) + uw * uw
+    with np.errstate(invalid="ignore"):
+        g = uw + np.sqrt(disc)
+    return np.asarray(np.where((disc >= 0) & (g > 0), g, np.nan), dtype=float)
+
+
+def heading_deg(unit: ArrayLike) -> NDArray[np.float64]:
+    """Course over ground (degrees true, 0 north, 90 east) of (east, north) vectors."""
+    u = np.atleast_2d(np.asarray(unit, dtype=float))
+    return np.asarray(np.degrees(np.arctan2(u[:, 0], u[:, 1])) % 360.0, dtype=float)
+
+
+def check_flyable(air_speed_mps: float, wind: Wind, where: str,
+                  unit: ArrayLike | None = None, names: list[str] | None = None) -> None:
+    """Refuse (:class:`InputError`, one line) a wind the vehicle cannot fly against: at or
+    above its air-speed limit ``air_speed_mps`` it can neither hold a position nor fly upwind.
+    With headings ``unit`` (n, 2) and their ``names`` the first leg it cannot fly is named."""
+    w = wind.vector_mps
+    if wind.speed_mps < air_speed_mps:
+        return
+    leg = ""
+    if unit is not None:
+        g = ground_speed_mps(air_speed_mps, w, unit)
+        bad = np.flatnonzero(~np.isfinite(g))
+        if bad.size:
+            i = int(bad[0])
+            name = names[i] if names else f"leg {i}"
+            leg = f"{name} (course {float(heading_deg(unit)[i]):.0f}°) cannot be flown: "
+    raise InputError(f"{where}: {leg}wind {wind.label()} is at or above the vehicle's top "
+                     f"airspeed {air_speed_mps:.2f} m/s; it can neither hold position nor fly "
+                     "upwind")
