@@ -10,8 +10,10 @@ stderr, no output file).
 ``--profile`` or ``--param`` imply ``--replay``; the default profile follows the plan's
 firmware (PX4 -> ``px4``, otherwise ``arducopter``). ``--params FILE`` is the parameter file
 the vehicle will fly with (``plan-mission`` writes one beside the plan): its motion parameters
-feed the replay, it is set on the vehicle of a ``--sitl`` flight, and a file that leaves the
-geofence off or with a breach action that can cross another zone is flagged.
+feed the replay, it is set on the vehicle of a ``--sitl`` flight, a file that leaves the
+geofence off or with a breach action that can cross another zone is flagged, and the path of
+every failsafe it leaves is audited (:mod:`validator.failsafe`): one that crosses a zone or its
+buffer fails the audit (exit 1) unless ``--force``.
 
 Everything here parses and prints around :func:`validator.validation.validate_mission`, which
 notebooks can call.
@@ -28,6 +30,7 @@ from collections.abc import Sequence
 from validator.autopilot.param_file import read_params
 from validator.errors import CommandParser, InputError, UserError, report_error
 from validator.fileio import write_atomic
+from validator.flight import Finding
 from validator.mavlink.cli import add_sitl_arguments, run_sitl, split_sitl_url
 from validator.motion.profile import PROFILES, parse_param_overrides
 from validator.replay import TrackReport
@@ -121,7 +124,9 @@ def format_report(v: Validation) -> str:
         who = (f"the built-in model vehicle ({flown.get('profile')} profile): a model, not an "
                "autopilot" if flown.get("builtin") else flown.get("vehicle", "a vehicle"))
         lines += ["", *_track_lines(f"Flown by {who} ({v.sitl.source})", v.sitl)]
-    findings = list(rep.findings) + list(v.param_findings)
+    if v.failsafe is not None:
+        lines += ["", *_failsafe_lines(v)]
+    findings = list(rep.findings) + list(v.param_findings) + _failsafe_summary(v)
     for r in (v.replay, v.sitl):
         if r is not None:
             findings += list(r.findings)
@@ -134,6 +139,46 @@ def format_report(v: Validation) -> str:
     n = len(v.violations)
     lines += ["", f"Result: {'VIOLATION (' + str(n) + ')' if n else 'CLEAR'}"]
     return "\n".join(lines)
+
+
+def _failsafe_lines(v: Validation) -> list[str]:
+    fs = v.failsafe
+    assert fs is not None
+    lines = ["Failsafes: the path each action flies from every point of the mission "
+             "(value from the file, else the firmware's default)",
+             f"  {'failsafe':<28} {'parameter':<16} {'value':>6} {'from':<8} {'paths':<18} "
+             "verdict"]
+    for c in fs.checks:
+        bad = [f for f in fs.findings if f.param == c.param]
+        verdict = "clear" if not bad else f"{len(bad)} path finding(s)"
+        lines.append(f"  {c.trigger[:28]:<28} {c.param:<16} {c.value:>6g} {c.source:<8} "
+                     f"{'+'.join(c.paths):<18} {verdict}")
+    w = fs.worst_return
+    if w is not None:
+        lines.append(f"  a straight return comes closest to a zone from item {w.item} "
+                     f"(x {w.xy_m[0]:.1f}, y {w.xy_m[1]:.1f} m): {w.clearance_m:.2f} m from "
+                     f"{w.zone}, to {w.destination}")
+    return lines
+
+
+def _failsafe_summary(v: Validation) -> list[Finding]:
+    """The failsafe findings for the table: the deepest per parameter and zone (the JSON
+    report lists every leg)."""
+    if v.failsafe is None:
+        return []
+    worst: dict[tuple[str, str], tuple[float, int]] = {}
+    all_findings = v.failsafe_findings
+    for i, f in enumerate(v.failsafe.findings):
+        key = (f.param, f.zone)
+        if key not in worst or f.clearance_m < worst[key][0]:
+            worst[key] = (f.clearance_m, i)
+    out = []
+    for (param, zone), (_, i) in worst.items():
+        more = sum(1 for f in v.failsafe.findings if (f.param, f.zone) == (param, zone)) - 1
+        g = all_findings[i]
+        out.append(Finding(g.severity, g.message + (f" (and from {more} more leg(s))"
+                                                    if more else ""), g.item))
+    return out + all_findings[len(v.failsafe.findings):]
 
 
 # --------------------------------------------------------------------------------------------
@@ -163,8 +208,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="flight model (default: by the plan's firmware); implies --replay")
     p.add_argument("--params", metavar="FILE",
                    help="the parameter file the vehicle flies with (as plan-mission writes "
-                        "beside the plan): feeds the replay, is set on a --sitl vehicle, and "
-                        "a geofence it leaves off is flagged")
+                        "beside the plan): feeds the replay, is set on a --sitl vehicle, "
+                        "a geofence it leaves off is flagged, and every failsafe path it "
+                        "leaves (its values, else the firmware's defaults) is audited")
+    p.add_argument("--force", action="store_true",
+                   help="report failsafe paths that cross a zone or its buffer as warnings: "
+                        "they do not fail the audit")
     p.add_argument("--param", action="append", metavar="NAME=VALUE",
                    help="profile parameter in the autopilot's units, e.g. WPNAV_ACCEL=500 "
                         "(repeatable); implies --replay")
@@ -189,7 +238,7 @@ def validate_mission_main(argv: Sequence[str] | None = None) -> int:
         vehicle_params = read_params(args.params) if args.params else None
         v = validate_mission(args.plan, args.site, replay_flight=args.replay,
                              profile=args.profile, params=params or None, dt_s=args.dt,
-                             vehicle_params=vehicle_params)
+                             vehicle_params=vehicle_params, force=args.force)
         if flying:
             run_sitl(v, args, vehicle_params)
         if args.track and v.recorded is not None:

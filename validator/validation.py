@@ -17,7 +17,8 @@ from typing import Any
 from validator.audit import AuditReport, audit
 from validator.autopilot.fence import FENCE_RULES
 from validator.errors import InputError
-from validator.flight import Finding, Flight, resolve_flight
+from validator.failsafe import FailsafeReport, audit_failsafes
+from validator.flight import Finding, Flight, Severity, resolve_flight
 from validator.motion.limits import site_limits
 from validator.motion.profile import Profile, flown_params, make_profile
 from validator.plan_format import Autopilot, Plan, read_plan
@@ -48,11 +49,23 @@ class Validation:
     recorded: RecordedTrack | None = None  # what the SITL vehicle sent, for --track
     vehicle_params: dict[str, float] = field(default_factory=dict)
     param_findings: list[Finding] = field(default_factory=list)
+    failsafe: FailsafeReport | None = None  # with a parameter file
+    force: bool = False  # failsafe path findings are warnings, not violations
     extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def failsafe_findings(self) -> list[Finding]:
+        """Each failsafe path that enters a zone or its buffer: a violation unless forced."""
+        if self.failsafe is None:
+            return []
+        severity: Severity = "warning" if self.force else "violation"
+        return ([Finding(severity, f.message, f.item) for f in self.failsafe.findings]
+                + [Finding("note", n) for n in self.failsafe.notes])
 
     @property
     def violations(self) -> list[Finding]:
         out = list(self.audit.violations)
+        out += [f for f in self.failsafe_findings if f.severity == "violation"]
         for rep in (self.replay, self.sitl):
             if rep is not None:
                 out += rep.violations
@@ -81,6 +94,8 @@ class Validation:
             "audit": self.audit.as_dict(),
             "vehicle_params": dict(self.vehicle_params),
             "param_findings": [f.as_dict() for f in self.param_findings],
+            "failsafe": None if self.failsafe is None else
+            {**self.failsafe.as_dict(), "forced": self.force},
             "replay": track(self.replay),
             "sitl": track(self.sitl),
             **self.extra,
@@ -112,6 +127,7 @@ def validate_mission(
     params: dict[str, float] | None = None,
     dt_s: float = 0.05,
     vehicle_params: dict[str, float] | None = None,
+    force: bool = False,
 ) -> Validation:
     """Audit ``plan_path`` against ``site_path`` and, with ``replay_flight``, replay it.
 
@@ -119,7 +135,9 @@ def validate_mission(
     choose the flight model; the track is sampled every ``dt_s`` seconds. ``vehicle_params``
     are the parameters the vehicle will hold (a parameter file): those of the flight model
     replay the flight under ``params``' overrides, and a geofence they leave off or unsafe is
-    flagged in ``param_findings`` (for a plan with a fence). Raises :class:`InputError` for bad
+    flagged in ``param_findings`` (for a plan with a fence), and every failsafe path they
+    leave is audited (:func:`validator.failsafe.audit_failsafes`): one that enters a zone or its
+    buffer is a violation, or with ``force`` a warning. Raises :class:`InputError` for bad
     input.
     """
     if not (dt_s > 0 and dt_s <= 0.05):
@@ -129,11 +147,13 @@ def validate_mission(
     flight = resolve_flight(plan, site, str(plan_path))
     report = audit(plan, site, flight, source=str(plan_path))
     v = Validation(str(plan_path), str(site_path), plan, site, flight, report, dt_s=dt_s,
-                   vehicle_params=dict(vehicle_params or {}))
+                   vehicle_params=dict(vehicle_params or {}), force=force)
     if vehicle_params is not None and (plan.circles or plan.polygons):
         rules = FENCE_RULES["px4" if plan.firmware_type == Autopilot.PX4 else "ardupilot"]
         v.param_findings = [Finding("warning", f"parameter file: {p}", None)
                             for p in rules.problems(vehicle_params)]
+    if vehicle_params is not None:
+        v.failsafe = audit_failsafes(plan, site, flight, vehicle_params)
     if replay_flight or profile is not None or params or vehicle_params:
         name = profile or default_profile_name(plan)
         merged = {**flown_params(name, vehicle_params or {}), **(params or {})}
