@@ -171,8 +171,7 @@ def failsafe_defaults(autopilot: str) -> dict[str, float]:
     """The firmware default of every parameter the failsafe audit reads: each action, and the
     return path's (the one table of defaults, :mod:`validator.autopilot.ardupilot` / ``px4``)."""
     table = param_table(autopilot)
-    names = [f.param for f in FAILSAFES[autopilot]] + list(RETURN_PARAMS[autopilot])
-    return {n: table[n].default for n in names}
+    return {n: table[n].default for n in FAILSAFE_PARAMS[autopilot]}
 
 
 def recommended_failsafes(autopilot: str, srtl_points: float | None = None) -> dict[str, float]:
@@ -186,3 +185,10 @@ def recommended_failsafes(autopilot: str, srtl_points: float | None = None) -> d
         if srtl_points is not None:
             out["SRTL_POINTS"] = srtl_points
     return out
+
+
+FAILSAFE_PARAMS: dict[str, tuple[str, ...]] = {
+    ap: tuple(dict.fromkeys([f.param for f in FAILSAFES[ap]] + list(RETURN_PARAMS[ap])))
+    for ap in FAILSAFES
+}
+"""Every parameter the failsafe audit reads, by autopilot."""

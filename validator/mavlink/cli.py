@@ -3,7 +3,8 @@
 
     upload-mission PLAN --connect URL [--timeout S] [--sysid N] [--signing-key FILE]
                    [--set-params FILE] [--site SITE [--force]] [--allow-fence-off]
-    download-mission --connect URL -o PLAN [--timeout S] [--sysid N] [--signing-key FILE]
+    download-mission --connect URL -o PLAN [--params OUT] [--timeout S] [--sysid N]
+                     [--signing-key FILE]
     sitl-vehicle [--listen URL] --home LAT,LON,ALT [--speedup X] [--loss P] [--seed N]
                  [--profile NAME] [--param NAME=VALUE ...] [--sysid N] [--signing-key FILE]
 
@@ -138,10 +139,13 @@ def upload_mission_main(argv: Sequence[str] | None = None) -> int:
         params = read_params(args.set_params) if args.set_params else None
         key = _signing_key(args)
         if args.site:
-            refused = _audit_refusal(args.plan, args.site)
+            refused = _audit_refusal(args.plan, args.site, params)
             if refused and not args.force:
                 print(f"upload-mission: {refused}; --force uploads it anyway", file=sys.stderr)
                 return 1
+        elif params is not None:
+            print("upload-mission: --set-params without --site: the failsafe paths are not "
+                  "audited (add --site SITE)", file=sys.stderr)
         report = upload_plan(plan, args.connect, timeout_s=args.timeout, sysid=args.sysid,
                              params=params, require_fence=not args.allow_fence_off,
                              signing_key=key)
@@ -151,16 +155,25 @@ def upload_mission_main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
-def _audit_refusal(plan_path: str, site_path: str) -> str | None:
-    """Why the validator rejects the plan (one line), or None."""
+def _audit_refusal(plan_path: str, site_path: str,
+                   params: Mapping[str, float] | None = None) -> str | None:
+    """Why the validator rejects the plan (one line), or None: the audit, and with ``params``
+    (the file --set-params will send) every failsafe path they leave
+    (:func:`validator.failsafe.audit_failsafes`)."""
+    from validator.failsafe import audit_failsafes
+    from validator.flight import Finding
     from validator.validation import validate_mission
 
     v = validate_mission(plan_path, site_path)
-    if not v.violations:
+    problems = list(v.violations)
+    if params is not None:
+        problems += [Finding("violation", f.message, f.item)
+                     for f in audit_failsafes(v.plan, v.site, v.flight, params).findings]
+    if not problems:
         return None
-    first = v.violations[0]
+    first = problems[0]
     where = f"item {first.item}: " if first.item is not None else ""
-    return (f"{plan_path} fails the audit against {site_path} ({len(v.violations)} "
+    return (f"{plan_path} fails the audit against {site_path} ({len(problems)} "
             f"violation(s), first: {where}{first.message})")
 
 
@@ -177,6 +190,10 @@ def download_parser() -> argparse.ArgumentParser:
     )
     _link_args(p)
     p.add_argument("-o", "--output", required=True, metavar="PLAN", help="the .plan to write")
+    p.add_argument("--params", metavar="OUT",
+                   help="also fetch every parameter the vehicle holds and write them as a "
+                        "parameter file (ArduPilot NAME VALUE lines, QGroundControl format for "
+                        "PX4), to audit with validate-mission --params")
     return p
 
 
@@ -187,16 +204,45 @@ def download_mission_main(argv: Sequence[str] | None = None) -> int:
         from validator.mavlink.link import download_plan
         from validator.plan_format import write_plan
 
+        key = _signing_key(args)
         plan = download_plan(args.connect, timeout_s=args.timeout, sysid=args.sysid,
-                             signing_key=_signing_key(args))
+                             signing_key=key)
+        text = (download_params_text(args.connect, timeout_s=args.timeout, sysid=args.sysid,
+                                     signing_key=key) if args.params else None)
         write_plan(plan, args.output)
+        if args.params and text is not None:
+            from validator.fileio import write_atomic
+
+            write_atomic(args.params, text[1])
     except UserError as err:
         return report_error("download-mission", err)
     except OSError as err:
-        return report_error("download-mission", InputError(f"{args.output}: {err.strerror}"))
+        name = err.filename or args.output
+        return report_error("download-mission", InputError(f"{name}: {err.strerror}"))
     print(f"wrote {args.output}: {len(plan.items)} mission items, {len(plan.circles)} fence "
           f"circle(s), {len(plan.polygons)} polygon(s), {len(plan.rally)} rally point(s)")
+    if args.params and text is not None:
+        print(f"wrote {args.params}: {text[0]} parameters")
     return 0
+
+
+def download_params_text(url: str, *, timeout_s: float, sysid: int | None = None,
+                         signing_key: bytes | None = None) -> tuple[int, str]:
+    """Every parameter of the vehicle at ``url`` as parameter-file text
+    (:func:`validator.autopilot.param_file.format_params`, in its autopilot's format), and
+    how many there are."""
+    from validator.autopilot.param_file import format_params
+    from validator.mavlink.link import Link
+    from validator.mavlink.param_protocol import read_all_params
+
+    with Link(url, timeout_s=timeout_s, target_system=sysid, signing_key=signing_key) as link:
+        held = read_all_params(link)
+        autopilot = "px4" if link.vehicle.is_px4 else "ardupilot"
+        who = f"{link.vehicle.autopilot_name} system {link.vehicle.system_id}"
+    values = {n: held[n].value for n in sorted(held)}
+    text = format_params(values, autopilot, [f"parameters read from {who} at {url}"],
+                         {n: held[n].param_type for n in values})
+    return len(values), text
 
 
 # --------------------------------------------------------------------------------------------
