@@ -10,6 +10,7 @@ commands only parse arguments and print (:mod:`validator.cli`).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -163,3 +164,22 @@ def validate_mission(
             track = replay(flight, prof, dt_s=dt_s)
             v.replay = score_track(track, flight, site, plan)
     return v
+
+
+def audit_refusal(plan_path: str, site_path: str,
+                   params: Mapping[str, float] | None = None) -> str | None:
+    """Why the validator rejects the plan before an upload (``upload-mission --site``; one
+    line), or None: the audit's violations, and with ``params`` (the file ``--set-params``
+    will send) every failsafe path they leave that crosses a zone or its buffer."""
+    v = validate_mission(plan_path, site_path)
+    problems = list(v.violations)
+    if params is not None:
+        problems += [Finding("violation", f.message, f.item)
+                     for f in audit_failsafes(v.plan, v.site, v.flight, params).findings]
+    if not problems:
+        return None
+    first = problems[0]
+    where = f"item {first.item}: " if first.item is not None else ""
+    return (f"{plan_path} fails the audit against {site_path} ({len(problems)} "
+            f"violation(s), first: {where}{first.message})")
+

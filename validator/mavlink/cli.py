@@ -31,6 +31,7 @@ from validator.mavlink import NETWORK_URL
 from validator.mavlink.sitl_process import BINARY_ENV, DEFAULTS_ENV, PX4_BINARY_ENV
 
 if TYPE_CHECKING:
+    from validator.mavlink.faults import FaultInjector
     from validator.validation import Validation
 
 DEFAULT_SITL_SPEEDUP = 20.0
@@ -139,7 +140,9 @@ def upload_mission_main(argv: Sequence[str] | None = None) -> int:
         params = read_params(args.set_params) if args.set_params else None
         key = _signing_key(args)
         if args.site:
-            refused = _audit_refusal(args.plan, args.site, params)
+            from validator.validation import audit_refusal
+
+            refused = audit_refusal(args.plan, args.site, params)
             if refused and not args.force:
                 print(f"upload-mission: {refused}; --force uploads it anyway", file=sys.stderr)
                 return 1
@@ -153,28 +156,6 @@ def upload_mission_main(argv: Sequence[str] | None = None) -> int:
         return report_error("upload-mission", err)
     print(report.summary())
     return 0
-
-
-def _audit_refusal(plan_path: str, site_path: str,
-                   params: Mapping[str, float] | None = None) -> str | None:
-    """Why the validator rejects the plan (one line), or None: the audit, and with ``params``
-    (the file --set-params will send) every failsafe path they leave
-    (:func:`validator.failsafe.audit_failsafes`)."""
-    from validator.failsafe import audit_failsafes
-    from validator.flight import Finding
-    from validator.validation import validate_mission
-
-    v = validate_mission(plan_path, site_path)
-    problems = list(v.violations)
-    if params is not None:
-        problems += [Finding("violation", f.message, f.item)
-                     for f in audit_failsafes(v.plan, v.site, v.flight, params).findings]
-    if not problems:
-        return None
-    first = problems[0]
-    where = f"item {first.item}: " if first.item is not None else ""
-    return (f"{plan_path} fails the audit against {site_path} ({len(problems)} "
-            f"violation(s), first: {where}{first.message})")
 
 
 # --------------------------------------------------------------------------------------------
@@ -207,6 +188,8 @@ def download_mission_main(argv: Sequence[str] | None = None) -> int:
         key = _signing_key(args)
         plan = download_plan(args.connect, timeout_s=args.timeout, sysid=args.sysid,
                              signing_key=key)
+        from validator.mavlink.param_download import download_params_text
+
         text = (download_params_text(args.connect, timeout_s=args.timeout, sysid=args.sysid,
                                      signing_key=key) if args.params else None)
         write_plan(plan, args.output)
@@ -224,25 +207,6 @@ def download_mission_main(argv: Sequence[str] | None = None) -> int:
     if args.params and text is not None:
         print(f"wrote {args.params}: {text[0]} parameters")
     return 0
-
-
-def download_params_text(url: str, *, timeout_s: float, sysid: int | None = None,
-                         signing_key: bytes | None = None) -> tuple[int, str]:
-    """Every parameter of the vehicle at ``url`` as parameter-file text
-    (:func:`validator.autopilot.param_file.format_params`, in its autopilot's format), and
-    how many there are."""
-    from validator.autopilot.param_file import format_params
-    from validator.mavlink.link import Link
-    from validator.mavlink.param_protocol import read_all_params
-
-    with Link(url, timeout_s=timeout_s, target_system=sysid, signing_key=signing_key) as link:
-        held = read_all_params(link)
-        autopilot = "px4" if link.vehicle.is_px4 else "ardupilot"
-        who = f"{link.vehicle.autopilot_name} system {link.vehicle.system_id}"
-    values = {n: held[n].value for n in sorted(held)}
-    text = format_params(values, autopilot, [f"parameters read from {who} at {url}"],
-                         {n: held[n].param_type for n in values})
-    return len(values), text
 
 
 # --------------------------------------------------------------------------------------------
@@ -445,6 +409,11 @@ def add_sitl_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--sitl-sysid", type=_sysid, metavar="N",
                    help="external vehicle's system id (default: the first one heard)")
     _signing_key_arg(g, "with --sitl-url: " + SIGNING_KEY_HELP)
+    g.add_argument("--fault", choices=("rc-loss", "gcs-loss", "battery-low", "gps-loss"),
+                   help="on an autopilot SITL (--sitl-binary or --sitl-url): inject this fault "
+                        "as the vehicle passes the point whose straight return comes closest "
+                        "to a zone, and score the flight that follows (zone clearance, where "
+                        "and how it ended)")
 
 
 def run_sitl(v: Validation, args: argparse.Namespace,
@@ -455,10 +424,12 @@ def run_sitl(v: Validation, args: argparse.Namespace,
     overrides) are set on the vehicle before the flight."""
     from validator.dynamics import make_profile, parse_param_overrides, site_limits
     from validator.mavlink.driver import builtin_vehicle, default_time_limit_s, fly_and_score
+    from validator.mavlink.faults import fault_watch, record_fault
     from validator.mavlink.sitl_process import (
         autopilot_sitl,
         find_binary,
         is_px4,
+        sped_up_link_params,
         terminate_on_sigterm,
     )
     from validator.plan_format import Autopilot
@@ -480,20 +451,25 @@ def run_sitl(v: Validation, args: argparse.Namespace,
     binary = None if args.sitl_url else find_binary(
         args.sitl_binary, px4=v.plan.firmware_type == Autopilot.PX4)
     home = (v.plan.home_lat_deg, v.plan.home_lon_deg, v.plan.home_alt_m)
+    injector: list[FaultInjector] = []  # the fault's, once the link is open
+    watch = fault_watch(v, args.fault, vehicle_params, injector, autopilot=bool(
+        binary or args.sitl_url)) if getattr(args, "fault", None) else None
     if args.sitl_url:
         kind = "external"
         result = fly_and_score(v.plan, v.site, v.flight, args.sitl_url, time_limit_s=limit,
                                timeout_s=args.sitl_timeout, sysid=args.sitl_sysid,
-                               params=sent or None, signing_key=key)
+                               params=sent or None, signing_key=key, watch=watch)
     elif binary is not None:
         kind = "sitl-binary"
         speedup = args.sitl_speedup or (DEFAULT_PX4_SPEEDUP if is_px4(binary)
                                         else DEFAULT_BINARY_SPEEDUP)
+        # our wall-clock heartbeats are sparse in a sped-up SITL's time: widen its timeout
+        sent = {**sped_up_link_params(speedup, is_px4(binary)), **sent}
         terminate_on_sigterm()
         with autopilot_sitl(binary, home, speedup=speedup, defaults=args.sitl_defaults) as url:
             result = fly_and_score(v.plan, v.site, v.flight, url, time_limit_s=limit,
                                    timeout_s=args.sitl_timeout, params=sent or None,
-                                   wait_ready=True)
+                                   wait_ready=True, watch=watch)
     else:
         kind = "builtin"
         with builtin_vehicle(v.plan, profile=profile,
@@ -501,6 +477,8 @@ def run_sitl(v: Validation, args: argparse.Namespace,
             result = fly_and_score(v.plan, v.site, v.flight, url, time_limit_s=limit,
                                    timeout_s=args.sitl_timeout, params=sent or None)
     v.sitl = result.report
+    if injector:
+        record_fault(v, injector[0], result.telemetry)
     v.recorded = result.recorded()
     v.extra["sitl_flight"] = {
         "vehicle": result.vehicle,
@@ -516,3 +494,4 @@ def run_sitl(v: Validation, args: argparse.Namespace,
         "mode_changes": [{"t_s": t, "mode": m} for t, m in result.telemetry.mode_changes],
         "messages": [{"t_s": t, "text": m} for t, m in result.telemetry.messages],
     }
+
