@@ -11,7 +11,7 @@ fault      ArduCopter 4.5.6 SITL                    PX4 v1.15 SIH
 rc-loss    SIM_RC_FAIL 1 (no RC pulses)             not simulated (SIH flies without RC)
 gcs-loss   our GCS heartbeats stop (FS_GCS_ENABLE   our heartbeats stop (NAV_DLL_ACT after
            after FS_GCS_TIMEOUT, put back to 5 s)   COM_DL_LOSS_T, 10 s)
-battery-low SIM_BATT_VOLTAGE 10.3 V, under           SIM_BAT_MIN_PCT 6 with SIM_BAT_DRAIN 10 s
+battery-low SIM_BATT_VOLTAGE 10.3 V, under           SIM_BAT_MIN_PCT 2 with SIM_BAT_DRAIN 1 s
            BATT_LOW_VOLT 10.5 V (BATT_LOW_TIMER     (below BAT_CRIT_THR: COM_LOW_BAT_ACT)
            10 s)
 gps-loss   SIM_GPS_DISABLE 1 (EKF failsafe,         not simulated here
@@ -71,7 +71,7 @@ _ARDUPILOT: dict[str, dict[str, float | str]] = {
 }
 _PX4: dict[str, dict[str, float | str]] = {
     "gcs-loss": {GCS_LOSS: "yes"},
-    "battery-low": {"SIM_BAT_DRAIN": 10.0, "SIM_BAT_MIN_PCT": 6.0},
+    "battery-low": {"SIM_BAT_DRAIN": 1.0, "SIM_BAT_MIN_PCT": 2.0},
 }
 
 
