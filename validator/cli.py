@@ -1,8 +1,8 @@
 """``validate-mission``: audit a ``.plan`` against a site, optionally replay it in time.
 
     validate-mission PLAN --site SITE [--report OUT] [--replay] [--profile ideal|arducopter|px4]
-                     [--params FILE] [--param NAME=VALUE ...] [--dt SECONDS]
-                     [--sitl [--sitl-binary PATH | --sitl-url URL] ...]
+                     [--params FILE [--force]] [--param NAME=VALUE ...] [--dt SECONDS]
+                     [--sitl [--sitl-binary PATH | --sitl-url URL] [--fault KIND] ...]
 
 Prints a table; ``--report OUT`` (formerly ``--json``) also writes the full report
 atomically. Exit status: 0 clear, 1 a violation (audit or replay), 2 bad input (one line on

@@ -19,7 +19,8 @@ included ("SmartRTL or RTL" may fly RTL when SmartRTL has no path). The path kin
 Sources, read for exactly these firmware versions: ArduCopter 4.5.6 (7ce11b41:
 ArduCopter/Parameters.cpp, AP_BattMonitor_Params.cpp, AC_Fence, AP_SmartRTL, AP_Rally,
 mode_rtl.cpp) and PX4 v1.15 (commander_params.c, navigator's rtl_params.c, geofence_params.c,
-rtl.cpp). A parameter a file does not set is taken at the default listed here.
+rtl.cpp). A parameter a file does not set is taken at the firmware's default, which the
+parameter tables hold (:mod:`validator.autopilot.ardupilot`, :mod:`validator.autopilot.px4`).
 
 The actions we choose (``recommended``) never fly a path the audit has not proven clear:
 ArduCopter retraces the flown path with SmartRTL, or lands where it is when SmartRTL has no
@@ -33,13 +34,12 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Literal
 
 from validator.autopilot.fence import ARDUPILOT_FENCE, PX4_FENCE
 from validator.autopilot.tables import param_table
 
-PathKind = str  # one of PATH_KINDS
-PATH_KINDS = ("mission", "smartrtl", "mission_path", "land", "brake", "hold", "rtl")
-IN_PLACE = frozenset({"land", "brake", "hold"})
+PathKind = Literal["mission", "smartrtl", "mission_path", "land", "brake", "hold", "rtl"]
 
 
 @dataclass(frozen=True)
@@ -59,10 +59,6 @@ class Failsafe:
     param: str
     recommended: float | None
     actions: Mapping[int, Action]
-
-    def default(self, autopilot: str) -> float:
-        """The firmware's default (the parameter tables of :mod:`validator.autopilot`)."""
-        return param_table(autopilot)[self.param].default
 
     def action(self, value: float) -> Action:
         """The action of ``value``; an undocumented value is assumed to fly straight home."""
