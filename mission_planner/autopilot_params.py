@@ -21,9 +21,14 @@ PX4 (:mod:`validator.autopilot.px4`)
 - ``MPC_ACC_HOR``: ``uav.max_accel``; ``MPC_JERK_AUTO``: ``uav.max_jerk``;
 - ``NAV_ACC_RAD``: :func:`waypoint_radius_m`.
 
-Both: the geofence switched on with a breach action that never flies straight across another
-zone (:mod:`validator.autopilot.fence`: ArduCopter FENCE_TYPE 4, FENCE_ACTION 5 SmartRTL or
-Land, FENCE_ENABLE 1, written last so it is set after the others; PX4 GF_ACTION 2 Hold).
+Both: every failsafe set to an action that never flies a path the audit has not proven clear
+(:mod:`validator.autopilot.failsafe`: ArduCopter retraces its flown path with SmartRTL or lands
+in place, SRTL_POINTS sized for the whole mission by
+:func:`validator.failsafe.smartrtl_points_needed` within its documented range; PX4 holds or
+lands in place), and the geofence switched on with a breach action that never flies straight
+across another zone (:mod:`validator.autopilot.fence`: ArduCopter FENCE_TYPE 4, FENCE_ACTION 5
+SmartRTL or Land, FENCE_ENABLE 1, written last so it is set after the others; PX4 GF_ACTION 2
+Hold).
 
 A value outside the documented range is still written (the plan needs it) and listed in
 ``notes``, so the operator can check that the vehicle accepts it.
@@ -43,9 +48,12 @@ from mission_planner.mission import Mission
 from mission_planner.mission.options import waypoint_radius_m
 from mission_planner.optimize.retime import top_speed_mps
 from mission_planner.waypoint_radius import radius_params
+from validator.autopilot.failsafe import recommended_failsafes
 from validator.autopilot.fence import FENCE_RULES
 from validator.autopilot.param_file import format_params
 from validator.autopilot.tables import param_table, range_notes
+from validator.failsafe import smartrtl_points_needed
+from validator.flight import resolve_flight
 from validator.plan_format import Cmd
 
 
@@ -103,6 +111,12 @@ def recommended_params(mission: Mission) -> AutopilotParams:
             "WPNAV_JERK": table["WPNAV_JERK"].from_si(site.max_jerk_mps3),
         }
     values.update(radius_params(site, autopilot, mission.fence_margin_m))
+    srtl = None
+    if autopilot == "ardupilot":
+        srtl_spec = table["SRTL_POINTS"]
+        need = smartrtl_points_needed(resolve_flight(mission.plan, site, "mission"))
+        srtl = float(min(max(need, srtl_spec.default), srtl_spec.maximum))
+    values.update(recommended_failsafes(autopilot, srtl))
     values.update(FENCE_RULES[autopilot].recommended)
     return AutopilotParams(autopilot, values, range_notes(autopilot, values))
 

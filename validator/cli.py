@@ -1,10 +1,10 @@
 """``validate-mission``: audit a ``.plan`` against a site, optionally replay it in time.
 
     validate-mission PLAN --site SITE [--report OUT] [--replay] [--profile ideal|arducopter|px4]
-                     [--params FILE] [--param NAME=VALUE ...] [--dt SECONDS]
+                     [--params FILE [--force]] [--param NAME=VALUE ...] [--dt SECONDS]
                      [--flown TRACK.csv] [--html OUT.html [--html-map]]
                      [--wind SPEED@FROM[,TURB]]
-                     [--sitl [--sitl-binary PATH | --sitl-url URL] ...]
+                     [--sitl [--sitl-binary PATH | --sitl-url URL] [--fault KIND] ...]
                      [--at ISO-8601] [--authorised ZONE ...]
 
 Prints a table; ``--report OUT`` (formerly ``--json``) also writes the full report
@@ -13,11 +13,12 @@ stderr, no output file).
 ``--profile`` or ``--param`` imply ``--replay``; the default profile follows the plan's
 firmware (PX4 -> ``px4``, otherwise ``arducopter``). ``--params FILE`` is the parameter file
 the vehicle will fly with (``plan-mission`` writes one beside the plan): its motion parameters
-feed the replay, it is set on the vehicle of a ``--sitl`` flight, and a file that leaves the
-geofence off or with a breach action that can cross another zone is flagged. ``--at`` and
-``--authorised`` re-decide the site's UAS zones (ED-269, ED-318) for the plan's flight from
-that time: a leg in a zone active then is a violation (without ``--at`` every zone is taken as
-active).
+feed the replay, it is set on the vehicle of a ``--sitl`` flight, a file that leaves the
+geofence off or with a breach action that can cross another zone is flagged, and the path of
+every failsafe it leaves is audited (:mod:`validator.failsafe`): one that crosses a zone or its
+buffer fails the audit (exit 1) unless ``--force``. ``--at`` and ``--authorised`` re-decide
+the site's UAS zones (ED-269, ED-318) for the plan's flight from that time: a leg in a zone
+active then is a violation (without ``--at`` every zone is taken as active).
 
 Everything here parses and prints around :func:`validator.validation.validate_mission`, which
 notebooks can call.
@@ -35,6 +36,7 @@ from pathlib import Path
 from validator.autopilot.param_file import read_params
 from validator.errors import CommandParser, InputError, UserError, report_error
 from validator.fileio import write_all_atomic
+from validator.flight import Finding
 from validator.mavlink.cli import add_sitl_arguments, run_sitl, split_sitl_url
 from validator.motion.profile import PROFILES, parse_param_overrides
 from validator.replay import TrackReport
@@ -152,7 +154,9 @@ def format_report(v: Validation) -> str:
         lines += ["", *_track_lines(f"Flown by {who} ({v.sitl.source})", v.sitl)]
         if v.extra.get("sitl_wind"):
             lines.append(f"  {v.extra['sitl_wind']}")
-    findings = list(rep.findings) + list(v.param_findings)
+    if v.failsafe is not None:
+        lines += ["", *_failsafe_lines(v)]
+    findings = list(rep.findings) + list(v.param_findings) + _failsafe_summary(v)
     for r in (v.replay, v.sitl):
         if r is not None:
             findings += list(r.findings)
@@ -165,6 +169,46 @@ def format_report(v: Validation) -> str:
     n = len(v.violations)
     lines += ["", f"Result: {'VIOLATION (' + str(n) + ')' if n else 'CLEAR'}"]
     return "\n".join(lines)
+
+
+def _failsafe_lines(v: Validation) -> list[str]:
+    fs = v.failsafe
+    assert fs is not None
+    lines = ["Failsafes: the path each action flies from every point of the mission "
+             "(value from the file, else the firmware's default)",
+             f"  {'failsafe':<28} {'parameter':<16} {'value':>6} {'from':<8} {'paths':<18} "
+             "verdict"]
+    for c in fs.checks:
+        bad = [f for f in fs.findings if f.param == c.param]
+        verdict = "clear" if not bad else f"{len(bad)} path finding(s)"
+        lines.append(f"  {c.trigger[:28]:<28} {c.param:<16} {c.value:>6g} {c.source:<8} "
+                     f"{'+'.join(c.paths):<18} {verdict}")
+    w = fs.worst_return
+    if w is not None:
+        lines.append(f"  a straight return comes closest to a zone from item {w.item} "
+                     f"(x {w.xy_m[0]:.1f}, y {w.xy_m[1]:.1f} m): {w.clearance_m:.2f} m from "
+                     f"{w.zone}, to {w.destination}")
+    return lines
+
+
+def _failsafe_summary(v: Validation) -> list[Finding]:
+    """The failsafe findings for the table: the deepest per parameter and zone (the JSON
+    report lists every leg)."""
+    if v.failsafe is None:
+        return []
+    worst: dict[tuple[str, str], tuple[float, int]] = {}
+    all_findings = v.failsafe_findings
+    for i, f in enumerate(v.failsafe.findings):
+        key = (f.param, f.zone)
+        if key not in worst or f.clearance_m < worst[key][0]:
+            worst[key] = (f.clearance_m, i)
+    out = []
+    for (param, zone), (_, i) in worst.items():
+        more = sum(1 for f in v.failsafe.findings if (f.param, f.zone) == (param, zone)) - 1
+        g = all_findings[i]
+        out.append(Finding(g.severity, g.message + (f" (and from {more} more leg(s))"
+                                                    if more else ""), g.item))
+    return out + all_findings[len(v.failsafe.findings):]
 
 
 # --------------------------------------------------------------------------------------------
@@ -194,8 +238,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="flight model (default: by the plan's firmware); implies --replay")
     p.add_argument("--params", metavar="FILE",
                    help="the parameter file the vehicle flies with (as plan-mission writes "
-                        "beside the plan): feeds the replay, is set on a --sitl vehicle, and "
-                        "a geofence it leaves off is flagged")
+                        "beside the plan): feeds the replay, is set on a --sitl vehicle, "
+                        "a geofence it leaves off is flagged, and every failsafe path it "
+                        "leaves (its values, else the firmware's defaults) is audited")
+    p.add_argument("--force", action="store_true",
+                   help="report failsafe paths that cross a zone or its buffer as warnings: "
+                        "they do not fail the audit")
     p.add_argument("--param", action="append", metavar="NAME=VALUE",
                    help="profile parameter in the autopilot's units, e.g. WPNAV_ACCEL=500 "
                         "(repeatable); implies --replay")
@@ -253,7 +301,8 @@ def validate_mission_main(argv: Sequence[str] | None = None) -> int:
                              profile=args.profile, params=params or None, dt_s=args.dt,
                              vehicle_params=vehicle_params, flown_track=args.flown, wind=wind,
                              airspace=AirspaceOptions(parse_at(args.at) if args.at else None,
-                                                      authorised=frozenset(args.authorised)))
+                                                      authorised=frozenset(args.authorised)),
+                             force=args.force)
         if flying:
             run_sitl(v, args, vehicle_params)
         if args.track and v.recorded is not None:

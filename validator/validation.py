@@ -10,6 +10,7 @@ commands only parse arguments and print (:mod:`validator.cli`).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -17,7 +18,8 @@ from typing import Any
 from validator.audit import AuditReport, audit
 from validator.autopilot.fence import FENCE_RULES
 from validator.errors import InputError
-from validator.flight import Finding, Flight, resolve_flight
+from validator.failsafe import FailsafeReport, audit_failsafes
+from validator.flight import Finding, Flight, Severity, resolve_flight
 from validator.motion.limits import site_limits
 from validator.motion.profile import Profile, flown_params, make_profile
 from validator.plan_format import Autopilot, Plan, read_plan
@@ -52,6 +54,8 @@ class Validation:
     recorded: RecordedTrack | None = None  # what the SITL vehicle sent, for --track
     vehicle_params: dict[str, float] = field(default_factory=dict)
     param_findings: list[Finding] = field(default_factory=list)
+    failsafe: FailsafeReport | None = None  # with a parameter file
+    force: bool = False  # failsafe path findings are warnings, not violations
     extra: dict[str, Any] = field(default_factory=dict)
     planned_wind: Wind | None = None  # the wind the plan was made for (None: still air)
     flown_wind: Wind | None = None  # the wind it is replayed (and flown in SITL) in
@@ -62,8 +66,18 @@ class Validation:
         return _same_wind(self.planned_wind, self.flown_wind)
 
     @property
+    def failsafe_findings(self) -> list[Finding]:
+        """Each failsafe path that enters a zone or its buffer: a violation unless forced."""
+        if self.failsafe is None:
+            return []
+        severity: Severity = "warning" if self.force else "violation"
+        return ([Finding(severity, f.message, f.item) for f in self.failsafe.findings]
+                + [Finding("note", n) for n in self.failsafe.notes])
+
+    @property
     def violations(self) -> list[Finding]:
         out = list(self.audit.violations)
+        out += [f for f in self.failsafe_findings if f.severity == "violation"]
         for rep in (self.replay, self.sitl):
             if rep is not None:
                 out += rep.violations
@@ -92,6 +106,8 @@ class Validation:
             "audit": self.audit.as_dict(),
             "vehicle_params": dict(self.vehicle_params),
             "param_findings": [f.as_dict() for f in self.param_findings],
+            "failsafe": None if self.failsafe is None else
+            {**self.failsafe.as_dict(), "forced": self.force},
             "replay": track(self.replay),
             "sitl": track(self.sitl),
             "wind": {"planned_for": _wind_dict(self.planned_wind),
@@ -145,6 +161,7 @@ def validate_mission(
     flown_track: str | Path | None = None,
     airspace: AirspaceOptions | None = None,
     wind: Wind | None = None,
+    force: bool = False,
 ) -> Validation:
     """Audit ``plan_path`` against ``site_path`` and, with ``replay_flight``, replay it.
 
@@ -152,7 +169,9 @@ def validate_mission(
     choose the flight model; the track is sampled every ``dt_s`` seconds. ``vehicle_params``
     are the parameters the vehicle will hold (a parameter file): those of the flight model
     replay the flight under ``params``' overrides, and a geofence they leave off or unsafe is
-    flagged in ``param_findings`` (for a plan with a fence). ``flown_track`` is a recorded
+    flagged in ``param_findings`` (for a plan with a fence), and every failsafe path they
+    leave is audited (:func:`validator.failsafe.audit_failsafes`): one that enters a zone or its
+    buffer is a violation, or with ``force`` a warning. ``flown_track`` is a recorded
     flight of the plan (:mod:`validator.track_file`, as ``--track`` writes one): scored into
     ``sitl`` like a flight flown now, and kept in ``recorded``. ``airspace`` says when the plan
     flies and what it is authorised for: the site's UAS zones are decided for [at, at + the
@@ -181,13 +200,15 @@ def validate_mission(
     site = site.with_limits(wind=flown)  # the replay's (and a SITL flight's) air
     v = Validation(str(plan_path), str(site_path), plan, site, flight, report, dt_s=dt_s,
                    vehicle_params=dict(vehicle_params or {}), planned_wind=planned,
-                   flown_wind=flown)
+                   flown_wind=flown, force=force)
     if site.airspace.uas:
         v.extra["airspace"] = site.airspace.report()
     if vehicle_params is not None and (plan.circles or plan.polygons):
         rules = FENCE_RULES["px4" if plan.firmware_type == Autopilot.PX4 else "ardupilot"]
         v.param_findings = [Finding("warning", f"parameter file: {p}", None)
                             for p in rules.problems(vehicle_params)]
+    if vehicle_params is not None:
+        v.failsafe = audit_failsafes(plan, site, flight, vehicle_params)
     if replay_flight or profile is not None or params or vehicle_params:
         name = profile or default_profile_name(plan)
         merged = {**flown_params(name, vehicle_params or {}), **(params or {})}
@@ -202,3 +223,22 @@ def validate_mission(
         v.sitl = score_track(track, flight, site, plan)
         v.extra["recorded_flight"] = {"file": str(flown_track)}
     return v
+
+
+def audit_refusal(plan_path: str, site_path: str,
+                   params: Mapping[str, float] | None = None) -> str | None:
+    """Why the validator rejects the plan before an upload (``upload-mission --site``; one
+    line), or None: the audit's violations, and with ``params`` (the file ``--set-params``
+    will send) every failsafe path they leave that crosses a zone or its buffer."""
+    v = validate_mission(plan_path, site_path)
+    problems = list(v.violations)
+    if params is not None:
+        problems += [Finding("violation", f.message, f.item)
+                     for f in audit_failsafes(v.plan, v.site, v.flight, params).findings]
+    if not problems:
+        return None
+    first = problems[0]
+    where = f"item {first.item}: " if first.item is not None else ""
+    return (f"{plan_path} fails the audit against {site_path} ({len(problems)} "
+            f"violation(s), first: {where}{first.message})")
+

@@ -17,9 +17,20 @@ from mission_planner.mission import MissionOptions, build_mission
 from mission_planner.optimize.retime import top_speed_mps
 from mission_planner.study.sites import random_site
 from tests.mission_planner.solutions import make_site, solution_for, subdivided
+from validator.autopilot.failsafe import FAILSAFES
 from validator.autopilot.fence import FENCE_RULES
 from validator.autopilot.param_file import parse_params
+from validator.failsafe import effective_params, smartrtl_points_needed
+from validator.flight import resolve_flight
 
+# SmartRTL or Land on RC, GCS and low-battery loss; Land on a critical battery, EKF and dead
+# reckoning; FS_OPTIONS 8 + 16 (finish a landing, a pilot keeps GCS loss)
+SAFE_ARDUPILOT_FAILSAFES = {"FS_THR_ENABLE": 5.0, "FS_GCS_ENABLE": 4.0, "BATT_FS_LOW_ACT": 4.0,
+                            "BATT_FS_CRT_ACT": 1.0, "FS_EKF_ACTION": 1.0, "FS_DR_ENABLE": 1.0,
+                            "FS_OPTIONS": 24.0}
+# Hold on RC loss, Land on link loss, low battery and navigation loss, warn on flight time
+SAFE_PX4_FAILSAFES = {"NAV_RCL_ACT": 1.0, "NAV_DLL_ACT": 3.0, "COM_LOW_BAT_ACT": 2.0,
+                      "COM_FLTT_LOW_ACT": 1.0, "COM_POSCTL_NAVL": 1.0}
 SQUARE = [(150.0, 150.0), (250.0, 150.0), (250.0, 250.0), (150.0, 250.0)]
 
 
@@ -38,6 +49,7 @@ def test_ardupilot_params_come_from_the_fastest_leg_and_the_site_limits():
     assert fastest_leg_mps(m) == pytest.approx(100.0 / 12.0)
     assert p.values == {"WPNAV_SPEED": 834.0,  # 833.3 cm/s rounded up to a whole cm/s
                         "WPNAV_ACCEL": 400.0, "WPNAV_JERK": 3.0, "WPNAV_RADIUS": 100.0,
+                        **SAFE_ARDUPILOT_FAILSAFES, "SRTL_POINTS": 300.0,
                         "FENCE_TYPE": 4.0, "FENCE_ACTION": 5.0, "FENCE_ENABLE": 1.0}
     assert p.notes == ()
 
@@ -51,7 +63,8 @@ def test_the_parameters_switch_the_fence_on_with_a_safe_breach_action(autopilot)
 def test_px4_params_use_px4_names_and_si_units():
     p = recommended_params(_mission("px4", max_accel=4.0, max_jerk=3.0))
     assert p.values == {"MPC_XY_CRUISE": 8.34, "MPC_XY_VEL_MAX": 8.34, "MPC_ACC_HOR": 4.0,
-                        "MPC_JERK_AUTO": 3.0, "NAV_ACC_RAD": 1.0, "GF_ACTION": 2.0}
+                        "MPC_JERK_AUTO": 3.0, "NAV_ACC_RAD": 1.0, **SAFE_PX4_FAILSAFES,
+                        "GF_ACTION": 2.0}
 
 
 def test_transit_speed_counts_as_a_planned_leg():
@@ -110,14 +123,15 @@ def test_ardupilot_file_is_name_value_lines_px4_file_is_qgc_format():
     px = dumps_params(recommended_params(_mission("px4")))
     ap_lines = [ln for ln in ap.splitlines() if not ln.startswith("#")]
     px_lines = [ln for ln in px.splitlines() if not ln.startswith("#")]
-    assert [ln.split()[0] for ln in ap_lines] == ["WPNAV_SPEED", "WPNAV_ACCEL", "WPNAV_JERK",
-                                                  "WPNAV_RADIUS", "FENCE_TYPE", "FENCE_ACTION",
-                                                  "FENCE_ENABLE"]
+    assert [ln.split()[0] for ln in ap_lines] == [
+        "WPNAV_SPEED", "WPNAV_ACCEL", "WPNAV_JERK", "WPNAV_RADIUS", *SAFE_ARDUPILOT_FAILSAFES,
+        "SRTL_POINTS", "FENCE_TYPE", "FENCE_ACTION", "FENCE_ENABLE"]
     assert all(len(ln.split()) == 2 for ln in ap_lines)
     for ln in px_lines:
         sysid, compid, name, value, ptype = ln.split("\t")
-        # MAV_PARAM_TYPE as PX4 declares it: GF_ACTION is an INT32 enum, the rest REAL32
-        assert (sysid, compid, ptype) == ("1", "1", "6" if name == "GF_ACTION" else "9")
+        # MAV_PARAM_TYPE as PX4 declares it: the actions are INT32 enums, the rest REAL32
+        enum = name == "GF_ACTION" or name in SAFE_PX4_FAILSAFES
+        assert (sysid, compid, ptype) == ("1", "1", "6" if enum else "9")
         assert math.isfinite(float(value))
 
 
@@ -144,3 +158,21 @@ def test_a_site_without_a_buffer_still_keeps_its_cut_corners_out_of_the_zones():
     assert not mission.problems
     check = replay_mission(mission)
     assert min(check.clearance_by_nfz_m.values()) > 0.0
+
+
+@pytest.mark.parametrize("autopilot", ["ardupilot", "px4"])
+def test_every_failsafe_we_set_flies_only_audited_paths(autopilot):
+    # Whatever the site, the written actions retrace the flown path or stay in place: never a
+    # straight return (which the failsafe audit would have to prove clear).
+    p = recommended_params(_mission(autopilot))
+    values, _ = effective_params(autopilot, p.values)
+    for f in FAILSAFES[autopilot]:
+        assert "rtl" not in f.action(values[f.param]).paths, f.param
+
+
+def test_smartrtl_holds_the_whole_mission_within_its_documented_range():
+    m = _mission()
+    need = smartrtl_points_needed(resolve_flight(m.plan, m.solution.site))
+    srtl = recommended_params(m).values["SRTL_POINTS"]
+    assert srtl >= min(need, 500.0)
+    assert 0 < srtl <= 500.0

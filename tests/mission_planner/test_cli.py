@@ -27,6 +27,7 @@ from tests.mission_planner.solutions import (
     subdivided,
 )
 from validator.audit import audit
+from validator.autopilot.failsafe import FAILSAFE_PARAMS, recommended_failsafes
 from validator.autopilot.param_file import parse_params
 from validator.geometry import segment_point_distance
 from validator.plan_format import Autopilot, Cmd, read_plan
@@ -275,8 +276,8 @@ def test_param_file_is_written_beside_the_mission(tmp_path, capsys, square_plann
     assert code == 0, err
     params = parse_params((tmp_path / "m.param").read_text())
     assert params == {"WPNAV_SPEED": 1000.0, "WPNAV_ACCEL": 250.0, "WPNAV_JERK": 1.0,
-                      "WPNAV_RADIUS": 100.0, "FENCE_TYPE": 4.0, "FENCE_ACTION": 5.0,
-                      "FENCE_ENABLE": 1.0}
+                      "WPNAV_RADIUS": 100.0, **recommended_failsafes("ardupilot", 300.0),
+                      "FENCE_TYPE": 4.0, "FENCE_ACTION": 5.0, "FENCE_ENABLE": 1.0}
     assert list(params)[-1] == "FENCE_ENABLE"  # switched on after the rest is set
 
 
@@ -286,7 +287,8 @@ def test_params_option_names_the_file_px4_gets_px4_names(tmp_path, capsys, squar
                       "--autopilot", "px4"], capsys)
     assert code == 0, err
     assert not (tmp_path / "m.param").exists()
-    assert set(parse_params(pfile.read_text())) == {"MPC_XY_CRUISE", "MPC_XY_VEL_MAX",
+    assert set(parse_params(pfile.read_text())) == {*recommended_failsafes("px4"),
+                                                    "MPC_XY_CRUISE", "MPC_XY_VEL_MAX",
                                                     "MPC_ACC_HOR", "MPC_JERK_AUTO", "NAV_ACC_RAD",
                                                     "GF_ACTION"}
 
@@ -310,7 +312,7 @@ def test_report_has_the_replayed_flight_and_no_warning_when_on_time(tmp_path, ca
     assert flight["replayed_cycle_s"] == pytest.approx(180.0, rel=0.02)
     assert flight["replayed_min_rate_bps_hz"] > 0 and flight["warning"] is None
     motion = {k: v for k, v in data["autopilot_params"]["values"].items()
-              if not k.startswith("FENCE_")}
+              if not k.startswith("FENCE_") and k not in FAILSAFE_PARAMS["ardupilot"]}
     assert motion == flight["params"]
     assert data["mission"]["service_waypoints_merged"] == 8
     assert "warning" not in err

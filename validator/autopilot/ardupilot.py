@@ -58,4 +58,25 @@ PARAMS: dict[str, ParamSpec] = {
                             zero_ok=True),
     "FENCE_ACTION": ParamSpec("enum", 1.0, 1.0, 0.0, 5.0, "what a breach does", _I8,
                               zero_ok=True),
+    # failsafes (validator.autopilot.failsafe says what each value flies)
+    "FS_THR_ENABLE": ParamSpec("enum", 1.0, 1.0, 0.0, 7.0, "RC loss action", _I8, zero_ok=True),
+    "FS_GCS_ENABLE": ParamSpec("enum", 1.0, 0.0, 0.0, 7.0, "ground-station loss action", _I8,
+                               zero_ok=True),
+    "FS_OPTIONS": ParamSpec("bitmask", 1.0, 16.0, 0.0, 63.0, "failsafe options: continue in "
+                            "Auto (1 RC, 2 GCS), 8 finish a landing, 16 pilot keeps GCS loss",
+                            _I32, zero_ok=True),
+    "BATT_FS_LOW_ACT": ParamSpec("enum", 1.0, 0.0, 0.0, 6.0, "low battery action", _I8,
+                                 zero_ok=True),
+    "BATT_FS_CRT_ACT": ParamSpec("enum", 1.0, 0.0, 0.0, 6.0, "critical battery action", _I8,
+                                 zero_ok=True),
+    "FS_EKF_ACTION": ParamSpec("enum", 1.0, 1.0, 1.0, 3.0, "EKF failsafe action", _I8),
+    "FS_DR_ENABLE": ParamSpec("enum", 1.0, 2.0, 0.0, 6.0, "dead-reckoning failsafe action", _I8,
+                              zero_ok=True),
+    "SRTL_POINTS": ParamSpec("count", 1.0, 300.0, 0.0, 500.0, "SmartRTL path points (0 = off; "
+                             "after a reboot)", _I16, zero_ok=True),
+    "SRTL_ACCURACY": ParamSpec("m", 1.0, 2.0, 0.0, 10.0, "SmartRTL point spacing", zero_ok=True),
+    "RALLY_INCL_HOME": ParamSpec("boolean", 1.0, 1.0, 0.0, 1.0, "RTL may choose home", _I8,
+                                 zero_ok=True),
+    "RALLY_LIMIT_KM": ParamSpec("km", 1000.0, 0.3, 0.0, 1000.0, "rally points further than "
+                                "this are not used (0 = no limit)", zero_ok=True),
 }

@@ -47,4 +47,27 @@ PARAMS: dict[str, ParamSpec] = {
     # the geofence (validator.autopilot.fence says which values are safe)
     "GF_ACTION": ParamSpec("enum", 1.0, 2.0, 0.0, 5.0, "what a breach does",
                            MAV_PARAM_TYPE_INT32, zero_ok=True),
+    # failsafes (validator.autopilot.failsafe says what each value flies)
+    "NAV_RCL_ACT": ParamSpec("enum", 1.0, 2.0, 0.0, 6.0, "RC loss action", MAV_PARAM_TYPE_INT32,
+                             zero_ok=True),
+    "NAV_DLL_ACT": ParamSpec("enum", 1.0, 0.0, 0.0, 6.0, "data-link loss action",
+                             MAV_PARAM_TYPE_INT32, zero_ok=True),
+    "COM_LOW_BAT_ACT": ParamSpec("enum", 1.0, 0.0, 0.0, 3.0, "battery failsafe action",
+                                 MAV_PARAM_TYPE_INT32, zero_ok=True),
+    "COM_FLTT_LOW_ACT": ParamSpec("enum", 1.0, 3.0, 0.0, 3.0, "low flight time action",
+                                  MAV_PARAM_TYPE_INT32, zero_ok=True),
+    "COM_POSCTL_NAVL": ParamSpec("enum", 1.0, 0.0, 0.0, 1.0, "navigation loss response",
+                                 MAV_PARAM_TYPE_INT32, zero_ok=True),
+    "COM_RCL_EXCEPT": ParamSpec("bitmask", 1.0, 0.0, 0.0, 7.0, "modes ignoring RC loss (1 "
+                                "Mission)", MAV_PARAM_TYPE_INT32, zero_ok=True),
+    "COM_WIND_MAX_ACT": ParamSpec("enum", 1.0, 0.0, 0.0, 5.0, "high wind action",
+                                  MAV_PARAM_TYPE_INT32, zero_ok=True),
+    "COM_IMB_PROP_ACT": ParamSpec("enum", 1.0, 0.0, -1.0, 2.0, "imbalanced propeller action",
+                                  MAV_PARAM_TYPE_INT32, zero_ok=True),
+    "COM_ACT_FAIL_ACT": ParamSpec("enum", 1.0, 0.0, 0.0, 4.0, "actuator failure action",
+                                  MAV_PARAM_TYPE_INT32, zero_ok=True),
+    "RTL_TYPE": ParamSpec("enum", 1.0, 0.0, 0.0, 3.0, "Return destination and path",
+                          MAV_PARAM_TYPE_INT32, zero_ok=True),
+    "RTL_RETURN_ALT": ParamSpec("m", 1.0, 60.0, 0.0, math.inf, "Return altitude above the "
+                                "destination", zero_ok=True),
 }

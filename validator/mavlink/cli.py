@@ -3,7 +3,8 @@
 
     upload-mission PLAN --connect URL [--timeout S] [--sysid N] [--signing-key FILE]
                    [--set-params FILE] [--site SITE [--force]] [--allow-fence-off]
-    download-mission --connect URL -o PLAN [--timeout S] [--sysid N] [--signing-key FILE]
+    download-mission --connect URL -o PLAN [--params OUT] [--timeout S] [--sysid N]
+                     [--signing-key FILE]
     sitl-vehicle [--listen URL] --home LAT,LON,ALT [--speedup X] [--loss P] [--seed N]
                  [--profile NAME] [--param NAME=VALUE ...] [--sysid N] [--signing-key FILE]
 
@@ -30,6 +31,7 @@ from validator.mavlink import NETWORK_URL
 from validator.mavlink.sitl_process import BINARY_ENV, DEFAULTS_ENV, PX4_BINARY_ENV
 
 if TYPE_CHECKING:
+    from validator.mavlink.faults import FaultInjector
     from validator.validation import Validation
 
 DEFAULT_SITL_SPEEDUP = 20.0
@@ -138,10 +140,15 @@ def upload_mission_main(argv: Sequence[str] | None = None) -> int:
         params = read_params(args.set_params) if args.set_params else None
         key = _signing_key(args)
         if args.site:
-            refused = _audit_refusal(args.plan, args.site)
+            from validator.validation import audit_refusal
+
+            refused = audit_refusal(args.plan, args.site, params)
             if refused and not args.force:
                 print(f"upload-mission: {refused}; --force uploads it anyway", file=sys.stderr)
                 return 1
+        elif params is not None:
+            print("upload-mission: --set-params without --site: the failsafe paths are not "
+                  "audited (add --site SITE)", file=sys.stderr)
         report = upload_plan(plan, args.connect, timeout_s=args.timeout, sysid=args.sysid,
                              params=params, require_fence=not args.allow_fence_off,
                              signing_key=key)
@@ -149,19 +156,6 @@ def upload_mission_main(argv: Sequence[str] | None = None) -> int:
         return report_error("upload-mission", err)
     print(report.summary())
     return 0
-
-
-def _audit_refusal(plan_path: str, site_path: str) -> str | None:
-    """Why the validator rejects the plan (one line), or None."""
-    from validator.validation import validate_mission
-
-    v = validate_mission(plan_path, site_path)
-    if not v.violations:
-        return None
-    first = v.violations[0]
-    where = f"item {first.item}: " if first.item is not None else ""
-    return (f"{plan_path} fails the audit against {site_path} ({len(v.violations)} "
-            f"violation(s), first: {where}{first.message})")
 
 
 # --------------------------------------------------------------------------------------------
@@ -177,6 +171,10 @@ def download_parser() -> argparse.ArgumentParser:
     )
     _link_args(p)
     p.add_argument("-o", "--output", required=True, metavar="PLAN", help="the .plan to write")
+    p.add_argument("--params", metavar="OUT",
+                   help="also fetch every parameter the vehicle holds and write them as a "
+                        "parameter file (ArduPilot NAME VALUE lines, QGroundControl format for "
+                        "PX4), to audit with validate-mission --params")
     return p
 
 
@@ -187,15 +185,27 @@ def download_mission_main(argv: Sequence[str] | None = None) -> int:
         from validator.mavlink.link import download_plan
         from validator.plan_format import write_plan
 
+        key = _signing_key(args)
         plan = download_plan(args.connect, timeout_s=args.timeout, sysid=args.sysid,
-                             signing_key=_signing_key(args))
+                             signing_key=key)
+        from validator.mavlink.param_download import download_params_text
+
+        text = (download_params_text(args.connect, timeout_s=args.timeout, sysid=args.sysid,
+                                     signing_key=key) if args.params else None)
         write_plan(plan, args.output)
+        if args.params and text is not None:
+            from validator.fileio import write_atomic
+
+            write_atomic(args.params, text[1])
     except UserError as err:
         return report_error("download-mission", err)
     except OSError as err:
-        return report_error("download-mission", InputError(f"{args.output}: {err.strerror}"))
+        name = err.filename or args.output
+        return report_error("download-mission", InputError(f"{name}: {err.strerror}"))
     print(f"wrote {args.output}: {len(plan.items)} mission items, {len(plan.circles)} fence "
           f"circle(s), {len(plan.polygons)} polygon(s), {len(plan.rally)} rally point(s)")
+    if args.params and text is not None:
+        print(f"wrote {args.params}: {text[0]} parameters")
     return 0
 
 
@@ -399,6 +409,11 @@ def add_sitl_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--sitl-sysid", type=_sysid, metavar="N",
                    help="external vehicle's system id (default: the first one heard)")
     _signing_key_arg(g, "with --sitl-url: " + SIGNING_KEY_HELP)
+    g.add_argument("--fault", choices=("rc-loss", "gcs-loss", "battery-low", "gps-loss"),
+                   help="on an autopilot SITL (--sitl-binary or --sitl-url): inject this fault "
+                        "as the vehicle passes the point whose straight return comes closest "
+                        "to a zone, and score the flight that follows (zone clearance, where "
+                        "and how it ended)")
 
 
 def run_sitl(v: Validation, args: argparse.Namespace,
@@ -409,11 +424,13 @@ def run_sitl(v: Validation, args: argparse.Namespace,
     overrides) are set on the vehicle before the flight."""
     from validator.dynamics import make_profile, parse_param_overrides, site_limits
     from validator.mavlink.driver import builtin_vehicle, default_time_limit_s, fly_and_score
+    from validator.mavlink.faults import fault_watch, record_fault
     from validator.mavlink.sitl_process import (
         autopilot_sitl,
         find_binary,
         is_px4,
         sitl_wind_params,
+        sped_up_link_params,
         terminate_on_sigterm,
     )
     from validator.plan_format import Autopilot
@@ -435,17 +452,22 @@ def run_sitl(v: Validation, args: argparse.Namespace,
     binary = None if args.sitl_url else find_binary(
         args.sitl_binary, px4=v.plan.firmware_type == Autopilot.PX4)
     home = (v.plan.home_lat_deg, v.plan.home_lon_deg, v.plan.home_alt_m)
+    injector: list[FaultInjector] = []  # the fault's, once the link is open
+    watch = fault_watch(v, args.fault, vehicle_params, injector, autopilot=bool(
+        binary or args.sitl_url)) if getattr(args, "fault", None) else None
     if args.sitl_url:
         kind = "external"
         if v.flown_wind is not None:
             v.extra["sitl_wind"] = "an external vehicle flies in its own air (--wind: the replay)"
         result = fly_and_score(v.plan, v.site, v.flight, args.sitl_url, time_limit_s=limit,
                                timeout_s=args.sitl_timeout, sysid=args.sitl_sysid,
-                               params=sent or None, signing_key=key)
+                               params=sent or None, signing_key=key, watch=watch)
     elif binary is not None:
         kind = "sitl-binary"
         speedup = args.sitl_speedup or (DEFAULT_PX4_SPEEDUP if is_px4(binary)
                                         else DEFAULT_BINARY_SPEEDUP)
+        # our wall-clock heartbeats are sparse in a sped-up SITL's time: widen its timeout
+        sent = {**sped_up_link_params(speedup, is_px4(binary)), **sent}
         terminate_on_sigterm()
         if is_px4(binary):
             if v.flown_wind is not None:
@@ -455,7 +477,7 @@ def run_sitl(v: Validation, args: argparse.Namespace,
         with autopilot_sitl(binary, home, speedup=speedup, defaults=args.sitl_defaults) as url:
             result = fly_and_score(v.plan, v.site, v.flight, url, time_limit_s=limit,
                                    timeout_s=args.sitl_timeout, params=sent or None,
-                                   wait_ready=True)
+                                   wait_ready=True, watch=watch)
     else:
         kind = "builtin"
         with builtin_vehicle(v.plan, profile=profile,
@@ -463,6 +485,8 @@ def run_sitl(v: Validation, args: argparse.Namespace,
             result = fly_and_score(v.plan, v.site, v.flight, url, time_limit_s=limit,
                                    timeout_s=args.sitl_timeout, params=sent or None)
     v.sitl = result.report
+    if injector:
+        record_fault(v, injector[0], result.telemetry)
     v.recorded = result.recorded()
     v.extra["sitl_flight"] = {
         "vehicle": result.vehicle,
@@ -478,3 +502,4 @@ def run_sitl(v: Validation, args: argparse.Namespace,
         "mode_changes": [{"t_s": t, "mode": m} for t, m in result.telemetry.mode_changes],
         "messages": [{"t_s": t, "text": m} for t, m in result.telemetry.messages],
     }
+

@@ -27,6 +27,7 @@ import time
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import Any
 
 from validator.flight import Finding, Flight
 from validator.mavlink.connection import LinkError, command_name
@@ -71,6 +72,8 @@ __all__ = [
     "telemetry_track",
     "wait_until_ready",
 ]
+
+Watch = Callable[[Recorder], "str | None"]  # what fly_mission asks on every sample
 
 TAKEOFF_REACHED_FRACTION = 0.95
 LANDING_COMMANDS = (Cmd.NAV_LAND, Cmd.NAV_RETURN_TO_LAUNCH)
@@ -141,10 +144,13 @@ def fly_mission(
     time_limit_s: float,
     takeoff_alt_m: float | None = None,
     progress: Callable[[str], None] | None = None,
+    watch: Watch | None = None,
 ) -> Telemetry:
     """Fly the mission the vehicle holds (uploaded from ``plan``) and record it.
 
-    ``time_limit_s`` bounds the mission in vehicle seconds from MISSION_START. The vehicle
+    ``time_limit_s`` bounds the mission in vehicle seconds from MISSION_START. ``watch`` is
+    called with the recorder as the mission flies (a fault injector,
+    :mod:`validator.mavlink.faults`): the reason it returns ends the recording. The vehicle
     flies on through link gaps (the track misses them: :meth:`Telemetry.gaps`). A link silent
     for ``link.timeout_s`` once the vehicle is armed is lost: LAND is commanded for another
     timeout (:func:`~validator.mavlink.link_loss.after_link_loss`) and the recording ends,
@@ -168,7 +174,7 @@ def fly_mission(
             takeoff_s = start_s = _start_px4_mission(link, rec, modes, say)
         else:
             takeoff_s, start_s = _start_ardupilot_mission(link, rec, modes, alt, say)
-        reason = _record_mission(link, rec, plan, modes, time_limit_s, start_s)
+        reason = _record_mission(link, rec, plan, modes, time_limit_s, start_s, watch)
     except LinkError as err:
         if not (isinstance(err, LinkLost) or time.monotonic() - rec.last_heard
                 >= link.timeout_s):
@@ -191,13 +197,17 @@ def fly_mission(
 
 
 def _record_mission(link: Link, rec: Recorder, plan: Plan, modes: ModeNumbers,
-                    time_limit_s: float, start_s: float) -> str:
+                    time_limit_s: float, start_s: float, watch: Watch | None) -> str:
     """Record the mission from ``start_s`` until it ends or ``time_limit_s``; why it ended."""
     nav = [i for i, it in enumerate(plan.items) if 16 <= it.command < 100]
     last_seq = (nav[-1] if nav else len(plan.items) - 1) + (1 if link.vehicle.is_ardupilot else 0)
-    flown = {"airborne": False}
+    flown: dict[str, Any] = {"airborne": False, "watched": None}
 
     def finished() -> bool:
+        if watch is not None and not flown["watched"]:
+            flown["watched"] = watch(rec)
+        if flown["watched"]:
+            return True
         if rec.armed:
             flown["airborne"] = True
         if flown["airborne"] and not rec.armed:
@@ -208,6 +218,8 @@ def _record_mission(link: Link, rec: Recorder, plan: Plan, modes: ModeNumbers,
 
     if not rec.pump_vehicle_time(time_limit_s, finished, since_s=start_s):
         return f"time limit ({time_limit_s:g} s)"
+    if flown["watched"]:
+        return str(flown["watched"])
     if modes.px4 and not rec.armed and not rec.airborne:
         # PX4 disarms COM_DISARM_PRFLT seconds after arming when it never takes off
         said = [t for t in link.statustexts][-3:]
@@ -320,12 +332,14 @@ def fly_and_score(
     progress: Callable[[str], None] | None = None,
     wait_ready: bool = False,
     signing_key: bytes | None = None,
+    watch: Callable[[Link], Watch] | None = None,
 ) -> SitlResult:
     """Upload ``plan`` to the vehicle at ``url`` (``params`` set after the lists, everything
     verified by read-back), fly it and score the recorded track with :func:`score_track`.
 
     ``wait_ready`` first waits for a freshly started vehicle to pass its pre-arm checks;
-    ``signing_key`` signs the link (:mod:`validator.mavlink.signing`). A
+    ``signing_key`` signs the link (:mod:`validator.mavlink.signing`); ``watch`` makes the
+    :func:`fly_mission` watcher for the open link (a fault injector). A
     fence the vehicle holds switched off (or with a breach action that can cross another
     zone), and every time the vehicle left the mission mode on its own, are findings of the
     report."""
@@ -337,7 +351,8 @@ def fly_and_score(
         up = upload_to(link, plan, params, require_fence=False)
         say(up.summary())
         fence = fence_problems(link, plan)
-        telemetry = fly_mission(link, plan, time_limit_s=time_limit_s, progress=progress)
+        telemetry = fly_mission(link, plan, time_limit_s=time_limit_s, progress=progress,
+                                watch=None if watch is None else watch(link))
         vehicle = f"{link.vehicle.autopilot_name} system {link.vehicle.system_id}"
         ardupilot = link.vehicle.is_ardupilot
     if telemetry.samples < 2:

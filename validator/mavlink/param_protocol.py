@@ -4,6 +4,7 @@ and confirm the value the vehicle then holds (PARAM_REQUEST_READ / PARAM_SET -> 
 from __future__ import annotations
 
 import struct
+import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -86,3 +87,37 @@ def set_param(link: Connection, name: str, value: float) -> float:
 def set_params(link: Connection, params: Mapping[str, float]) -> dict[str, float]:
     """Set and read back each parameter in order; the values read back."""
     return {name: set_param(link, name, value) for name, value in params.items()}
+
+
+def read_all_params(link: Connection) -> dict[str, ParamValue]:
+    """Every parameter the vehicle holds, by name: PARAM_REQUEST_LIST, then, whenever the
+    stream pauses for the link's retry period, PARAM_REQUEST_READ by index for a few it
+    missed. Raises :class:`LinkError` when the vehicle stays silent for the link's timeout
+    before all ``param_count`` have come."""
+    ts, tc = link.target
+    got: dict[int, ParamValue] = {}
+    count: int | None = None
+    link.mav.param_request_list_send(ts, tc)
+    heard = time.monotonic()
+    while count is None or len(got) < count:
+        msg = link.recv(["PARAM_VALUE"], time.monotonic() + link.retry_s)
+        now = time.monotonic()
+        if msg is None:
+            if now - heard > link.timeout_s:
+                raise LinkError(f"parameters: the vehicle sent {len(got)} of "
+                                f"{'?' if count is None else count} before it went silent "
+                                f"for {link.timeout_s:g} s")
+            if count is None:
+                link.mav.param_request_list_send(ts, tc)
+            else:
+                for i in [i for i in range(count) if i not in got][:10]:
+                    link.mav.param_request_read_send(ts, tc, b"", i)
+            continue
+        heard = now
+        count = int(msg.param_count)
+        if 0 <= msg.param_index < count and msg.param_index not in got:
+            got[int(msg.param_index)] = ParamValue(
+                str(msg.param_id),
+                decode_param(msg.param_value, msg.param_type, link.vehicle.is_px4),
+                int(msg.param_type))
+    return {p.name: p for p in got.values()}

@@ -31,6 +31,7 @@ and SIH_LOC_H0 (set by a ``px4-rc.params`` the start-up script sources), the spe
 from __future__ import annotations
 
 import fcntl
+import math
 import os
 import shutil
 import signal
@@ -213,6 +214,24 @@ def sitl_wind_params(wind: Wind | None) -> dict[str, float]:
         return {"SIM_WIND_SPD": 0.0, "SIM_WIND_TURB": 0.0}
     return {"SIM_WIND_SPD": wind.speed_mps, "SIM_WIND_DIR": wind.from_deg,
             "SIM_WIND_TURB": wind.turbulence_mps, "SIM_WIND_T": 1.0}
+
+
+# Our ground station's heartbeat comes once a second of wall time (validator.mavlink.connection);
+# a SITL sped up S times sees it every S of its own seconds.
+GCS_HEARTBEAT_PERIOD_S = 1.0
+GCS_HEARTBEATS_MISSED = 3  # how many a sped-up ArduCopter may miss before declaring GCS loss
+FS_GCS_TIMEOUT_MAX_S = 120.0  # ArduCopter's documented range: 2-120 s
+
+
+def sped_up_link_params(speedup: float, px4: bool) -> dict[str, float]:
+    """Parameters that keep a sped-up SITL from declaring our link lost between heartbeats:
+    ArduCopter's FS_GCS_TIMEOUT (5 s of its time; the .param's FS_GCS_ENABLE acts on it) is
+    raised to cover :data:`GCS_HEARTBEATS_MISSED` heartbeats. PX4's COM_DL_LOSS_T (10 s) holds
+    2.5 heartbeats at its default speedup of 4: nothing to change."""
+    if px4:
+        return {}
+    timeout = math.ceil(GCS_HEARTBEATS_MISSED * GCS_HEARTBEAT_PERIOD_S * speedup)
+    return {"FS_GCS_TIMEOUT": float(min(max(timeout, 5), FS_GCS_TIMEOUT_MAX_S))}
 
 
 def is_px4(binary: Path) -> bool:

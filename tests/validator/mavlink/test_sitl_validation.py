@@ -138,9 +138,12 @@ def test_the_parameter_file_is_set_on_the_vehicle_and_a_fence_left_off_is_flagge
     params.write_text("WPNAV_ACCEL 400\nFENCE_ACTION 1\n")
     out = tmp / "p.json"
     status = validate_mission_main([str(plan), "--site", str(site), "--params", str(params),
-                                    "--sitl", *FAST, "--report", str(out)])
+                                    "--sitl", *FAST, "--report", str(out), "--force"])
     report = json.loads(out.read_text())
     assert status == 0  # a flag, not a violation: the flight itself was clear
+    # the file leaves RC loss and the fence at RTL, straight across a zone: forced, a warning
+    assert report["failsafe"]["forced"] and {f["param"] for f in report["failsafe"][
+        "findings"]} >= {"FS_THR_ENABLE", "FENCE_ACTION"}
     assert report["sitl_flight"]["params_set"] == {"WPNAV_ACCEL": 400.0, "FENCE_ACTION": 1.0}
     assert report["replay"]["params"]["WPNAV_ACCEL"] == 400.0  # the replay flies the file too
     flagged = [f["message"] for f in report["param_findings"]]

@@ -10,6 +10,7 @@ from __future__ import annotations
 from enum import IntEnum
 
 from validator.autopilot.ardupilot import PARAMS as ARDUPILOT_PARAMS
+from validator.autopilot.failsafe import FAILSAFE_PARAMS
 from validator.mavlink.wire import mavlink
 
 # COMPONENT_ARM_DISARM param2 that disarms in flight (ArduPilot's "force" value)
@@ -39,9 +40,11 @@ INT16 = int(mavlink.MAV_PARAM_TYPE_INT16)
 
 # The ArduCopter parameters served besides the flight profile's, at ArduCopter's defaults
 # (validator.autopilot.ardupilot), except the fence, which is on and report-only here so a
-# validation sees every breach.
+# validation sees every breach. The failsafe parameters are held (a .param sets them) but
+# nothing here fails: the simulated vehicle never loses a link, its battery or its position.
 _SERVED = ("WPNAV_SPEED", "WPNAV_ACCEL", "WPNAV_JERK", "WPNAV_SPEED_UP", "WPNAV_SPEED_DN",
-           "LAND_SPEED", "RTL_ALT", "RTL_SPEED", "FENCE_ENABLE", "FENCE_TYPE", "FENCE_ACTION")
+           "LAND_SPEED", "RTL_ALT", "RTL_SPEED", "FENCE_ENABLE", "FENCE_TYPE", "FENCE_ACTION",
+           *FAILSAFE_PARAMS["ardupilot"])
 _REPORT_ONLY_FENCE = {"FENCE_ENABLE": 1.0, "FENCE_TYPE": 7.0, "FENCE_ACTION": 0.0}
 BASE_PARAMS: dict[str, tuple[float, int]] = {
     name: (_REPORT_ONLY_FENCE.get(name, ARDUPILOT_PARAMS[name].default),

@@ -1,0 +1,75 @@
+"""Faults on the real firmware: RC loss and low battery on ArduCopter SITL, data-link loss on
+PX4 SIH, injected where a straight return would come closest to a zone
+(``validate-mission --sitl-binary ... --fault KIND``). With the parameters plan-mission writes,
+the vehicle must keep out of every zone and end landed or holding still.
+
+Skipped without a SITL binary (``$ARDUPILOT_SITL`` / ``$PX4_SITL`` or the README's documented
+paths); each flies a whole mission against the wall clock.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from tests.validator.mavlink.sitl_binaries import sitl_binary
+from validator.cli import validate_mission_main
+
+DATA = Path(__file__).resolve().parents[2] / "data" / "failsafe"
+ARDUCOPTER = sitl_binary("ARDUPILOT_SITL", Path("/opt/sitl/arducopter"))
+PX4 = sitl_binary("PX4_SITL", Path("/opt/sitl/px4/build/px4_sitl_default/bin/px4"))
+pytestmark = [pytest.mark.realtime, pytest.mark.xdist_group("real-sitl")]
+needs_arducopter = pytest.mark.skipif(
+    ARDUCOPTER is None, reason="no ArduCopter SITL binary: set ARDUPILOT_SITL (README, *Real "
+                               "autopilots*) to fly the fault tests")
+needs_px4 = pytest.mark.skipif(
+    PX4 is None, reason="no PX4 SITL binary: set PX4_SITL (README, *Real autopilots*) to fly "
+                        "the PX4 fault test")
+
+
+def _fly(tmp_path: Path, binary: Path | None, site: str, plan: str, params: str, fault: str,
+         *extra: str) -> tuple[int, dict]:
+    out = tmp_path / "report.json"
+    status = validate_mission_main([
+        str(DATA / "plans" / f"{plan}.plan"), "--site", str(DATA / "sites" / f"{site}.yaml"),
+        "--params", str(DATA / "params" / params), "--sitl-binary", str(binary),
+        "--fault", fault, "--report", str(out), *extra])
+    return status, json.loads(out.read_text())
+
+
+def _assert_safe(status: int, report: dict, mode: str) -> None:
+    fault = report["fault"]
+    assert status == 0, report["violations"]
+    assert fault["injected_s"] is not None
+    assert min(fault["clearance_m"].values()) > 0, fault["clearance_m"]  # no zone entered
+    assert fault["end_state"] in ("landed", "safe hold"), fault["end_state"]
+    assert mode in fault["modes"], fault["modes"]
+
+
+@needs_arducopter
+@pytest.mark.parametrize("fault, mode", [("rc-loss", "SMART_RTL"), ("battery-low", "SMART_RTL")])
+def test_arducopter_flies_the_audited_failsafe_path_home(tmp_path, fault, mode):
+    status, report = _fly(tmp_path, ARDUCOPTER, "river", "river-ardupilot",
+                          "river-ardupilot-planned.param", fault)
+    _assert_safe(status, report, mode)
+    assert report["fault"]["end_from_home_m"] < 5.0  # SmartRTL lands at home
+
+
+@needs_arducopter
+def test_the_before_case_is_flagged_by_the_audit_and_flies_rtl(tmp_path):
+    # RC loss left at ArduCopter's default RTL: the audit fails the file, and the flight
+    # that follows turns straight for home across the zone
+    status, report = _fly(tmp_path, ARDUCOPTER, "river", "river-ardupilot", "thr-rtl.param",
+                          "rc-loss")
+    assert status == 1
+    assert {f["param"] for f in report["failsafe"]["findings"]} == {"FS_THR_ENABLE"}
+    assert "RTL" in report["fault"]["modes"]
+
+
+@needs_px4
+def test_px4_lands_in_place_on_data_link_loss(tmp_path):
+    status, report = _fly(tmp_path, PX4, "river", "river-px4", "river-px4-planned.params",
+                          "gcs-loss")
+    _assert_safe(status, report, "LAND")

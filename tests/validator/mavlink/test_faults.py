@@ -1,0 +1,109 @@
+"""The fault injector's timing and the score of the flight after a fault, on made-up
+telemetry (the real firmware flies them in test_fault_flights.py)."""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from tests.validator.builders import make_site
+from validator.errors import InputError
+from validator.mavlink.faults import FaultInjector, fault_settings, score_fault
+from validator.mavlink.telemetry import Telemetry
+
+
+class FakeLink:
+    def __init__(self) -> None:
+        self.listeners: list = []
+        self.sent: dict[str, float] = {}
+
+    def command(self, *_args: float) -> int:
+        return 0
+
+
+def _recorder(rows):
+    return SimpleNamespace(rows=rows, mission_mode=3, custom_mode=3, armed=True)
+
+
+def _row(t, x, y, alt=30.0, v=(0.0, 0.0, 0.0)):
+    return (t, x, y, alt, *v)  # lat/lon stand in for x/y: to_local below is the identity
+
+
+def _injector(kind="gcs-loss"):
+    link = FakeLink()
+    inj = FaultInjector(link, kind, (100.0, 0.0), lambda lat, lon: np.array([lat, lon]),
+                        px4=True)
+    return inj, link
+
+
+def test_the_fault_fires_at_the_sample_closest_to_the_worst_point():
+    inj, _ = _injector()
+    rows = []
+    rec = _recorder(rows)
+    for i, x in enumerate([80.0, 92.0, 98.0, 101.0, 104.0]):
+        rows.append(_row(float(i), x, 0.0, v=(0.0, 10.0, 0.0)))
+        assert inj(rec) is None
+        if x < 104.0:
+            assert math.isnan(inj.injected_s)
+    assert inj.injected_s == 4.0  # the sample after the closest (101 m), when it opens again
+    assert inj.how == "our GCS heartbeats stopped"
+
+
+def test_after_the_fault_a_landing_ends_the_flight_and_a_descent_is_not_a_hold():
+    inj, _ = _injector()
+    rows = [_row(0.0, 99.0, 0.0), _row(1.0, 103.0, 0.0)]
+    rec = _recorder(rows)
+    inj(_recorder(rows[:1]))
+    assert inj(rec) is None and inj.injected_s == 1.0
+    rec.custom_mode = 9  # LAND: descending in place at 0.5 m/s for a minute is no hold
+    for t in range(2, 70):
+        rows.append(_row(float(t), 103.0, 0.0, alt=30.0 - 0.4 * t, v=(0.0, 0.0, 0.5)))
+        assert inj(rec) is None
+    rec.armed = False
+    rows.append(_row(70.0, 103.0, 0.0, alt=0.1))
+    assert inj(rec) == "landed and disarmed after the fault"
+
+
+def test_holding_still_outside_the_mission_is_a_safe_hold():
+    inj, _ = _injector()
+    rows = [_row(0.0, 99.0, 0.0), _row(1.0, 103.0, 0.0)]
+    rec = _recorder(rows)
+    inj(_recorder(rows[:1]))
+    inj(rec)
+    rec.custom_mode = 17  # Brake
+    ends = []
+    for t in range(2, 40):
+        rows.append(_row(float(t), 103.0, 0.0))
+        ends.append(inj(rec))
+    assert ends[-1] == "holding still for 30 s after the fault" and ends[-10] is None
+
+
+def test_faults_the_simulator_cannot_make_are_refused():
+    assert fault_settings("rc-loss", px4=False) == {"SIM_RC_FAIL": 1.0}
+    with pytest.raises(InputError, match="rc-loss: not simulated on PX4 SIH"):
+        fault_settings("rc-loss", px4=True)
+
+
+def test_the_score_measures_the_track_after_the_fault_between_samples():
+    site = make_site(nfz=((100.0, 0.0, 20.0),), gns=((0.0, 50.0), (200.0, 50.0)))
+    inj, _ = _injector()
+    inj.injected_s, inj.injected_xy_m, inj.how = 5.0, (0.0, 30.0), "test"
+    # straight through y = 30 until t = 5, then a chord from (60, 30) to (140, 10): its
+    # closest point to the zone's centre is between samples
+    xy = np.array([[0.0, 30.0], [60.0, 30.0], [140.0, 10.0], [140.0, 10.0]])
+    lat, lon = site.frame.to_geodetic(xy)
+    n = len(xy)
+    tel = Telemetry(t_s=np.array([0.0, 5.0, 10.0, 20.0]), lat_deg=lat, lon_deg=lon,
+                    rel_alt_m=np.array([30.0, 30.0, 30.0, 0.0]), vel_mps=np.zeros((n, 3)),
+                    mission_seq=np.zeros(n, dtype=np.int64), armed=np.array([1, 1, 1, 0], bool),
+                    fence_breach=np.zeros(n, bool), mode_changes=[(6.0, "SMART_RTL")])
+    rep = score_fault(inj, tel, site, site.home_xy_m, "landed and disarmed after the fault")
+    d = np.array([80.0, -20.0])  # the chord's direction
+    r = np.array([100.0, 0.0]) - xy[1]
+    closest = abs(d[0] * r[1] - d[1] * r[0]) / np.linalg.norm(d)
+    assert rep.clearance_m["NFZ1"] == pytest.approx(closest - 20.0, abs=0.05)
+    assert rep.end_state == "landed" and rep.modes == ("SMART_RTL",)
+    assert rep.end_xy_m == pytest.approx((140.0, 10.0), abs=0.01)

@@ -1,0 +1,175 @@
+"""The failsafe audit: exact return paths, and a corpus of parameter files over both autopilots.
+
+The corpus (tests/data/failsafe/corpus.json: 35 cases, 31 parameter files on four sites, each
+with an ArduCopter and a PX4 plan) says which parameters each file leaves flying a straight
+return into a zone or its buffer. Each verdict is checked twice: against the audit, and
+against an independent oracle here that samples every 0.5 m of every leg, draws the straight
+line to the destination the firmware picks, and measures it against every zone.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import shapely
+
+from tests.validator.builders import make_site, waypoint_plan
+from validator.autopilot.param_file import read_params
+from validator.cli import validate_mission_main
+from validator.failsafe import audit_failsafes
+from validator.flight import resolve_flight
+from validator.plan_format import Autopilot, Plan, read_plan
+from validator.site import Site, load_site
+from validator.validation import validate_mission
+
+DATA = Path(__file__).resolve().parents[1] / "data" / "failsafe"
+CORPUS = json.loads((DATA / "corpus.json").read_text())
+
+
+# --------------------------------------------------------------------------------------------
+# an independent oracle: sampled starts, the destination rule as documented, straight lines
+
+
+def _destination(p: np.ndarray, home: np.ndarray, rally: np.ndarray, params: dict[str, float],
+                 px4: bool) -> np.ndarray:
+    if not len(rally):
+        return home
+    d = np.hypot(*(rally - p).T)
+    if px4:  # the nearest of home and the rally points > 10 m from home, a rally 2 m nearer
+        best, least = home, math.inf if params.get("RTL_TYPE", 0) == 1 else float(
+            np.hypot(*(home - p)))
+        for r, dist in zip(rally, d, strict=True):
+            if np.hypot(*(r - home)) > 10.0 and dist + 2.0 < least:
+                best, least = r, dist
+        return best
+    i = int(np.argmin(d))
+    limit_m = 1000.0 * params.get("RALLY_LIMIT_KM", 0.3)
+    if limit_m > 0 and d[i] > limit_m:
+        return home
+    if params.get("RALLY_INCL_HOME", 1) and np.hypot(*(home - p)) <= d[i]:
+        return home
+    return rally[i]
+
+
+def oracle_return_clearance(plan: Plan, site: Site, params: dict[str, float]) -> float:
+    """The least clearance minus buffer of a straight return from any sampled point."""
+    flight = resolve_flight(plan, site)
+    px4 = plan.firmware_type == Autopilot.PX4
+    rally = np.array([site.frame.to_local(lat, lon) for lat, lon, _ in plan.rally]).reshape(-1, 2)
+    starts = []
+    for leg in flight.legs:
+        n = max(2, int(np.hypot(*(leg.end_xy_m - leg.start_xy_m)) / 0.5) + 1)
+        t = np.linspace(0.0, 1.0, n)[:, None]
+        starts.append(leg.start_xy_m + t * (leg.end_xy_m - leg.start_xy_m))
+    pts = np.vstack(starts)
+    ends = np.array([_destination(p, flight.home_xy_m, rally, params, px4) for p in pts])
+    lines = shapely.linestrings(np.stack([pts, ends], axis=1))
+    least = math.inf
+    for c, r in zip(site.nfz_xy_m, site.nfz_radius_m, strict=True):
+        least = min(least, float(np.min(shapely.distance(shapely.Point(c), lines))) - r)
+    for z in site.polygon_zones:
+        d = np.asarray(shapely.distance(z.shape, lines))
+        least = min(least, float(np.min(d)) if np.all(d > 0) else -1.0)
+    return least - site.buffer_m
+
+
+@pytest.mark.parametrize("case", CORPUS, ids=[f"{c['params']}@{c['plan']}" for c in CORPUS])
+def test_the_audit_flags_exactly_the_parameters_whose_return_crosses_a_zone(case):
+    params = read_params(DATA / case["params"])
+    site = load_site(DATA / case["site"])
+    plan = read_plan(DATA / case["plan"])
+    report = audit_failsafes(plan, site, resolve_flight(plan, site), params)
+    flagged = {f.param for f in report.findings}
+    assert flagged == set(case["flagged"]), case["why"]
+    # the expected verdict follows from the geometry: every parameter whose action may fly a
+    # straight return is flagged when, and only when, some straight return enters a buffer
+    returns = {c.param for c in report.checks if "rtl" in c.paths}
+    crosses = oracle_return_clearance(plan, site, params) < 0.0
+    assert set(case["flagged"]) == (returns if crosses else set())
+
+
+def test_the_corpus_covers_both_autopilots_and_both_verdicts():
+    files = {c["params"] for c in CORPUS}
+    assert len(files) >= 20
+    assert {Path(c["plan"]).stem.split("-")[1] for c in CORPUS} == {"ardupilot", "px4"}
+    assert any(c["flagged"] for c in CORPUS) and any(not c["flagged"] for c in CORPUS)
+
+
+# --------------------------------------------------------------------------------------------
+# exact geometry
+
+
+def _square_site():
+    # home (0, 0); the mission goes out to (200, 60), down to (200, -60) and back: the zone
+    # at (100, 0) sits between that leg and home
+    return make_site(nfz=((100.0, 0.0, 20.0), (100.0, 45.0, 5.0)),
+                     gns=((200.0, 60.0), (200.0, -60.0)), buffer_m=2.0)
+
+
+def test_an_rtl_through_the_centre_is_as_deep_as_the_radius():
+    site = _square_site()
+    plan = waypoint_plan(site, [(200.0, 60.0), (200.0, -60.0)])
+    report = audit_failsafes(plan, site, resolve_flight(plan, site), {"FS_THR_ENABLE": 1})
+    rc = [f for f in report.findings if f.param == "FS_THR_ENABLE"]
+    assert [(f.zone, f.item) for f in rc] == [("NFZ1", 3)]  # only from the leg to (200, -60)
+    assert rc[0].clearance_m == pytest.approx(-20.0, abs=1e-9)
+    assert rc[0].start_xy_m[1] == pytest.approx(0.0, abs=0.5)  # fired abeam the centre
+    assert "enters NFZ1 20.00 m deep" in rc[0].message
+
+
+def test_the_return_region_is_measured_exactly_not_sampled():
+    site = _square_site()
+    plan = waypoint_plan(site, [(200.0, 60.0), (200.0, -60.0)])
+    w = audit_failsafes(plan, site, resolve_flight(plan, site), {}).worst_return
+    assert w is not None and w.zone == "NFZ1" and w.clearance_m == pytest.approx(-20.0)
+    # NFZ2 (100, 45), r 5, lies beside the outbound leg y = 0.3 x: the triangles reach no
+    # nearer than that leg, 15 / sqrt(1.09) m from its centre
+    site2 = make_site(nfz=((100.0, 45.0, 5.0),), gns=((200.0, 60.0), (200.0, -60.0)))
+    plan2 = waypoint_plan(site2, [(200.0, 60.0), (200.0, -60.0)])
+    w2 = audit_failsafes(plan2, site2, resolve_flight(plan2, site2), {}).worst_return
+    assert w2 is not None
+    assert w2.clearance_m == pytest.approx(15.0 / math.sqrt(1.09) - 5.0, abs=1e-6)
+
+
+def test_smartrtl_land_and_continue_are_clear_wherever_the_mission_is():
+    site = _square_site()
+    plan = waypoint_plan(site, [(200.0, 60.0), (200.0, -60.0)])
+    safe = {"FS_THR_ENABLE": 5, "FS_GCS_ENABLE": 7, "BATT_FS_LOW_ACT": 4, "BATT_FS_CRT_ACT": 1,
+            "FS_DR_ENABLE": 1, "FENCE_ACTION": 5}
+    assert audit_failsafes(plan, site, resolve_flight(plan, site), safe).ok
+    cont = {**safe, "FS_THR_ENABLE": 1, "FS_OPTIONS": 1}  # RC loss continues the mission
+    assert audit_failsafes(plan, site, resolve_flight(plan, site), cont).ok
+    assert not audit_failsafes(plan, site, resolve_flight(plan, site),
+                               {**safe, "FS_THR_ENABLE": 4}).ok  # SmartRTL or RTL
+
+
+# --------------------------------------------------------------------------------------------
+# validate-mission --params
+
+
+def test_validate_mission_fails_a_file_whose_failsafe_crosses_a_zone_unless_forced(tmp_path,
+                                                                                   capsys):
+    plan, site = DATA / "plans/realistic-ardupilot.plan", DATA / "sites/realistic.yaml"
+    bad, good = DATA / "params/thr-rtl.param", DATA / "params/realistic-ardupilot-planned.param"
+    out = tmp_path / "r.json"
+    assert validate_mission_main([str(plan), "--site", str(site), "--params", str(bad),
+                                  "--report", str(out)]) == 1
+    text = capsys.readouterr().out
+    assert "VIOLATION" in text and "FS_THR_ENABLE 1 (Enabled always RTL)" in text
+    report = json.loads(out.read_text())
+    assert {f["param"] for f in report["failsafe"]["findings"]} == {"FS_THR_ENABLE"}
+    assert min(f["clearance_m"] for f in report["failsafe"]["findings"]) < 0
+    assert validate_mission_main([str(plan), "--site", str(site), "--params", str(bad),
+                                  "--force"]) == 0
+    forced = capsys.readouterr().out
+    assert "warning   item 6: failsafe RC loss" in forced and "Result: CLEAR" in forced
+    assert validate_mission_main([str(plan), "--site", str(site), "--params", str(good)]) == 0
+
+
+def test_without_a_parameter_file_there_is_no_failsafe_audit():
+    v = validate_mission(DATA / "plans/realistic-ardupilot.plan", DATA / "sites/realistic.yaml")
+    assert v.failsafe is None and v.exit_status == 0

@@ -1,0 +1,289 @@
+"""Faults injected into a real autopilot's SITL in flight, and the flight that follows, scored.
+
+``validate-mission --sitl-binary ... --fault KIND`` flies the mission and, as the vehicle passes
+the point whose straight return comes closest to a zone (the failsafe audit's
+:attr:`~validator.failsafe.FailsafeReport.worst_return`: where an RTL would do the most harm),
+injects the fault the way the simulator offers it:
+
+========== ======================================== =========================================
+fault      ArduCopter 4.5.6 SITL                    PX4 v1.15 SIH
+========== ======================================== =========================================
+rc-loss    SIM_RC_FAIL 1 (no RC pulses)             not simulated (SIH flies without RC)
+gcs-loss   our GCS heartbeats stop (FS_GCS_ENABLE   our heartbeats stop (NAV_DLL_ACT after
+           after FS_GCS_TIMEOUT, put back to 5 s)   COM_DL_LOSS_T, 10 s)
+battery-low SIM_BATT_VOLTAGE 10.3 V, under           SIM_BAT_MIN_PCT 2 with SIM_BAT_DRAIN 1 s
+           BATT_LOW_VOLT 10.5 V (BATT_LOW_TIMER     (below BAT_CRIT_THR: COM_LOW_BAT_ACT)
+           10 s)
+gps-loss   SIM_GPS_DISABLE 1 (EKF failsafe,         not simulated here
+           FS_EKF_ACTION)
+========== ======================================== =========================================
+
+The :class:`FaultInjector` watches every telemetry sample; after the injection it ends the
+recording once the vehicle has landed and disarmed, or has held still (under
+:data:`STILL_MPS`) outside the mission mode for :data:`HOLD_END_S` vehicle seconds (Brake,
+Loiter, PX4's Hold: a safe hold, waiting for a pilot). :func:`score_fault` measures the flight
+after the injection: its least clearance from every zone (exact between samples), where it
+ended, and what the autopilot said and did.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from validator.errors import InputError
+from validator.flight import Finding
+from validator.geometry import segment_point_distance
+from validator.mavlink.connection import Connection
+from validator.mavlink.telemetry import Recorder, Telemetry
+from validator.mavlink.wire import mavlink
+from validator.site import Site
+from validator.zones import polyline_clearance_m
+
+if TYPE_CHECKING:
+    from validator.mavlink.driver import Watch
+    from validator.mavlink.link import Link
+    from validator.validation import Validation
+
+FAULT_KINDS = ("rc-loss", "gcs-loss", "battery-low", "gps-loss")
+TRIGGER_RADIUS_M = 10.0  # the fault fires at the closest sample to the point within this
+HOLD_END_S = 30.0  # vehicle seconds held still outside the mission: a safe hold
+STILL_MPS = 0.3
+LANDED_ALT_M = 1.0
+SET_MESSAGE_INTERVAL = mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
+SIMSTATE_ID = mavlink.MAVLINK_MSG_ID_SIMSTATE
+
+# What each fault sets on the vehicle, and whether our GCS heartbeats stop. A sped-up ArduCopter
+# flies with FS_GCS_TIMEOUT widened for our wall-clock heartbeats
+# (validator.mavlink.sitl_process.sped_up_link_params): the loss puts back its 5 s default.
+GCS_LOSS = "stop heartbeats"
+_ARDUPILOT: dict[str, dict[str, float | str]] = {
+    "rc-loss": {"SIM_RC_FAIL": 1.0},
+    "gcs-loss": {"FS_GCS_TIMEOUT": 5.0, GCS_LOSS: "yes"},
+    "battery-low": {"SIM_BATT_VOLTAGE": 10.3},
+    "gps-loss": {"SIM_GPS_DISABLE": 1.0},
+}
+_PX4: dict[str, dict[str, float | str]] = {
+    "gcs-loss": {GCS_LOSS: "yes"},
+    "battery-low": {"SIM_BAT_DRAIN": 1.0, "SIM_BAT_MIN_PCT": 2.0},
+}
+
+
+def fault_settings(kind: str, px4: bool) -> dict[str, float | str]:
+    """The parameters that inject ``kind`` (and :data:`GCS_LOSS`: stop our heartbeats);
+    :class:`InputError` for a fault the autopilot's simulator cannot produce."""
+    table = _PX4 if px4 else _ARDUPILOT
+    if kind not in table:
+        raise InputError(f"--fault {kind}: not simulated on {'PX4 SIH' if px4 else 'ArduCopter'}"
+                         f" (choose from {', '.join(table)})")
+    return table[kind]
+
+
+@dataclass
+class FaultInjector:
+    """Injects ``kind`` when the vehicle passes ``target_xy_m`` (site metres; ``to_local``
+    converts a sample's latitude and longitude), then says when the flight that follows ended.
+    Call it with the recorder on every sample: it returns the end reason, or None."""
+
+    link: Connection
+    kind: str
+    target_xy_m: tuple[float, float]
+    to_local: Any  # Site.frame.to_local
+    px4: bool
+    injected_s: float = math.nan
+    injected_xy_m: tuple[float, float] | None = None
+    how: str = ""
+    _best: float = math.inf
+    _still_since: float = math.nan
+    _seen: int = 0
+    truth: list[tuple[float, float, float]] = field(default_factory=list)  # t_s, lat, lon
+    _t_s: float = math.nan
+
+    def __post_init__(self) -> None:
+        # ArduPilot's SITL reports the simulator's own position (SIMSTATE): after a GPS loss
+        # GLOBAL_POSITION_INT is only the estimate, so the score reads the truth when it has it
+        self.link.listeners.append(self._take_truth)
+        if not self.px4:
+            self.link.command(SET_MESSAGE_INTERVAL, float(SIMSTATE_ID), 1e5)
+
+    def _take_truth(self, m: Any) -> None:
+        kind = m.get_type()
+        if kind == "GLOBAL_POSITION_INT":
+            self._t_s = m.time_boot_ms / 1000.0
+        elif kind == "SIMSTATE" and math.isfinite(self._t_s) and (m.lat or m.lng):
+            self.truth.append((self._t_s, m.lat * 1e-7, m.lng * 1e-7))
+
+    def __call__(self, rec: Recorder) -> str | None:
+        if not rec.rows or len(rec.rows) == self._seen:
+            return None
+        self._seen = len(rec.rows)
+        t, lat, lon, alt, vn, ve, vd = rec.rows[-1][:7]
+        if math.isnan(self.injected_s):
+            if rec.mission_mode is None or not rec.armed:
+                return None
+            xy = np.asarray(self.to_local(lat, lon), dtype=float)
+            d = float(np.hypot(*(xy - np.asarray(self.target_xy_m))))
+            if d < TRIGGER_RADIUS_M and d <= self._best:
+                self._best = d  # still closing in
+            elif self._best < TRIGGER_RADIUS_M:
+                self._inject(rec, float(t), (float(xy[0]), float(xy[1])))
+            return None
+        if not rec.armed and alt < LANDED_ALT_M:
+            return "landed and disarmed after the fault"
+        if rec.custom_mode == rec.mission_mode:
+            self._still_since = math.nan
+            return None
+        if math.hypot(vn, ve, vd) < STILL_MPS and alt >= LANDED_ALT_M:  # not a descent
+            if math.isnan(self._still_since):
+                self._still_since = float(t)
+            elif t - self._still_since >= HOLD_END_S:
+                return f"holding still for {HOLD_END_S:g} s after the fault"
+        else:
+            self._still_since = math.nan
+        return None
+
+    def _inject(self, rec: Recorder, t_s: float, xy: tuple[float, float]) -> None:
+        from validator.mavlink.param_protocol import set_params
+
+        settings = fault_settings(self.kind, self.px4)
+        self.injected_s, self.injected_xy_m = t_s, xy
+        values = {k: float(v) for k, v in settings.items() if k != GCS_LOSS}
+        if values:
+            set_params(self.link, values)
+        how = [f"{k} {v:g}" for k, v in values.items()]
+        if GCS_LOSS in settings:
+            # Connection sends its GCS heartbeat from recv(): silence it on this link only
+            self.link._heartbeat_if_due = lambda: None  # type: ignore[method-assign]
+            how.append("our GCS heartbeats stopped")
+        self.how = ", ".join(how)
+
+
+@dataclass(frozen=True)
+class FaultReport:
+    """The flight after a fault: when and where it was injected, the least clearance of the
+    track from each zone after it (negative: inside), where and how it ended, the modes the
+    autopilot chose and what it said."""
+
+    kind: str
+    how: str
+    position_source: str  # "simulator truth (SIMSTATE)" or "the autopilot's estimate"
+    injected_s: float
+    injected_xy_m: tuple[float, float] | None
+    target_xy_m: tuple[float, float]
+    clearance_m: dict[str, float]
+    end_state: str
+    end_xy_m: tuple[float, float]
+    end_from_home_m: float
+    modes: tuple[str, ...]
+    messages: tuple[str, ...]
+
+    @property
+    def closest_zone(self) -> tuple[str, float] | None:
+        if not self.clearance_m:
+            return None
+        name = min(self.clearance_m, key=lambda k: self.clearance_m[k])
+        return name, self.clearance_m[name]
+
+    @property
+    def entered_zone(self) -> bool:
+        return any(c < 0 for c in self.clearance_m.values())
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"kind": self.kind, "how": self.how, "position_source": self.position_source,
+                "injected_s": self.injected_s,
+                "injected_xy_m": None if self.injected_xy_m is None else
+                list(self.injected_xy_m), "target_xy_m": list(self.target_xy_m),
+                "clearance_m": dict(self.clearance_m), "entered_zone": self.entered_zone,
+                "end_state": self.end_state, "end_xy_m": list(self.end_xy_m),
+                "end_from_home_m": self.end_from_home_m, "modes": list(self.modes),
+                "messages": list(self.messages)}
+
+
+def _track_clearances(site: Site, xy: np.ndarray) -> dict[str, float]:
+    """The least clearance of the polyline through ``xy`` (S, 2) from each zone."""
+    if len(xy) == 1:
+        xy = np.vstack([xy, xy])
+    out = {}
+    for name, c, r in zip(site.nfz_names, site.nfz_xy_m, site.nfz_radius_m, strict=True):
+        out[name] = float(np.min(segment_point_distance(xy[:-1], xy[1:], c)) - r)
+    for z in site.polygon_zones:
+        out[z.name] = polyline_clearance_m(z, xy)[0]
+    return out
+
+
+def score_fault(injector: FaultInjector, telemetry: Telemetry, site: Site,
+                home_xy_m: ArrayLike, end_reason: str) -> FaultReport:
+    """Score the flight after ``injector``'s fault (see the module doc)."""
+    t0 = injector.injected_s
+    if len(injector.truth) > 1:
+        t, lat, lon = (np.asarray(c, dtype=float) for c in zip(*injector.truth, strict=True))
+        source = "simulator truth (SIMSTATE)"
+    else:
+        t, lat, lon = telemetry.t_s, telemetry.lat_deg, telemetry.lon_deg
+        source = "the autopilot's estimate (GLOBAL_POSITION_INT)"
+    after = t >= t0 if math.isfinite(t0) else np.zeros(t.size, bool)
+    xy = np.asarray(site.frame.to_local(lat, lon), dtype=float).reshape(-1, 2)
+    end = xy[-1] if len(xy) else np.asarray(home_xy_m, dtype=float)
+    clearance = _track_clearances(site, xy[after]) if np.any(after) else {}
+    if not math.isfinite(t0):
+        state = f"fault never injected ({end_reason})"
+    elif "landed" in end_reason:
+        state = "landed"
+    elif "holding" in end_reason:
+        state = "safe hold"
+    else:
+        state = end_reason
+    modes = tuple(m for t, m in telemetry.mode_changes if math.isfinite(t0) and t >= t0)
+    said = tuple(m for t, m in telemetry.messages if math.isfinite(t0) and t >= t0)
+    return FaultReport(injector.kind, injector.how, source, t0, injector.injected_xy_m,
+                       injector.target_xy_m, clearance, state,
+                       (float(end[0]), float(end[1])),
+                       float(np.hypot(*(end - np.asarray(home_xy_m, dtype=float)))), modes,
+                       said[:20])
+
+
+def fault_watch(v: Validation, kind: str, vehicle_params: Mapping[str, float] | None,
+                made: list[FaultInjector], *, autopilot: bool) -> Callable[[Link], Watch]:
+    """The fault injector for ``fly_and_score``, aimed at the point of the mission whose
+    straight return comes closest to a zone (appended to ``made`` once the link is open);
+    ``autopilot`` says the flight is on an autopilot SITL (the built-in vehicle has no
+    failsafes)."""
+    if not autopilot:
+        raise InputError("--fault: needs an autopilot SITL (--sitl-binary, $ARDUPILOT_SITL or "
+                         "--sitl-url): the built-in vehicle has no failsafes")
+    from validator.failsafe import audit_failsafes
+
+    px4 = v.plan.firmware_type == 12  # MAV_AUTOPILOT_PX4
+    fault_settings(kind, px4)  # refuse a fault the simulator cannot produce before flying
+    fs = v.failsafe or audit_failsafes(v.plan, v.site, v.flight, vehicle_params or {})
+    worst = fs.worst_return
+    if worst is None:
+        raise InputError(f"--fault: {v.site_path} has no zone: no worst point to inject at")
+
+    def make(link: Link) -> Watch:
+        made.append(FaultInjector(link, kind, worst.xy_m, v.site.frame.to_local, px4))
+        return made[-1]
+
+    return make
+
+
+def record_fault(v: Validation, injector: FaultInjector, telemetry: Telemetry) -> None:
+    """The fault flight's score into the report: ``extra["fault"]``, and a violation when
+    the flight after the fault entered a zone or ended neither landed nor holding."""
+    rep = score_fault(injector, telemetry, v.site, v.flight.home_xy_m, telemetry.end_reason)
+    v.extra["fault"] = rep.as_dict()
+    found = []
+    for zone, c in rep.clearance_m.items():
+        if c < 0:
+            found.append(Finding("violation", f"after the {rep.kind} fault the vehicle "
+                                              f"entered {zone} {-c:.2f} m deep", None))
+    if rep.end_state not in ("landed", "safe hold"):
+        found.append(Finding("violation", f"after the {rep.kind} fault: {rep.end_state}", None))
+    if found and v.sitl is not None:
+        v.sitl = dataclasses.replace(v.sitl, findings=(*v.sitl.findings, *found))
