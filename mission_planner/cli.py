@@ -355,10 +355,12 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
             merge_legs=not args.no_merge,
         )
 
+        def forecast(site: Site) -> Site:
+            """The site in the day's forecast, which overrides the site's own wind."""
+            return site if wind is None else site.with_limits(wind=None if wind.calm else wind)
+
         def made(site: Site) -> tuple[Mission, AutopilotParams, FlightCheck]:
-            if wind is not None:  # the day's forecast overrides the site's wind
-                site = site.with_limits(wind=None if wind.calm else wind)
-            mission = plan_and_build(site, args.scheme, options, dynamics=args.dynamics,
+            mission = plan_and_build(forecast(site), args.scheme, options, dynamics=args.dynamics,
                                      progress=progress if progress.shown else None,
                                      pass_through_corners=not args.stop_at_every_waypoint,
                                      second_start=args.second_start,
@@ -370,6 +372,7 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
             site, (mission, autopilot_params, flight) = plan_for_time(
                 args.site, airspace, args.cycles, made, lambda m: m[2].report.duration_s,
                 args.buffer_m)
+        site = forecast(site)
         for line in site.airspace.lines():
             print(f"plan-mission: {line}", file=sys.stderr)
         if args.at and not site.airspace.uas:

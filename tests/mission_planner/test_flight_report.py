@@ -10,6 +10,7 @@ import pytest
 from mission_planner.autopilot_params import recommended_params
 from mission_planner.flight_report import replay_mission
 from mission_planner.mission import MissionOptions, build_mission
+from validator.autopilot.failsafe import recommended_failsafes
 from tests.mission_planner.solutions import make_site, solution_for, subdivided
 
 SQUARE = [(150.0, 150.0), (250.0, 150.0), (250.0, 250.0), (150.0, 250.0)]
@@ -37,8 +38,12 @@ def test_flies_the_arducopter_model_with_the_recommended_parameters(slow):
     m = _square(180.0)
     assert slow.profile.name == "arducopter"
     recommended = recommended_params(m).values
-    # the replay flies with every recommended motion parameter; the fence ones do not move it
-    assert slow.params == {k: v for k, v in recommended.items() if not k.startswith("FENCE_")}
+    # the replay flies with every recommended motion parameter; the fence and failsafe ones
+    # (which only act when a zone is breached or a link, battery or position is lost) do not
+    # move it
+    not_motion = set(recommended_failsafes("ardupilot")) | {"SRTL_POINTS"}
+    assert slow.params == {k: v for k, v in recommended.items()
+                           if not k.startswith("FENCE_") and k not in not_motion}
     assert {k: slow.profile.params[k] for k in slow.params} == slow.params
 
 
