@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from mission_planner.cli import plan_and_build
+from mission_planner.pipeline import plan_and_build
 from mission_planner.mission import MissionOptions
 from validator import airspace as airspace_module
 from validator.site import Site, load_site

@@ -28,15 +28,16 @@ from typing import TYPE_CHECKING, Any
 from validator.errors import CommandParser, InputError, UserError, report_error
 from validator.mavlink import NETWORK_URL
 from validator.mavlink.sitl_process import BINARY_ENV, DEFAULTS_ENV, PX4_BINARY_ENV
+from validator.mavlink.vehicles import (
+    DEFAULT_BINARY_SPEEDUP,
+    DEFAULT_PX4_SPEEDUP,
+    DEFAULT_SITL_SPEEDUP,
+    choose_vehicle,
+)
 
 if TYPE_CHECKING:
     from validator.validation import Validation
 
-DEFAULT_SITL_SPEEDUP = 20.0
-DEFAULT_BINARY_SPEEDUP = 10.0  # ArduCopter SITL in lockstep; the shared real flights used 10
-# PX4 SIH at 10x on a busy 2-core machine: telemetry and parameter answers dropped, and the
-# flown cycle 11-13 % longer than at 4x (SIH's lockstep does not hold the navigator's timing)
-DEFAULT_PX4_SPEEDUP = 4.0
 # Profile parameters that are the model's, not an autopilot's: never sent with PARAM_SET.
 MODEL_ONLY_PARAMS = frozenset({"VEHICLE_SPEED_MAX", "SPEED", "SPEED_UP", "SPEED_DN",
                                "VEHICLE_DRAG", "ALT_AMSL"})
@@ -411,11 +412,9 @@ def run_sitl(v: Validation, args: argparse.Namespace,
     from validator.mavlink.driver import builtin_vehicle, default_time_limit_s, fly_and_score
     from validator.mavlink.sitl_process import (
         autopilot_sitl,
-        find_binary,
         is_px4,
         terminate_on_sigterm,
     )
-    from validator.plan_format import Autopilot
     from validator.validation import default_profile_name
 
     key = _signing_key(args)
@@ -431,8 +430,9 @@ def run_sitl(v: Validation, args: argparse.Namespace,
         raise InputError(f"{v.plan_path}: nothing to fly (no navigation items)")
     sent = {**(vehicle_params or {}),
             **{k: x for k, x in overrides.items() if k not in MODEL_ONLY_PARAMS}}
-    binary = None if args.sitl_url else find_binary(
-        args.sitl_binary, px4=v.plan.firmware_type == Autopilot.PX4)
+    choice = choose_vehicle(v.plan, url=args.sitl_url, binary=args.sitl_binary,
+                            speedup_x=args.sitl_speedup)
+    binary = choice.binary
     home = (v.plan.home_lat_deg, v.plan.home_lon_deg, v.plan.home_alt_m)
     if args.sitl_url:
         kind = "external"
@@ -450,8 +450,7 @@ def run_sitl(v: Validation, args: argparse.Namespace,
                                    wait_ready=True)
     else:
         kind = "builtin"
-        with builtin_vehicle(v.plan, profile=profile,
-                             speedup=args.sitl_speedup or DEFAULT_SITL_SPEEDUP) as url:
+        with builtin_vehicle(v.plan, profile=profile, speedup=choice.speedup_x) as url:
             result = fly_and_score(v.plan, v.site, v.flight, url, time_limit_s=limit,
                                    timeout_s=args.sitl_timeout, params=sent or None)
     v.sitl = result.report
