@@ -76,6 +76,11 @@ class Autopilot(IntEnum):
         return cls.PX4 if number == cls.PX4 else cls.ARDUPILOTMEGA
 
     @classmethod
+    def known(cls, number: int) -> Autopilot | None:
+        """ArduPilot or PX4 for their MAV_AUTOPILOT number (a heartbeat's), else None."""
+        return cls(number) if number in (cls.ARDUPILOTMEGA, cls.PX4) else None
+
+    @classmethod
     def named(cls, key: str) -> Autopilot:
         """The autopilot of an ``--autopilot`` word ("ardupilot", "px4")."""
         for a in (cls.ARDUPILOTMEGA, cls.PX4):
