@@ -260,7 +260,7 @@ def is_loopback(host: str) -> bool:
 
 
 def sitl_parser() -> argparse.ArgumentParser:
-    from validator.dynamics import PROFILES
+    from validator.motion.profile import PROFILES
 
     p = CommandParser(
         prog="sitl-vehicle",
@@ -293,8 +293,8 @@ def sitl_vehicle_main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``sitl-vehicle``; runs until SIGINT or SIGTERM, then returns 0."""
     args = sitl_parser().parse_args(_glue_home(list(sys.argv[1:] if argv is None else argv)))
     try:
-        from validator.dynamics import parse_param_overrides
         from validator.mavlink.sim import SitlVehicle, VehicleConfig
+        from validator.motion.profile import parse_param_overrides
 
         if not 0.0 <= args.loss < 1.0:
             raise InputError(f"--loss: must be in [0, 1), got {args.loss}")
@@ -408,13 +408,14 @@ def run_sitl(v: Validation, args: argparse.Namespace,
 
     ``vehicle_params`` (a parameter file's values and the autopilot's own ``--param``
     overrides) are set on the vehicle before the flight."""
-    from validator.dynamics import make_profile, parse_param_overrides, site_limits
     from validator.mavlink.driver import builtin_vehicle, default_time_limit_s, fly_and_score
     from validator.mavlink.sitl_process import (
         autopilot_sitl,
         is_px4,
         terminate_on_sigterm,
     )
+    from validator.motion.limits import site_limits
+    from validator.motion.profile import make_profile, parse_param_overrides
     from validator.validation import default_profile_name
 
     key = _signing_key(args)
