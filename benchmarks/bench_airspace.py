@@ -31,8 +31,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-from mission_planner.cli import plan_and_build
 from mission_planner.mission import MissionOptions
+from mission_planner.pipeline import plan_and_build
 from validator import airspace as airspace_module
 from validator.site import Site, load_site
 from validator.uas_zones.applicability import AirspaceOptions, parse_at

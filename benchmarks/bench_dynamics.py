@@ -34,8 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mission_planner.cli import plan_and_build
 from mission_planner.flight_report import replay_mission
+from mission_planner.pipeline import plan_and_build
 from mission_planner.study.sites import random_site
 from validator.site import Site, load_site
 

@@ -33,8 +33,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mission_planner.cli import plan_and_build
 from mission_planner.flight_report import replay_mission
+from mission_planner.pipeline import plan_and_build
 from mission_planner.study.sites import PAPER_ORIGIN, random_polygon_site, random_site
 from validator.audit import audit
 from validator.errors import InputError

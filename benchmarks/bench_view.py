@@ -26,8 +26,8 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))  # tests.browser, run from anywhere
 
 from mission_planner.autopilot_params import recommended_params  # noqa: E402
-from mission_planner.cli import mission_view, plan_and_build  # noqa: E402
 from mission_planner.flight_report import replay_mission  # noqa: E402
+from mission_planner.pipeline import mission_view, plan_and_build  # noqa: E402
 from tests.browser import WAIT_FOR_PLOT, chromium, find_browser  # noqa: E402
 from validator.site import load_site  # noqa: E402
 

@@ -19,9 +19,10 @@ parameter file the autopilot needs (``OUT.param`` or ``--params``;
 model of the autopilot set to those parameters (:mod:`mission_planner.flight_report`): the
 report gets a ``"flight"`` section and stderr a one-line warning when the flown cycle is more
 than 10 % longer (or shorter) than T, and another when the site's ``uav.max_speed`` is above the
-vehicle's real top speed (:func:`speed_warning`). ``--wind`` (or the site's ``wind:``) plans
-for a forecast: the top speed holds in the air (:mod:`validator.wind`), the report and the
-plan's ``nfzMission`` say which wind it was made for.
+vehicle's real top speed (:func:`~mission_planner.pipeline.speed_warning`). ``--wind`` (or
+the site's ``wind:``) plans for a forecast: the top speed holds in the air
+(:mod:`validator.wind`), the report and the plan's ``nfzMission`` say which wind it was made
+for.
 
 A site whose ``airspace:`` holds UAS zones (ED-269, ED-318) is planned among the zones that
 apply at ``--at`` for the mission's duration (:mod:`mission_planner.airspace_time`), less
@@ -33,215 +34,41 @@ or another problem of :func:`mission_planner.mission.plan_problems`), nothing wr
 ``--force``; 2 bad input (one line on stderr naming the field), nothing written.
 Every output is prepared in memory first and written atomically.
 
-The same steps from Python: :func:`plan_and_build`, :func:`~mission_planner.flight_report.
-replay_mission`, then :func:`output_files` and :func:`write_outputs`.
+The same steps from Python: the front door, :mod:`mission_planner.api` (``plan_mission``,
+``replay``, ``write_mission``), over :mod:`mission_planner.pipeline`.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 from mission_planner.airspace_time import plan_for_time
-from mission_planner.autopilot_params import (
-    AutopilotParams,
-    dumps_params,
-    recommended_params,
-)
+from mission_planner.api import write_mission
+from mission_planner.autopilot_params import AutopilotParams, recommended_params
 from mission_planner.flight_report import FlightCheck, replay_mission
 from mission_planner.mission import (
     AUTOPILOTS,
     OPERATING_AREAS,
     Mission,
     MissionOptions,
-    build_mission,
-    check_options,
     mission_summary,
 )
-from mission_planner.optimize.retime import top_speed_mps
+from mission_planner.pipeline import (
+    DYNAMICS,
+    FORMATS,
+    check_output_paths,
+    params_path,
+    plan_and_build,
+    speed_warning,
+)
 from mission_planner.progress import PlanProgress
-from mission_planner.waypoint_radius import radius_params
 from validator.errors import CommandParser, InputError, UserError, report_error
-from validator.fileio import write_all_atomic
-from validator.geojson_format import dumps_geojson, plan_geojson
-from validator.plan_format import dumps_plan
 from validator.site import Site
 from validator.uas_zones.applicability import AirspaceOptions, parse_at
-from validator.waypoints_format import waypoint_files
 from validator.wind import parse_wind_arg
-from validator.wind_track import wind_buffer_m
-
-FORMATS = ("plan", "waypoints")
-DYNAMICS = ("vehicle", "none")  # PlannerOptions.dynamics; kept here so --help needs no cvxpy
-Progress = Callable[[int, float], None]
-
-
-def mission_report(mission: Mission, flight: FlightCheck | None = None,
-                   params: AutopilotParams | None = None) -> dict[str, Any]:
-    """The report JSON: the solution's report plus the mission summary under ``"mission"``,
-    the recommended autopilot parameters under ``"autopilot_params"`` and the replay under
-    ``"flight"`` when given."""
-    out = {**mission.solution.report(), "mission": mission_summary(mission)}
-    if mission.solution.site.airspace.uas:
-        out["airspace"] = mission.solution.site.airspace.report()
-    if params is not None:
-        out["autopilot_params"] = params.as_dict()
-    if flight is not None:
-        out["flight"] = flight.as_dict()
-    return out
-
-
-def params_path(out: str | Path) -> Path:
-    """Default parameter file beside the mission: OUT with suffix ``.param``."""
-    return Path(out).with_suffix(".param")
-
-
-def output_files(
-    mission: Mission,
-    out: str | Path,
-    *,
-    fmt: str = "plan",
-    report: str | Path | None = None,
-    geojson: str | Path | None = None,
-    plot: str | Path | None = None,
-    params: str | Path | None = None,
-    autopilot_params: AutopilotParams | None = None,
-    flight: FlightCheck | None = None,
-    html: str | Path | None = None,
-    html_map: bool = False,
-) -> dict[Path, str | bytes]:
-    """Every file the mission is exported to (path -> content), not yet written.
-
-    ``fmt`` "plan" writes a QGroundControl plan to ``out``; "waypoints" a QGC WPL 110 mission
-    with its fence and rally files beside it (``NAME.fence.waypoints``, ``NAME.rally.waypoints``).
-    ``params`` names the autopilot parameter file (``autopilot_params``, default
-    :func:`~mission_planner.autopilot_params.recommended_params`); ``flight`` adds the replay
-    to the report and its track to the ``html`` view (:mod:`validator.view`; ``html_map``: on
-    OpenStreetMap tiles).
-    """
-    if fmt not in FORMATS:
-        raise InputError(f"format: expected one of {', '.join(FORMATS)}, got {fmt!r}")
-    files: dict[Path, str | bytes] = {}
-    if fmt == "plan":
-        files[Path(out)] = dumps_plan(mission.plan)
-    else:
-        files.update(waypoint_files(mission.plan, out))
-    if params is not None:
-        autopilot_params = autopilot_params or recommended_params(mission)
-        site = mission.solution.site
-        title = (f"{autopilot_params.autopilot} parameters for {Path(out).name} (site "
-                 f"{site.name}), written by plan-mission")
-        files[Path(params)] = dumps_params(autopilot_params, title)
-    if report is not None:
-        files[Path(report)] = json.dumps(mission_report(mission, flight, autopilot_params),
-                                         indent=1) + "\n"
-    if geojson is not None:
-        files[Path(geojson)] = dumps_geojson(plan_geojson(mission.plan, mission.solution.site))
-    if plot is not None:
-        from mission_planner.figure import figure_png, solution_figure
-
-        files[Path(plot)] = figure_png(solution_figure(mission.solution, mission))
-    if html is not None:
-        files[Path(html)] = mission_view(mission, flight, Path(out).name, html_map)
-    return files
-
-
-def mission_view(mission: Mission, flight: FlightCheck | None = None, name: str = "",
-                 map_background: bool = False) -> str:
-    """The mission's interactive view (:func:`validator.view.view_html`) with the replay of
-    ``flight`` on its time slider."""
-    from validator.flight import resolve_flight
-    from validator.view import TrackLayer, ViewInputs, view_html
-
-    site = mission.solution.site
-    resolved = (flight.flight if flight is not None and flight.flight is not None
-                else resolve_flight(mission.plan, site, "mission"))
-    tracks = ((TrackLayer(f"replay ({flight.profile.name})", flight.track),)
-              if flight is not None and flight.track is not None else ())
-    title = f"{site.name}: {name or 'mission'} ({mission.solution.scheme})"
-    return view_html(ViewInputs(mission.plan, site, resolved, tracks, title=title),
-                     map_background=map_background)
-
-
-def check_output_paths(paths: Sequence[Path]) -> None:
-    """Refuse outputs that collide or whose folder does not exist, before any work is done."""
-    seen: set[Path] = set()
-    for p in paths:
-        resolved = p.resolve()
-        if resolved in seen:
-            raise InputError(f"{p}: named for two outputs")
-        seen.add(resolved)
-        if not p.parent.resolve().is_dir():
-            raise InputError(f"{p}: folder {p.parent} does not exist")
-        if p.is_dir():
-            raise InputError(f"{p}: is a folder")
-
-
-def write_outputs(files: dict[Path, str | bytes]) -> None:
-    """Write the files atomically, all or none (:func:`validator.fileio.write_all_atomic`)."""
-    write_all_atomic(files)
-
-
-def plan_and_build(
-    site: Site,
-    scheme: str = "proposed",
-    options: MissionOptions | None = None,
-    *,
-    dynamics: str = "vehicle",
-    progress: Progress | None = None,
-    pass_through_corners: bool = True,
-    second_start: bool = False,
-    wind_buffer: bool = True,
-) -> Mission:
-    """Optimise ``site`` with the paper's Algorithm 1 and lay out its mission.
-
-    ``dynamics`` "vehicle" keeps speed changes within the site's acceleration and jerk
-    limits; "none" is the paper's kinematic model. ``pass_through_corners`` False stops the
-    vehicle at every waypoint; ``second_start`` also runs Algorithm 1 from 1/K schedule
-    shares and keeps the better (:class:`~mission_planner.optimize.PlannerOptions`). In wind
-    (``site.wind``) with ``wind_buffer`` the safety buffer grows by how much closer the flown
-    track comes in that wind (:func:`validator.wind_track.wind_buffer_m`), so the flown track
-    keeps the site's buffer; plan-mission does so unless ``--buffer-m`` is given. Options
-    are checked before the (slow) optimisation. The safety verdict is in ``Mission.problems``;
-    nothing is written here.
-    """
-    if wind_buffer and site.flight_wind is not None:
-        site = site.with_buffer(wind_buffer_m(site.buffer_m, site.flight_wind))
-    opt = options or MissionOptions()
-    check_options(site, opt)
-    if dynamics not in DYNAMICS:
-        raise InputError(f"dynamics: expected one of {', '.join(DYNAMICS)}, got {dynamics!r}")
-    from mission_planner.optimize import PlannerOptions, plan  # the solver, only to plan
-    from mission_planner.optimize.bcd import START_SCHEDULES
-
-    # Corners (ArduCopter's blends, PX4's acceptance) are timed with the waypoint radius the
-    # parameter file will set
-    timing = radius_params(site, opt.autopilot, opt.fence_margin_m)
-    starts = START_SCHEDULES if second_start else START_SCHEDULES[:1]
-    planner_options = PlannerOptions(dynamics=dynamics, autopilot=opt.autopilot,
-                                     timing_params=timing,
-                                     pass_through_corners=pass_through_corners,
-                                     start_schedules=starts)
-    solution = plan(site, scheme, options=planner_options, progress=progress)
-    return build_mission(solution, opt)
-
-
-def speed_warning(site: Site, dynamics: str, autopilot: str = "ardupilot") -> str | None:
-    """One line when the site's V is above the vehicle's real top speed
-    (:func:`~mission_planner.optimize.retime.top_speed_mps`), else None."""
-    top = top_speed_mps(site, autopilot)
-    if site.max_speed_mps <= top:
-        return None
-    then = (f"planning at {top:.2f} m/s" if dynamics == "vehicle" else
-            f"--dynamics none plans at {site.max_speed_mps:g} m/s as the paper does, so the "
-            f"vehicle flies slower than planned")
-    return (f"{site.name}: uav.max_speed {site.max_speed_mps:g} m/s is above the vehicle's "
-            f"real top speed {top:.2f} m/s (lean limit with drag, at {site.altitude_m:g} m "
-            f"above the ground); {then}")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -387,11 +214,10 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
                       file=sys.stderr)
                 return 1
             print("plan-mission: --force: writing the unsafe mission", file=sys.stderr)
-        files = output_files(mission, args.output, fmt=fmt, report=args.report,
-                             geojson=args.geojson, plot=args.plot, params=param_file,
-                             autopilot_params=autopilot_params, flight=flight,
-                             html=args.html, html_map=args.html_map)
-        write_outputs(files)
+        written = write_mission(mission, args.output, fmt=fmt, report=args.report,
+                                geojson=args.geojson, plot=args.plot, params=param_file,
+                                autopilot_params=autopilot_params, flight=flight,
+                                html=args.html, html_map=args.html_map, force=True)
     except UserError as err:
         return report_error("plan-mission", err)
     except KeyboardInterrupt:
@@ -408,7 +234,7 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
     summary = mission_summary(mission)
     clearance = summary["nfz_clearance_min_m"]
     print(
-        f"plan-mission: wrote {', '.join(str(p) for p in files)}: {summary['items']} items "
+        f"plan-mission: wrote {', '.join(str(p) for p in written.files)}: {summary['items']} items "
         f"({summary['service_waypoints_merged']} waypoints merged into longer legs), "
         f"cycle {summary['cycle_duration_s']:.1f} s (T = {summary['period_s']:g} s), "
         f"min rate {mission.solution.min_rate_bps_hz:.4f} bps/Hz, min NFZ clearance "

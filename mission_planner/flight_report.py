@@ -26,10 +26,10 @@ from mission_planner.mission import Mission
 from validator.flight import Flight, resolve_flight
 from validator.motion.limits import site_limits
 from validator.motion.profile import Profile, flown_params, make_profile
+from validator.plan_format import Autopilot
 from validator.replay import Track, TrackReport, replay, score_track
 
 CYCLE_OVERRUN_WARN = 0.10  # warn when the flown cycle is off T by more than this fraction
-PROFILE_FOR = {"ardupilot": "arducopter", "px4": "px4"}
 
 
 @dataclass(frozen=True)
@@ -132,7 +132,7 @@ def replay_mission(
     if params is None:
         params = recommended_params(mission)
     values = dict(params.values if isinstance(params, AutopilotParams) else params)
-    name = profile or PROFILE_FOR[mission.options.autopilot]
+    name = profile or Autopilot.named(mission.options.autopilot).profile_name
     values = flown_params(name, values)
     prof = make_profile(name, site_limits(site), values)
     flight = resolve_flight(mission.plan, site, "mission")

@@ -1,7 +1,8 @@
 """Golden files: the same plans, parameter files and reports come out as before.
 
 For the sample sites and a few benchmark sites, planned as ``plan-mission`` plans them
-(:func:`mission_planner.cli.plan_and_build`, :func:`~mission_planner.cli.output_files`) with
+(the front door: :func:`mission_planner.api.plan_mission`, :func:`~mission_planner.api.
+write_mission`) with
 ``--dynamics none`` and ``--dynamics vehicle`` and exported with a few option sets, the
 written ``.plan``, ``.param`` and report JSON are compared with the files stored under
 ``tests/golden/<case>/`` (the ``.plan`` and ``.param`` as written; the report without the keys
@@ -50,10 +51,15 @@ from typing import Any
 
 import pytest
 
-from mission_planner.autopilot_params import recommended_params
-from mission_planner.cli import output_files, plan_and_build
-from mission_planner.flight_report import replay_mission
-from mission_planner.mission import Mission, MissionOptions, build_mission
+from mission_planner.api import (
+    Mission,
+    MissionOptions,
+    build_mission,
+    plan_mission,
+    recommended_params,
+    replay_mission,
+    write_mission,
+)
 from mission_planner.study.sites import random_site
 from validator.autopilot.param_file import parse_params
 from validator.plan_format import Cmd, Plan, loads_plan
@@ -121,14 +127,14 @@ PLANS = {
 }
 
 
-def _outputs(case: Case, mission: Mission, folder: Path,
-             fmt: str = "plan") -> dict[Path, str | bytes]:
-    """What plan-mission writes for ``case`` (mission, parameter file, report) into ``folder``."""
+def _write_outputs(case: Case, mission: Mission, folder: Path, fmt: str = "plan") -> None:
+    """Write what plan-mission writes for ``case`` (mission, parameter file, report) into
+    ``folder``, through the front door."""
     mission = build_mission(mission.solution, VARIANTS[case.variant])
     params = recommended_params(mission)
-    return output_files(mission, folder / f"mission.{fmt}", fmt=fmt,
-                        report=folder / "report.json", params=folder / "mission.param",
-                        autopilot_params=params, flight=replay_mission(mission, params))
+    write_mission(mission, folder / f"mission.{fmt}", fmt=fmt, report=folder / "report.json",
+                  params=folder / "mission.param", autopilot_params=params,
+                  flight=replay_mission(mission, params), force=True)
 
 
 # ---------------------------------------------------------------------------- comparison
@@ -228,25 +234,20 @@ def _nan_as_zero(tree: Any) -> Any:
     return 0.0 if isinstance(tree, float) and math.isnan(tree) else tree
 
 
-def _text(content: str | bytes) -> str:
-    return content if isinstance(content, str) else content.decode()
-
-
 # ---------------------------------------------------------------------------- the test
 
 
 def write_plans(site: str, dynamics: str, autopilot: str, out: Path) -> None:
     """Plan ``site`` once and write each of its variants' files into ``out/<case name>/``: the
     ``.plan`` outputs, and the ``.waypoints`` ones in ``wpl/`` beside them."""
-    planned = plan_and_build(_site(site), "proposed", MissionOptions(autopilot=autopilot),
-                             dynamics=dynamics)
+    planned = plan_mission(_site(site), "proposed", MissionOptions(autopilot=autopilot),
+                           dynamics=dynamics)
     for variant in PLANS[site, dynamics, autopilot]:
         assert (VARIANTS[variant].autopilot == autopilot) or dynamics == "none"
         case = Case(site, dynamics, variant)
         for fmt, folder in (("plan", out / case.name), ("waypoints", out / case.name / "wpl")):
             folder.mkdir(parents=True)
-            for path, content in _outputs(case, planned, folder, fmt).items():
-                path.write_text(_text(content), encoding="utf-8")
+            _write_outputs(case, planned, folder, fmt)
 
 
 def _written_with_reference_numerics(key: tuple[str, str, str], out: Path) -> None:

@@ -28,11 +28,12 @@ import shapely
 from numpy.typing import NDArray
 
 from validator.autopilot.fence_storage import fence_storage_problem
-from validator.dynamics import ideal_leg_times, make_profile
 from validator.fence_geometry import local_fence
 from validator.flight import Finding, Flight, resolve_flight
 from validator.geometry import leg_clearances, segment_point_closest_fraction
+from validator.motion.ideal import ideal_leg_times
 from validator.motion.limits import site_limits
+from validator.motion.profile import make_profile
 from validator.plan_format import Autopilot, Cmd, Plan
 from validator.site import Site
 from validator.zones import leg_closest_m, path_clearances_m, point_clearance_m

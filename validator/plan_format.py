@@ -15,11 +15,15 @@ import math
 from dataclasses import dataclass, field
 from enum import IntEnum
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, Literal
 
 from validator.errors import InputError
 from validator.fileio import write_atomic
 from validator.input_files import parse_json, read_text
+
+if TYPE_CHECKING:
+    from validator.autopilot.fence import FenceRules
+    from validator.autopilot.spec import ParamSpec
 
 EXTRA_KEY = "nfzMission"  # our metadata inside a .plan; QGroundControl ignores unknown keys
 
@@ -54,11 +58,69 @@ class Frame(IntEnum):
 
 
 class Autopilot(IntEnum):
-    """MAV_AUTOPILOT numbers used as ``firmwareType``."""
+    """Which autopilot: its MAV_AUTOPILOT number (a plan's ``firmwareType``, a heartbeat's
+    ``autopilot``), and everything the project keys on it: :attr:`key` (the ``--autopilot``
+    word), :attr:`profile_name` (the validator's flight model), :attr:`param_table` and
+    :attr:`fence_rules`. A plan or vehicle of any other firmware (GENERIC) is flown and judged
+    by ArduPilot's rules, as QGroundControl plans without a firmware are (:meth:`of`)."""
 
     GENERIC = 0
     ARDUPILOTMEGA = 3
     PX4 = 12
+
+    @classmethod
+    def of(cls, source: object) -> Autopilot:
+        """The autopilot whose rules fly a plan (its ``firmware_type``), a flight, or a
+        MAV_AUTOPILOT number: PX4 for PX4, ArduPilot for anything else."""
+        number = getattr(source, "firmware_type", source)
+        return cls.PX4 if number == cls.PX4 else cls.ARDUPILOTMEGA
+
+    @classmethod
+    def known(cls, number: int) -> Autopilot | None:
+        """ArduPilot or PX4 for their MAV_AUTOPILOT number (a heartbeat's), else None."""
+        return cls(number) if number in (cls.ARDUPILOTMEGA, cls.PX4) else None
+
+    @classmethod
+    def named(cls, key: str) -> Autopilot:
+        """The autopilot of an ``--autopilot`` word ("ardupilot", "px4")."""
+        for a in (cls.ARDUPILOTMEGA, cls.PX4):
+            if a.key == key:
+                return a
+        raise InputError(f"autopilot: unknown {key!r} (choose from ardupilot, px4)")
+
+    @property
+    def key(self) -> str:
+        """The ``--autopilot`` word: "px4", else "ardupilot"."""
+        return "px4" if self is Autopilot.PX4 else "ardupilot"
+
+    @property
+    def mavlink_id(self) -> int:
+        """MAV_AUTOPILOT number."""
+        return int(self)
+
+    @property
+    def label(self) -> str:
+        """The name a person reads: "PX4", "ArduPilot" (or "MAV_AUTOPILOT 0")."""
+        return {3: "ArduPilot", 12: "PX4"}.get(int(self), f"MAV_AUTOPILOT {int(self)}")
+
+    @property
+    def profile_name(self) -> Literal["arducopter", "px4"]:
+        """The validator's flight model of this autopilot (:mod:`validator.motion`)."""
+        return "px4" if self is Autopilot.PX4 else "arducopter"
+
+    @property
+    def param_table(self) -> dict[str, ParamSpec]:
+        """The parameters it documents (:mod:`validator.autopilot.tables`)."""
+        from validator.autopilot.tables import param_table
+
+        return param_table(self.key)
+
+    @property
+    def fence_rules(self) -> FenceRules:
+        """Its geofence parameters and safe breach actions (:mod:`validator.autopilot.fence`)."""
+        from validator.autopilot.fence import FENCE_RULES
+
+        return FENCE_RULES[self.key]
 
 
 @dataclass

@@ -16,7 +16,6 @@ from pathlib import Path
 from typing import Any
 
 from validator.audit import AuditReport, audit
-from validator.autopilot.fence import FENCE_RULES
 from validator.errors import InputError
 from validator.failsafe import FailsafeReport, audit_failsafes
 from validator.flight import Finding, Flight, Severity, resolve_flight
@@ -146,7 +145,7 @@ def wind_label(wind: Wind | None) -> str:
 
 def default_profile_name(plan: Plan) -> str:
     """The replay profile matching the plan's firmware: ``px4`` for PX4, else ``arducopter``."""
-    return "px4" if plan.firmware_type == Autopilot.PX4 else "arducopter"
+    return Autopilot.of(plan).profile_name
 
 
 def validate_mission(
@@ -204,7 +203,7 @@ def validate_mission(
     if site.airspace.uas:
         v.extra["airspace"] = site.airspace.report()
     if vehicle_params is not None and (plan.circles or plan.polygons):
-        rules = FENCE_RULES["px4" if plan.firmware_type == Autopilot.PX4 else "ardupilot"]
+        rules = Autopilot.of(plan).fence_rules
         v.param_findings = [Finding("warning", f"parameter file: {p}", None)
                             for p in rules.problems(vehicle_params)]
     if vehicle_params is not None:

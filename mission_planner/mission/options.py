@@ -11,7 +11,7 @@ from validator.errors import InputError
 from validator.plan_format import Autopilot
 from validator.site import Site
 
-AUTOPILOTS = {"ardupilot": Autopilot.ARDUPILOTMEGA, "px4": Autopilot.PX4}
+AUTOPILOTS = {a.key: a for a in (Autopilot.ARDUPILOTMEGA, Autopilot.PX4)}  # --autopilot
 OPERATING_AREAS = ("polygon", "circle")
 __all__ = ["AUTOPILOTS", "OPERATING_AREAS", "MissionOptions", "check_options", "corner_margin_m",
            "fence_margin_for", "leg_margin_m", "waypoint_radius_m"]

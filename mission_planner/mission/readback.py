@@ -11,10 +11,12 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from validator.dynamics import ideal_leg_times, make_profile, site_limits
 from validator.flight import resolve_flight
 from validator.geodesy import round_e7
 from validator.item_lists import GLOBAL_FRAMES
+from validator.motion.ideal import ideal_leg_times
+from validator.motion.limits import site_limits
+from validator.motion.profile import make_profile
 from validator.plan_format import MissionItem, Plan
 from validator.site import Site
 

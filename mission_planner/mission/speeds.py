@@ -8,7 +8,7 @@
   a leg that would need less is flown at ``min_speed_mps`` and the waypoint holds for the
   rest of its slot: the slot keeps its length and the UAV ends it at the same place.
 - **Stop lag.** ArduCopter reaches a waypoint it stops at
-  :data:`validator.dynamics.STOP_LAG_S` after the S-curve ends. A dynamics-aware plan
+  :data:`validator.motion.arducopter.STOP_LAG_S` after the S-curve ends. A dynamics-aware plan
   (``solution.notes["dynamics"] == "vehicle"``) counts that lag as the start of the waypoint's
   hover (:mod:`mission_planner.optimize.retime`), so on ArduPilot each stop's hold is written
   net of it (``CycleStep.stop_lag_s``) and the cycle still lasts T.
@@ -32,8 +32,7 @@ from numpy.typing import NDArray
 
 from mission_planner.mission.steps import CycleStep, timing_of
 from mission_planner.optimize.retime import motion_profile
-from validator.dynamics import STOP_LAG_S
-from validator.motion.arducopter import leg_speeds_mps
+from validator.motion.arducopter import STOP_LAG_S, leg_speeds_mps
 from validator.motion.profile import profile_wind
 from validator.motion.px4_mission import px4_top_speed_mps
 from validator.site import Site
@@ -107,7 +106,7 @@ def wind_speeds(steps: list[CycleStep], trajectory_m: NDArray[np.float64], site:
 
 
 def stop_lags(steps: list[CycleStep]) -> list[CycleStep]:
-    """The steps with ArduCopter's stop lag (:data:`validator.dynamics.STOP_LAG_S`) taken
+    """The steps with ArduCopter's stop lag (:data:`validator.motion.arducopter.STOP_LAG_S`) taken
     out of the hold of every waypoint the vehicle stops at after a leg (one that holds longer
     than the lag); hold-only steps and pass-through waypoints arrive without it."""
     return [replace(s, stop_lag_s=STOP_LAG_S)

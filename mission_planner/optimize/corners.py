@@ -9,7 +9,7 @@ is passed through only where the flown turn keeps the site's buffer from every z
 optimiser's hover points and the cycle's first waypoint always stop.
 
 The turn is timed and placed by the validator's own ArduCopter model
-(:func:`validator.dynamics.fly`, the corner rule of :mod:`validator.motion.arducopter`), so the
+(:func:`validator.motion.fly.fly`, the corner rule of :mod:`validator.motion.arducopter`), so the
 plan and its replay agree by construction. PX4 plans stop at every waypoint (its corner
 acceptance is not calibrated for pass-through flight yet).
 
@@ -23,9 +23,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from validator.dynamics import fly
 from validator.flight import Flight, Leg
 from validator.geometry import min_leg_clearance
+from validator.motion.fly import fly
 from validator.motion.path import FlownPath
 from validator.motion.profile import Profile
 from validator.plan_format import Autopilot

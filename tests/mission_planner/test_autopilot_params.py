@@ -150,8 +150,8 @@ def test_legs_make_room_for_the_corners_the_buffer_cannot(buffer_m, margin_m, ex
 def test_a_site_without_a_buffer_still_keeps_its_cut_corners_out_of_the_zones():
     # bench_safety's random-8: with no buffer the 5 cm waypoint radius cut a corner 2.4 cm
     # into NFZ2 in the replay of a written plan
-    from mission_planner.cli import plan_and_build
     from mission_planner.flight_report import replay_mission
+    from mission_planner.pipeline import plan_and_build
 
     site = random_site(8, buffer_m=0.0)
     mission = plan_and_build(site, dynamics="vehicle")

@@ -76,8 +76,8 @@ def test_the_realistic_sample_gives_more_per_flown_second_than_the_paper_plan() 
     plan flown as it is (which overruns T); stopping at every corner it gave 0.63 of it."""
     from pathlib import Path
 
-    from mission_planner.cli import plan_and_build
     from mission_planner.flight_report import replay_mission
+    from mission_planner.pipeline import plan_and_build
     from validator.site import load_site
 
     site = load_site(Path(__file__).resolve().parents[2] / "samples" / "realistic.yaml")

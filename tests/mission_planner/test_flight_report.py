@@ -10,8 +10,8 @@ import pytest
 from mission_planner.autopilot_params import recommended_params
 from mission_planner.flight_report import replay_mission
 from mission_planner.mission import MissionOptions, build_mission
-from validator.autopilot.failsafe import recommended_failsafes
 from tests.mission_planner.solutions import make_site, solution_for, subdivided
+from validator.autopilot.failsafe import recommended_failsafes
 
 SQUARE = [(150.0, 150.0), (250.0, 150.0), (250.0, 250.0), (150.0, 250.0)]
 

@@ -31,12 +31,12 @@ from tests.mission_planner.solutions import (
     solution_for,
     subdivided,
 )
-from validator.dynamics import make_profile
 from validator.errors import InputError
 from validator.flight import resolve_flight
 from validator.geometry import min_leg_clearance, segment_point_distance
 from validator.item_lists import GLOBAL_FRAMES
 from validator.motion.limits import site_limits
+from validator.motion.profile import make_profile
 from validator.plan_format import EXTRA_KEY, Cmd, Frame, dumps_plan, loads_plan
 from validator.replay import replay, score_track
 

@@ -6,23 +6,19 @@ import numpy as np
 import pytest
 
 from tests.validator.builders import make_site, nav, plan_of, speed
-from validator.dynamics import (
+from validator.errors import InputError
+from validator.flight import resolve_flight
+from validator.motion.arducopter import (
     LAND_DETECT_S,
     LIFTOFF_DELAY_S,
     STOP_LAG_S,
-    LegGeometry,
-    air_density_ratio,
     corner_overlaps_s,
-    fly,
-    make_profile,
-    parse_param_overrides,
-    scurve_peak_speed,
-    scurve_rest_to_rest,
-    top_speed_mps,
 )
-from validator.errors import InputError
-from validator.flight import resolve_flight
-from validator.motion.limits import site_limits
+from validator.motion.fly import fly
+from validator.motion.limits import air_density_ratio, site_limits, top_speed_mps
+from validator.motion.path import LegGeometry
+from validator.motion.profile import make_profile, parse_param_overrides
+from validator.motion.scurve import scurve_peak_speed, scurve_rest_to_rest
 from validator.plan_format import Cmd
 
 

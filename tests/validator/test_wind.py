@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from validator.dynamics import make_profile, site_limits
 from validator.errors import InputError
 from validator.flight import Flight, Leg
 from validator.motion.arducopter import arducopter_top_speed_mps, leg_speed_caps_mps
-from validator.motion.profile import profile_wind
+from validator.motion.limits import site_limits
+from validator.motion.profile import make_profile, profile_wind
 from validator.motion.px4_mission import px4_rest_to_rest, px4_top_speed_mps
 from validator.plan_format import Autopilot
 from validator.replay import replay

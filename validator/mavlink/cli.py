@@ -29,16 +29,17 @@ from typing import TYPE_CHECKING, Any
 from validator.errors import CommandParser, InputError, UserError, report_error
 from validator.mavlink import NETWORK_URL
 from validator.mavlink.sitl_process import BINARY_ENV, DEFAULTS_ENV, PX4_BINARY_ENV
+from validator.mavlink.vehicles import (
+    DEFAULT_BINARY_SPEEDUP,
+    DEFAULT_PX4_SPEEDUP,
+    DEFAULT_SITL_SPEEDUP,
+    choose_vehicle,
+)
 
 if TYPE_CHECKING:
     from validator.mavlink.faults import FaultInjector
     from validator.validation import Validation
 
-DEFAULT_SITL_SPEEDUP = 20.0
-DEFAULT_BINARY_SPEEDUP = 10.0  # ArduCopter SITL in lockstep; the shared real flights used 10
-# PX4 SIH at 10x on a busy 2-core machine: telemetry and parameter answers dropped, and the
-# flown cycle 11-13 % longer than at 4x (SIH's lockstep does not hold the navigator's timing)
-DEFAULT_PX4_SPEEDUP = 4.0
 # Profile parameters that are the model's, not an autopilot's: never sent with PARAM_SET.
 MODEL_ONLY_PARAMS = frozenset({"VEHICLE_SPEED_MAX", "SPEED", "SPEED_UP", "SPEED_DN",
                                "VEHICLE_DRAG", "ALT_AMSL", "WIND_SPEED", "WIND_FROM"})
@@ -269,7 +270,7 @@ def is_loopback(host: str) -> bool:
 
 
 def sitl_parser() -> argparse.ArgumentParser:
-    from validator.dynamics import PROFILES
+    from validator.motion.profile import PROFILES
 
     p = CommandParser(
         prog="sitl-vehicle",
@@ -302,8 +303,8 @@ def sitl_vehicle_main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``sitl-vehicle``; runs until SIGINT or SIGTERM, then returns 0."""
     args = sitl_parser().parse_args(_glue_home(list(sys.argv[1:] if argv is None else argv)))
     try:
-        from validator.dynamics import parse_param_overrides
         from validator.mavlink.sim import SitlVehicle, VehicleConfig
+        from validator.motion.profile import parse_param_overrides
 
         if not 0.0 <= args.loss < 1.0:
             raise InputError(f"--loss: must be in [0, 1), got {args.loss}")
@@ -422,18 +423,17 @@ def run_sitl(v: Validation, args: argparse.Namespace,
 
     ``vehicle_params`` (a parameter file's values and the autopilot's own ``--param``
     overrides) are set on the vehicle before the flight."""
-    from validator.dynamics import make_profile, parse_param_overrides, site_limits
     from validator.mavlink.driver import builtin_vehicle, default_time_limit_s, fly_and_score
     from validator.mavlink.faults import fault_watch, record_fault
     from validator.mavlink.sitl_process import (
         autopilot_sitl,
-        find_binary,
         is_px4,
         sitl_wind_params,
         sped_up_link_params,
         terminate_on_sigterm,
     )
-    from validator.plan_format import Autopilot
+    from validator.motion.limits import site_limits
+    from validator.motion.profile import make_profile, parse_param_overrides
     from validator.validation import default_profile_name
 
     key = _signing_key(args)
@@ -449,8 +449,9 @@ def run_sitl(v: Validation, args: argparse.Namespace,
         raise InputError(f"{v.plan_path}: nothing to fly (no navigation items)")
     sent = {**(vehicle_params or {}),
             **{k: x for k, x in overrides.items() if k not in MODEL_ONLY_PARAMS}}
-    binary = None if args.sitl_url else find_binary(
-        args.sitl_binary, px4=v.plan.firmware_type == Autopilot.PX4)
+    choice = choose_vehicle(v.plan, url=args.sitl_url, binary=args.sitl_binary,
+                            speedup_x=args.sitl_speedup)
+    binary = choice.binary
     home = (v.plan.home_lat_deg, v.plan.home_lon_deg, v.plan.home_alt_m)
     injector: list[FaultInjector] = []  # the fault's, once the link is open
     watch = fault_watch(v, args.fault, vehicle_params, injector, autopilot=bool(
@@ -480,8 +481,7 @@ def run_sitl(v: Validation, args: argparse.Namespace,
                                    wait_ready=True, watch=watch)
     else:
         kind = "builtin"
-        with builtin_vehicle(v.plan, profile=profile,
-                             speedup=args.sitl_speedup or DEFAULT_SITL_SPEEDUP) as url:
+        with builtin_vehicle(v.plan, profile=profile, speedup=choice.speedup_x) as url:
             result = fly_and_score(v.plan, v.site, v.flight, url, time_limit_s=limit,
                                    timeout_s=args.sitl_timeout, params=sent or None)
     v.sitl = result.report

@@ -16,7 +16,6 @@ from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
-from validator.autopilot.fence import FENCE_RULES
 from validator.autopilot.fence_storage import fence_storage_problem
 from validator.errors import InputError
 from validator.geodesy import from_int_e7
@@ -168,11 +167,10 @@ def fence_problems(link: Link, plan: Plan) -> list[str]:
     """Why the fence the vehicle holds for ``plan`` is off or has an unsafe breach action,
     read from the vehicle's own parameters (empty when fine, or when ``plan`` has no fence or
     the autopilot is neither ArduPilot nor PX4)."""
-    autopilot = ("ardupilot" if link.vehicle.is_ardupilot
-                 else "px4" if link.vehicle.is_px4 else None)
+    autopilot = Autopilot.known(link.vehicle.autopilot)
     if autopilot is None or not (plan.circles or plan.polygons):
         return []
-    rules = FENCE_RULES[autopilot]
+    rules = autopilot.fence_rules
     return rules.problems({n: link.read_param(n).value for n in rules.param_names})
 
 
@@ -276,8 +274,7 @@ def download_from(link: Link) -> Plan:
     """The three lists the vehicle holds, as a :class:`Plan`."""
     lists = link.download()
     home = None if link.vehicle.is_ardupilot and lists.mission else home_of(link)
-    firmware = {3: int(Autopilot.ARDUPILOTMEGA), 12: int(Autopilot.PX4)}.get(
-        link.vehicle.autopilot, int(Autopilot.GENERIC))
+    firmware = int(Autopilot.known(link.vehicle.autopilot) or Autopilot.GENERIC)
     return wire_to_plan(lists, home_item=link.vehicle.is_ardupilot, home=home,
                         firmware_type=firmware)
 

@@ -8,6 +8,6 @@
   :mod:`~validator.motion.px4_mission`: each profile's flight; :mod:`~validator.motion.px4`
   holds PX4's own motion rules, ported.
 
-:mod:`validator.dynamics` is the front door (``fly`` and every name above); the planner times
-its legs with the same functions, so a rule lives in one place.
+:func:`validator.motion.fly.fly` flies a profile; the planner times its legs with the same
+functions, so a rule lives in one place.
 """

@@ -4,7 +4,7 @@ Two ways to a :class:`Track` share one scorer, so a modelled flight and a SITL o
 telemetry track are judged the same way:
 
 - :mod:`.track`: :func:`replay` flies a resolved :class:`~validator.flight.Flight` with a
-  :class:`~validator.dynamics.Profile` (default 20 Hz); :func:`track_from_samples` (local
+  :class:`~validator.motion.profile.Profile` (default 20 Hz); :func:`track_from_samples` (local
   metres) and :func:`track_from_geodetic` (lat/lon) align a recorded track, with its current
   mission item per sample, with the flight's legs;
 - :mod:`.score`: :func:`score_track` judges a track against the site and the plan's own

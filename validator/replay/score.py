@@ -22,11 +22,11 @@ from numpy.typing import NDArray
 from shapely.geometry.polygon import orient
 
 from validator.audit import CLEARANCE_TOLERANCE_M
-from validator.dynamics import make_profile
 from validator.fence_geometry import local_fence
 from validator.flight import Finding, Flight
 from validator.geometry import segment_point_closest_fraction, segment_point_distance
 from validator.motion.limits import site_limits
+from validator.motion.profile import make_profile
 from validator.plan_format import Plan
 from validator.replay.throughput import Throughput, flown_rates, planned_leg_times
 from validator.replay.track import Track, replay

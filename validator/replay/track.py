@@ -13,9 +13,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from validator.autopilot.rules import stored_hold_s
-from validator.dynamics import Profile, fly
 from validator.errors import InputError
 from validator.flight import Flight
+from validator.motion.fly import fly
+from validator.motion.profile import Profile
 from validator.site import Site
 
 

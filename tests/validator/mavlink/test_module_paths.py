@@ -9,17 +9,6 @@ import importlib
 import pytest
 
 MOVED = {
-    "validator.mavlink.vehicle": {
-        "validator.mavlink.sim.arducopter": ["ARMABLE_MODES", "BASE_PARAMS", "FORCE_DISARM_MAGIC",
-                                             "INT8", "INT16", "REAL32", "SITL_TOP_SPEED_MPS",
-                                             "CopterMode"],
-        "validator.mavlink.sim.commands": ["kind_is_int"],
-        "validator.mavlink.sim.config": ["VehicleConfig"],
-        "validator.mavlink.sim.mission_server": ["MAVLINK_PACKET_TYPES_FOR_MAVSDK",
-                                                 "MAVSDK_PACKET_TYPES_TO_GCS"],
-        "validator.mavlink.sim.radio": ["LossyWriter"],
-        "validator.mavlink.sim.vehicle": ["MISSION_CURRENT_PERIOD_S", "SitlVehicle"],
-    },
     "validator.mavlink.link": {
         "validator.mavlink.connection": ["DEFAULT_RETRY_S", "DEFAULT_TIMEOUT_S",
                                          "GCS_COMPONENT_ID", "GCS_SYSTEM_ID", "LinkError",

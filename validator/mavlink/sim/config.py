@@ -17,7 +17,7 @@ class VehicleConfig:
     ``home`` is (lat deg, lon deg, alt m AMSL); ``speedup`` simulated seconds per wall second;
     ``loss`` the fraction of packets dropped in each direction (``seed`` makes it repeatable);
     ``telemetry_hz`` the GLOBAL_POSITION_INT rate in simulated time; ``profile`` the flight
-    model flown in AUTO (:data:`validator.dynamics.PROFILES`); ``params`` initial parameter
+    model flown in AUTO (:data:`validator.motion.profile.PROFILES`); ``params`` initial parameter
     values (autopilot units) over ArduCopter's defaults; ``max_speed_mps`` the vehicle's top
     speed (the profile's VEHICLE_SPEED_MAX default); ``signing_key`` a MAVLink 2 signing key.
     """

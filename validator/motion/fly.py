@@ -1,0 +1,33 @@
+"""A flight in time under a profile: the one entry to the three profiles' flights.
+
+:func:`fly` evaluates a profile (:func:`~validator.motion.profile.make_profile`) and returns a
+:class:`~validator.motion.path.FlownPath`: samples of the commanded position (the vehicle is
+assumed to track its target; the position controller's small lag is not modelled) and the time
+each leg started, reached its destination and completed. ``ideal``
+(:mod:`validator.motion.ideal`) is the plan's own timing; ``arducopter``
+(:mod:`validator.motion.arducopter`) ArduCopter 4.x's S-curve navigation; ``px4``
+(:mod:`validator.motion.px4_mission`) PX4 v1.15's mission following.
+"""
+
+from __future__ import annotations
+
+from validator.errors import InputError
+from validator.flight import Flight
+from validator.motion import arducopter, ideal, px4_mission
+from validator.motion.path import FlownPath
+from validator.motion.profile import Profile
+
+__all__ = ["fly"]
+
+
+def fly(flight: Flight, profile: Profile, *, dt_s: float = 0.05) -> FlownPath:
+    """Fly ``flight`` with ``profile``, sampled every ``dt_s`` seconds (and at the very end)."""
+    if not flight.legs:
+        raise InputError("plan: nothing to replay (no navigation items)")
+    if not dt_s > 0:
+        raise InputError(f"--dt: must be > 0, got {dt_s}")
+    if profile.name == "ideal":
+        return ideal.fly(flight, profile, dt_s)
+    if profile.name == "arducopter":
+        return arducopter.fly(flight, profile, dt_s)
+    return px4_mission.fly(flight, profile, dt_s)
