@@ -37,7 +37,7 @@ from validator.autopilot.param_file import read_params
 from validator.errors import CommandParser, InputError, UserError, report_error
 from validator.fileio import write_all_atomic
 from validator.flight import Finding
-from validator.mavlink.cli import add_sitl_arguments, run_sitl, split_sitl_url
+from validator.mavlink.sitl_check import add_sitl_arguments, run_sitl, split_sitl_url
 from validator.motion.profile import PROFILES, parse_param_overrides
 from validator.replay import TrackReport
 from validator.track_file import write_track

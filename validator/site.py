@@ -47,6 +47,7 @@ from validator.input_files import (
     read_text,
     resolve_referenced_path,
 )
+from validator.model_errors import first_error
 from validator.site_airspace import SiteAirspace, site_airspace
 from validator.uas_zones.applicability import AirspaceOptions, Band
 from validator.wind import Wind, WindModel
@@ -260,37 +261,6 @@ def db_to_linear(db: float) -> float:
     return float(10.0 ** (db / 10.0))
 
 
-def _format_loc(loc: tuple[int | str, ...], data: Any) -> str:
-    """``('ground_nodes', 1, 'x')`` -> ``ground_nodes[1] (GN2).x``."""
-    out = ""
-    node = data
-    for part in loc:
-        if isinstance(part, int):
-            out += f"[{part}]"
-            try:
-                node = node[part]
-                if isinstance(node, dict) and "name" in node:
-                    out += f" ({node['name']})"
-            except (IndexError, KeyError, TypeError):
-                node = None
-        else:
-            out += f".{part}" if out else str(part)
-            node = node.get(part) if isinstance(node, dict) else None
-    return out
-
-
-def _first_error(err: ValidationError, data: Any) -> str:
-    e = err.errors()[0]
-    loc = tuple(p for p in e["loc"] if not (isinstance(p, str) and p.startswith("function-")))
-    msg = str(e["msg"]).removeprefix("Value error, ")
-    if e["type"] == "extra_forbidden":
-        msg = "unknown key"
-    elif e["type"] == "missing":
-        msg = "missing field"
-    where = _format_loc(loc, data) or "site"
-    return f"{where}: {msg}"
-
-
 def _resolve(frame: LocalFrame, p: PointModel | NoFlyZoneModel) -> NDArray[np.float64]:
     if p.x is not None and p.y is not None:
         return np.array([p.x, p.y], dtype=float)
@@ -402,7 +372,7 @@ def parse_site(data: Any, source: str = "site", *, base_file: str | Path | None 
     try:
         model = SiteModel.model_validate(data)
     except ValidationError as err:
-        raise InputError(f"{source}: {_first_error(err, data)}") from None
+        raise InputError(f"{source}: {first_error(err, data, root='site')}") from None
     return site_from_model(model, source, base_file=base_file, airspace=airspace)
 
 
