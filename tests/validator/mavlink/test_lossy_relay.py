@@ -230,7 +230,12 @@ def test_a_vehicle_that_sends_first_is_relayed_from_udpin():
         vehicle.sendto(packet(2), ("127.0.0.1", port))
         assert gcs.recv(1000) == packet(2)
         gcs.sendto(packet(3), ("127.0.0.1", relay.port))
-        assert vehicle.recv(1000) == packet(3)  # answered where the vehicle sent from
+        got = vehicle.recv(1000)
+        if got == packet(1):
+            # the relay read packet 1 in the same pass as the vehicle's first packet, so it
+            # knew where to send it: delivered late, as a radio may; anything else is wrong
+            got = vehicle.recv(1000)
+        assert got == packet(3)  # answered where the vehicle sent from
     vehicle.close()
     gcs.close()
 
