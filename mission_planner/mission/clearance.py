@@ -158,13 +158,24 @@ def _transit_round_polygons(site: Site, a: NDArray[np.float64], b: NDArray[np.fl
         obstacles.append(circumscribed_polygon(c, r_fit, k))
     ends = shapely.MultiPoint([a, b])
     for zone in site.polygon_zones:
-        grow = site.buffer_m + margin_m
-        for _ in range(60):
-            outline = fence_outline_m(zone, grow)
-            if not shapely.Polygon(outline).intersects(ends):
-                break
-            grow /= 2.0
-        else:
-            raise ValueError(f"an end point lies inside {zone.name}")
-        obstacles.append(outline)
+        obstacles.append(_largest_outline_clear_of(zone, site.buffer_m + margin_m, ends))
     return shortest_path_around_polygons(a, b, obstacles)
+
+
+def _largest_outline_clear_of(zone: PolygonZone, grow_m: float,
+                              ends: shapely.MultiPoint) -> NDArray[np.float64]:
+    """``zone``'s outline grown by ``grow_m``, or, where an end point lies within that, by the
+    most that leaves the end points outside (to 1 mm): grown any less, a transit near an end
+    point would cut into the buffer the end point itself still keeps."""
+    def clear(g: float) -> bool:
+        return not shapely.Polygon(fence_outline_m(zone, g)).intersects(ends)
+
+    if clear(grow_m):
+        return fence_outline_m(zone, grow_m)
+    if not clear(0.0):
+        raise ValueError(f"an end point lies inside {zone.name}")
+    lo, hi = 0.0, grow_m
+    while hi - lo > 1e-3:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if clear(mid) else (lo, mid)
+    return fence_outline_m(zone, lo)

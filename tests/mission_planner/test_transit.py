@@ -110,3 +110,21 @@ def test_walled_in_goal_is_refused():
 def test_drop_collinear_removes_points_on_a_line_and_repeats():
     path = np.array([[0, 0], [1, 0], [1, 0], [2, 0], [2, 1], [2, 2]])
     np.testing.assert_allclose(drop_collinear(path), [[0, 0], [2, 0], [2, 2]])
+
+
+def test_a_transit_obstacle_near_an_end_point_keeps_what_that_point_allows():
+    """An end point 3.2 m from a zone (buffer + margin 3.5 m): the zone is grown as far as the
+    point allows, not halved to 1.75 m, so a transit from it keeps almost 3.2 m."""
+    import shapely
+
+    from mission_planner.mission.clearance import _largest_outline_clear_of
+    from validator.zones import polygon_zone
+
+    zone = polygon_zone("Z", [(0, 0), (100, 0), (100, 50), (0, 50)], "test")
+    ends = shapely.MultiPoint([(50.0, 53.2), (50.0, 300.0)])
+    outline = shapely.Polygon(_largest_outline_clear_of(zone, 3.5, ends))
+    assert not outline.intersects(ends)
+    assert 3.0 <= outline.exterior.distance(zone.shape) <= 3.2  # halving gave 1.75
+    far = shapely.MultiPoint([(50.0, 60.0), (50.0, 300.0)])
+    whole = shapely.Polygon(_largest_outline_clear_of(zone, 3.5, far))
+    assert whole.exterior.distance(zone.shape) == pytest.approx(3.5)

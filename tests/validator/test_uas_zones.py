@@ -189,6 +189,17 @@ def test_the_index_finds_what_a_full_scan_finds() -> None:
         assert within_reach(zones, frame, area) == scan
 
 
+def test_an_empty_daily_period_beside_permanent_yes_is_permanent(tmp_path: Path) -> None:
+    """The public Swiss ED-269 sample writes ``permanent: YES`` with a daily period of no day
+    and null times: a placeholder, so the zone applies at every time."""
+    doc = copy.deepcopy(ED269)
+    _zone(doc, "Z1")["applicability"] = [{
+        "permanent": "YES", "startDateTime": None, "endDateTime": None,
+        "dailyPeriod": [{"day": [], "startTime": None, "endTime": None}]}]
+    for at in ("2026-12-02T10:00+01:00", "2026-12-06T03:00+01:00"):
+        assert _table(_site(tmp_path, doc, at=at))["Z1"][0]
+
+
 @pytest.mark.parametrize(("path", "value", "message"), [
     (("geometry", 0, "upperLimit"), "high", r"\(Z1\)\.geometry\[0\]\.upperLimit: 'high' is not"),
     (("geometry", 0, "lowerVerticalReference"), "QNH", r"lowerVerticalReference: 'QNH'"),

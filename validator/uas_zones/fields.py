@@ -187,6 +187,12 @@ def schedule(value: Any, field: str, notes: list[str]) -> tuple[DailyPeriod, ...
         f = f"{field}[{i}]"
         if not isinstance(d, dict):
             raise InputError(f"{f}: expected a daily period")
+        if all(d.get(k) in (None, []) for k in ("day", "startTime", "endTime", "startEvent",
+                                                 "endEvent")):
+            # an empty placeholder, as the public Swiss ED-269 sample writes beside
+            # permanent YES: it says nothing, so it restricts nothing
+            notes.append(f"{f}: an empty daily period (no day, no times), ignored")
+            continue
         start, end = d.get("startTime"), d.get("endTime")
         a = b = None
         if start is not None or d.get("startEvent") is None:
