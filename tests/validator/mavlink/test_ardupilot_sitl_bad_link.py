@@ -139,7 +139,9 @@ def test_a_reboot_mid_upload_behind_the_relay_never_reports_what_it_does_not_hol
 
 def test_the_lost_link_verdict_reads_arducopters_own_failsafe(sitl_url):
     with Link(sitl_url, timeout_s=10) as link:
-        assert gcs_failsafe(link).endswith("(FS_GCS_ENABLE 0)")  # the autotest defaults
+        # set, not assumed: an earlier test of this module uploaded the plan's .param
+        link.set_param("FS_GCS_ENABLE", 0)
+        assert gcs_failsafe(link).endswith("(FS_GCS_ENABLE 0)")
         link.set_param("FS_GCS_ENABLE", 5)
         try:
             assert gcs_failsafe(link) == ("after 5 s without us, it lands where it is "

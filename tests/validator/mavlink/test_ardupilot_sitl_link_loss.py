@@ -19,7 +19,7 @@ from validator.autopilot.param_file import read_params
 from validator.mavlink.driver import default_time_limit_s, fly_and_score, wait_until_ready
 from validator.mavlink.link import Link
 from validator.mavlink.lossy_relay import LinkFaults, LossyRelay
-from validator.mavlink.sitl_process import ardupilot_sitl, find_defaults
+from validator.mavlink.sitl_process import ardupilot_sitl, find_defaults, sped_up_link_params
 from validator.motion.limits import site_limits
 from validator.motion.profile import make_profile
 from validator.validation import validate_mission
@@ -72,9 +72,11 @@ def fly(realistic, relay: LossyRelay, *, cut_after_s: float, cut_for_s: float | 
             cutter.start()
 
     profile = make_profile("arducopter", site_limits(v.site))
+    # as validate-mission --sitl-binary does: our wall-clock heartbeats are sparse at x10
+    sent = {**sped_up_link_params(SPEEDUP, px4=False), **params}
     result = fly_and_score(v.plan, v.site, v.flight, relay.url,
                            time_limit_s=default_time_limit_s(v.flight, profile),
-                           timeout_s=timeout_s, params=params, progress=progress)
+                           timeout_s=timeout_s, params=sent, progress=progress)
     cutter.join()
     return result
 
@@ -102,8 +104,9 @@ def test_a_link_down_for_good_names_arducopters_own_failsafe(realistic, sitl_url
     [lost] = [f for f in result.report.findings if f.message.startswith("link lost")]
     assert lost.severity == "violation"
     assert "it did not come back within 5 s" in lost.message
-    # autotest defaults leave ArduCopter's GCS failsafe off: it flies the mission on
-    assert "(FS_GCS_ENABLE 0)" in lost.message
+    # the plan's .param sets ArduCopter's GCS failsafe to SmartRTL (or Land), and the
+    # verdict says what the vehicle will do on its own
+    assert "SmartRTL" in lost.message and "(FS_GCS_ENABLE 4)" in lost.message
 
 
 def test_a_link_back_too_late_lands_arducopter(realistic, sitl_url):

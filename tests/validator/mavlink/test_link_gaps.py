@@ -108,8 +108,9 @@ def test_a_link_down_for_good_ends_the_run_with_a_verdict(files, relayed, capsys
     lost = [m for m in messages(report) if m.startswith("link lost")]
     assert len(lost) == 1
     assert "it did not come back within 3 s" in lost[0]
-    # the built-in model has no ground-station failsafe parameter, and the verdict says so
-    assert "did not report FS_GCS_ENABLE" in lost[0]
+    # the built-in model reports ArduCopter's default FS_GCS_ENABLE 0 (it flies no
+    # ground-station failsafe), and the verdict says it flies the mission on
+    assert "(FS_GCS_ENABLE 0)" in lost[0]
     assert vehicle.mode == CopterMode.AUTO  # nobody could tell it otherwise
     assert "link lost" in capsys.readouterr().out
 
