@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 import shapely
 
+from tests.view_figure import layer, page_figure
 from validator.autopilot.param_file import read_params
 from validator.cli import validate_mission_main
 from validator.geometry import segment_point_distance
@@ -23,7 +24,7 @@ from validator.view import (
     validation_inputs,
     view_figure,
 )
-from validator.view.page import DIV_ID, view_html
+from validator.view.page import view_html
 from validator.view.timeline import Timeline
 
 REPO = Path(__file__).resolve().parents[2]
@@ -163,19 +164,8 @@ def test_a_plan_without_planner_metadata_says_why_it_shows_no_rates(tmp_path):
 FAILSAFE = REPO / "tests/data/failsafe"
 
 
-def _figure(page: str) -> dict:
-    """The figure data and layout plotly.js is given in a written view."""
-    import json
-
-    start = page.index("[", page.index(f'"{DIV_ID}",'))
-    decoder = json.JSONDecoder()
-    data, end = decoder.raw_decode(page, start)
-    layout, _ = decoder.raw_decode(page, page.index("{", end))
-    return {"data": data, "layout": layout}
-
-
 def _failsafe(fig) -> list[dict]:
-    return [t for t in fig["data"] if t.get("meta", {}).get("layer") == "failsafe"]
+    return layer(fig, "failsafe")
 
 
 def _audited(site: str, plan: str, params: str):
@@ -226,7 +216,7 @@ def test_validate_mission_html_draws_the_failsafe_paths_and_both_winds(tmp_path,
             str(FAILSAFE / "params/thr-rtl.param"), "--wind", "6@300,1.5", "--html", str(out)]
     assert validate_mission_main(argv) == 1  # the RTL enters NFZ3
     capsys.readouterr()
-    fig = _figure(out.read_text(encoding="utf-8"))
+    fig = page_figure(out.read_text(encoding="utf-8"))
     kinds = [(t["meta"]["kind"], t["meta"]["ok"]) for t in _failsafe(fig)]
     assert ("region", False) in kinds and ("line", False) in kinds
     assert "NFZ3" in next(t["hovertext"] for t in _failsafe(fig) if t["meta"]["kind"] == "line")
@@ -242,7 +232,7 @@ def test_validate_mission_html_without_params_or_wind_draws_neither(tmp_path, ca
                                   str(FAILSAFE / "sites/realistic.yaml"), "--html",
                                   str(out)]) == 0
     capsys.readouterr()
-    fig = _figure(out.read_text(encoding="utf-8"))
+    fig = page_figure(out.read_text(encoding="utf-8"))
     assert _failsafe(fig) == []
     assert not any("wind" in a["text"] or "flown in" in a["text"]
                    for a in fig["layout"].get("annotations", []))
