@@ -135,7 +135,8 @@ def write_mission(
     ``params`` (default: ``out`` with suffix ``.param``) with ``autopilot_params`` (default
     :func:`recommended_params`). ``flight`` (:func:`replay_mission`) adds the replay to the
     ``report`` (JSON) and its track to the ``html`` view (``html_map``: on OpenStreetMap
-    tiles); ``geojson`` and ``plot`` (PNG, the paper's Fig. 3) are optional too.
+    tiles; the view also draws the wind and the failsafe paths of the parameter file);
+    ``geojson`` and ``plot`` (PNG, the paper's Fig. 3) are optional too.
     Raises :class:`UnsafeMission` for a mission the safety gate refuses, unless ``force``, and
     :class:`~validator.errors.InputError` for paths that collide or whose folder is missing.
     """

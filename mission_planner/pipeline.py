@@ -90,7 +90,8 @@ def output_files(
     ``params`` names the autopilot parameter file (``autopilot_params``, default
     :func:`~mission_planner.autopilot_params.recommended_params`); ``flight`` adds the replay
     to the report and its track to the ``html`` view (:mod:`validator.view`; ``html_map``: on
-    OpenStreetMap tiles).
+    OpenStreetMap tiles), which also draws the site's wind and the failsafe paths the
+    parameter file leaves (:func:`mission_view`).
     """
     if fmt not in FORMATS:
         raise InputError(f"format: expected one of {', '.join(FORMATS)}, got {fmt!r}")
@@ -115,24 +116,33 @@ def output_files(
 
         files[Path(plot)] = figure_png(solution_figure(mission.solution, mission))
     if html is not None:
-        files[Path(html)] = mission_view(mission, flight, Path(out).name, html_map)
+        files[Path(html)] = mission_view(mission, flight, Path(out).name, html_map,
+                                         autopilot_params)
     return files
 
 
 def mission_view(mission: Mission, flight: FlightCheck | None = None, name: str = "",
-                 map_background: bool = False) -> str:
+                 map_background: bool = False,
+                 autopilot_params: AutopilotParams | None = None) -> str:
     """The mission's interactive view (:func:`validator.view.view_html`) with the replay of
-    ``flight`` on its time slider."""
+    ``flight`` on its time slider, the wind the plan was made for (the site's forecast) and,
+    with ``autopilot_params`` (the ``.param`` written beside the mission), the failsafe paths
+    they leave as :func:`validator.failsafe.audit_failsafes` checks them."""
+    from validator.failsafe import audit_failsafes
     from validator.flight import resolve_flight
-    from validator.view import TrackLayer, ViewInputs, view_html
+    from validator.view import TrackLayer, ViewInputs, failsafe_paths, view_html
 
     site = mission.solution.site
     resolved = (flight.flight if flight is not None and flight.flight is not None
                 else resolve_flight(mission.plan, site, "mission"))
     tracks = ((TrackLayer(f"replay ({flight.profile.name})", flight.track),)
               if flight is not None and flight.track is not None else ())
+    paths = (failsafe_paths(audit_failsafes(mission.plan, site, resolved,
+                                            autopilot_params.values), resolved)
+             if autopilot_params is not None else ())
+    wind = None if site.wind is None or site.wind.calm else site.wind
     title = f"{site.name}: {name or 'mission'} ({mission.solution.scheme})"
-    return view_html(ViewInputs(mission.plan, site, resolved, tracks, title=title),
+    return view_html(ViewInputs(mission.plan, site, resolved, tracks, paths, wind, title=title),
                      map_background=map_background)
 
 

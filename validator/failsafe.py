@@ -72,6 +72,7 @@ class PathFinding:
     buffer_m: float
     start_xy_m: tuple[float, float]
     destination: str
+    destination_xy_m: tuple[float, float]
 
     @property
     def message(self) -> str:
@@ -90,7 +91,8 @@ class PathFinding:
                 "from_item": self.from_item, "item": self.item,
                 "clearance_m": self.clearance_m, "depth_m": max(0.0, -self.clearance_m),
                 "buffer_m": self.buffer_m, "start_xy_m": list(self.start_xy_m),
-                "destination": self.destination, "message": self.message}
+                "destination": self.destination,
+                "destination_xy_m": list(self.destination_xy_m), "message": self.message}
 
 
 @dataclass(frozen=True)
@@ -120,11 +122,13 @@ class ReturnPoint:
     clearance_m: float
     zone: str
     destination: str
+    destination_xy_m: tuple[float, float]
 
     def as_dict(self) -> dict[str, Any]:
         return {"leg": self.leg, "item": self.item, "xy_m": list(self.xy_m),
                 "clearance_m": self.clearance_m, "zone": self.zone,
-                "destination": self.destination}
+                "destination": self.destination,
+                "destination_xy_m": list(self.destination_xy_m)}
 
 
 @dataclass(frozen=True)
@@ -137,6 +141,9 @@ class FailsafeReport:
     notes: tuple[str, ...]
     worst_return: ReturnPoint | None
     params: Mapping[str, float] = field(default_factory=dict)
+    # the outline of every straight return's line when an action flies one (rings, (P, 2)
+    # each; for a view, not in as_dict): the region the audit proved clear, or not
+    return_region_xy_m: tuple[NDArray[np.float64], ...] = ()
 
     @property
     def ok(self) -> bool:
@@ -278,6 +285,7 @@ class _Exposure:
     end: NDArray[np.float64]
     dest: int
     clearance_m: NDArray[np.float64]  # per zone
+    region: shapely.Geometry
 
 
 def _return_exposures(flight: Flight, site: Site, dest: _Destinations) -> list[_Exposure]:
@@ -285,7 +293,7 @@ def _return_exposures(flight: Flight, site: Site, dest: _Destinations) -> list[_
     for k, leg in enumerate(flight.legs):
         for start, end, d in _pieces(leg.start_xy_m, leg.end_xy_m, dest):
             region = _region(start, end, leg.loiter_radius_m, dest.point(d))
-            out.append(_Exposure(k, start, end, d, _zone_clearances(site, region)))
+            out.append(_Exposure(k, start, end, d, _zone_clearances(site, region), region))
     return out
 
 
@@ -380,15 +388,33 @@ def audit_failsafes(plan: Plan, site: Site, flight: Flight,
                 findings.append(PathFinding(
                     c.trigger, c.param, c.value, c.action, "rtl", zone, k,
                     _from_item(flight, k), leg.item, float(e.clearance_m[m]), site.buffer_m,
-                    (float(xy[0]), float(xy[1])), dest.name(e.dest)))
+                    _pair(xy), dest.name(e.dest), _pair(dest.point(e.dest))))
     if autopilot == "ardupilot" and any("smartrtl" in c.paths for c in checks):
         notes += _smartrtl_notes(flight, site, values["SRTL_ACCURACY"])
         need = smartrtl_points_needed(flight)
         if values["SRTL_POINTS"] < min(need, param_table("ardupilot")["SRTL_POINTS"].maximum):
             notes.append(f"SRTL_POINTS {values['SRTL_POINTS']:g} may not hold the whole "
                          f"mission's path (up to {need} points): SmartRTL then falls back")
+    flies_rtl = any("rtl" in c.paths for c in checks)
     return FailsafeReport(autopilot, tuple(checks), tuple(findings), tuple(notes),
-                          _worst_return(flight, site, exposures, dest), dict(values))
+                          _worst_return(flight, site, exposures, dest), dict(values),
+                          _outline(exposures) if flies_rtl else ())
+
+
+def _pair(xy: NDArray[np.float64]) -> tuple[float, float]:
+    return float(xy[0]), float(xy[1])
+
+
+def _outline(exposures: list[_Exposure], tolerance_m: float = 0.5
+             ) -> tuple[NDArray[np.float64], ...]:
+    """The outer rings of the union of the straight returns' regions, simplified to within
+    ``tolerance_m`` (a drawing, not the verdict; a hole, rare, is left out)."""
+    if not exposures:
+        return ()
+    union = shapely.union_all([e.region for e in exposures]).simplify(tolerance_m)
+    polygons = getattr(union, "geoms", [union])
+    return tuple(np.asarray(p.exterior.coords, dtype=float) for p in polygons
+                 if isinstance(p, shapely.Polygon) and not p.is_empty)
 
 
 def _smartrtl_notes(flight: Flight, site: Site, accuracy_m: float) -> list[str]:
@@ -418,5 +444,5 @@ def _worst_return(flight: Flight, site: Site, exposures: list[_Exposure],
     m = int(np.argmin(e.clearance_m))
     xy, _ = _worst_start(site, m, e.start, e.end, dest.point(e.dest))
     leg: Leg = flight.legs[e.leg]
-    return ReturnPoint(e.leg, leg.item, (float(xy[0]), float(xy[1])), float(e.clearance_m[m]),
-                       site.zone_names[m], dest.name(e.dest))
+    return ReturnPoint(e.leg, leg.item, _pair(xy), float(e.clearance_m[m]),
+                       site.zone_names[m], dest.name(e.dest), _pair(dest.point(e.dest)))

@@ -11,6 +11,8 @@ import pytest
 import mission_planner
 from mission_planner import api
 from tests.mission_planner.solutions import circle_tour, make_site
+from tests.view_figure import layer, page_figure
+from validator.autopilot.param_file import parse_params
 from validator.errors import InputError
 
 
@@ -62,3 +64,16 @@ def test_colliding_outputs_are_bad_input_and_write_nothing(mission, tmp_path):
     with pytest.raises(InputError, match="does not exist"):
         api.write_mission(mission, tmp_path / "missing" / "m.plan")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_view_draws_the_failsafe_paths_of_the_parameter_file_written(mission, tmp_path):
+    # a file flying RTL on RC loss: the view shows the straight returns the audit checked
+    params = api.recommended_params(mission)
+    rtl = dataclasses.replace(params, values={**params.values, "FS_THR_ENABLE": 1.0})
+    api.write_mission(mission, tmp_path / "m.plan", autopilot_params=rtl,
+                      html=tmp_path / "v.html")
+    failsafe = layer(page_figure((tmp_path / "v.html").read_text(encoding="utf-8")), "failsafe")
+    kinds = {t["meta"]["kind"] for t in failsafe}
+    assert "region" in kinds and "line" in kinds
+    assert any("FS_THR_ENABLE 1" in t["hovertext"] for t in failsafe)
+    assert parse_params((tmp_path / "m.param").read_text())["FS_THR_ENABLE"] == 1.0

@@ -26,9 +26,11 @@ from tests.mission_planner.solutions import (
     solution_for,
     subdivided,
 )
+from tests.view_figure import layer, page_figure
 from validator.audit import audit
 from validator.autopilot.failsafe import FAILSAFE_PARAMS, recommended_failsafes
 from validator.autopilot.param_file import parse_params
+from validator.flight import resolve_flight
 from validator.geometry import segment_point_distance
 from validator.plan_format import Autopilot, Cmd, read_plan
 from validator.site import load_site
@@ -420,6 +422,25 @@ def test_html_writes_the_view_with_the_replay(tmp_path, capsys, chatty_planner):
     assert code == 0 and str(out) in err
     page = out.read_text(encoding="utf-8")
     assert "Plotly.newPlot" in page and "replay (arducopter): vehicle" in page
+
+
+def test_html_draws_the_forecast_and_the_failsafe_paths_of_the_param_file(tmp_path, capsys,
+                                                                          square_planner):
+    out = tmp_path / "view.html"
+    code, err = _run([_write_site(tmp_path, SLOW), "-o", tmp_path / "m.plan", "--quiet",
+                      "--wind", "4@90,1", "--html", out], capsys)
+    assert code == 0, err
+    fig = page_figure(out.read_text(encoding="utf-8"))
+    # our .param retraces the path with SmartRTL (or lands): no straight return to draw
+    failsafe = layer(fig, "failsafe")
+    assert [(t["meta"]["kind"], t["meta"]["ok"]) for t in failsafe] == [("retrace", True)]
+    assert "FS_THR_ENABLE" in failsafe[0]["hovertext"]
+    plan = read_plan(tmp_path / "m.plan")
+    assert len(failsafe[0]["x"]) == len(resolve_flight(plan, load_site(
+        _write_site(tmp_path, SLOW))).legs) + 1
+    wind = [a["text"] for a in fig["layout"]["annotations"] if "m/s from" in a["text"]]
+    assert len(wind) == 1 and "4 m/s from 90°" in wind[0] and "turbulence 1 m/s" in wind[0]
+    assert "flown in" not in wind[0]  # the replay flies in the wind the plan is made for
 
 
 def test_html_map_needs_html(tmp_path, capsys, chatty_planner):

@@ -8,10 +8,22 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import shapely
 
+from tests.view_figure import layer, page_figure
+from validator.autopilot.param_file import read_params
 from validator.cli import validate_mission_main
+from validator.geometry import segment_point_distance
 from validator.validation import validate_mission
-from validator.view import FailsafePath, ViewInputs, Wind, validation_inputs, view_figure
+from validator.view import (
+    STILL_AIR,
+    FailsafePath,
+    ViewInputs,
+    Wind,
+    failsafe_paths,
+    validation_inputs,
+    view_figure,
+)
 from validator.view.page import view_html
 from validator.view.timeline import Timeline
 
@@ -41,19 +53,42 @@ def test_a_plan_alone_has_no_slider_and_no_flight_layers(validation):
 
 
 def test_failsafe_paths_and_wind_are_drawn_when_given(validation):
+    ring = np.array([[0.0, 0.0], [100.0, 50.0], [0.0, 100.0], [0.0, 0.0]])
     paths = (FailsafePath("RTL from item 4", np.array([[0.0, 0.0], [100.0, 50.0]])),
              FailsafePath("RTL from item 7", np.array([[10.0, 0.0], [90.0, 50.0]]), ok=False,
-                          note="crosses NFZ2"))
+                          note="crosses NFZ2"),
+             FailsafePath("straight returns", ring, ok=False, kind="region"))
     inputs = dataclasses.replace(validation_inputs(validation), failsafe_paths=paths,
-                                 wind=Wind(8.0, 270.0))
+                                 wind=Wind(8.0, 270.0, 1.5))
     fig = view_figure(inputs)
     failsafe = [t for t in fig["data"] if t.get("meta", {}).get("layer") == "failsafe"]
-    assert [t["line"]["color"] for t in failsafe] == ["#2ca02c", "#d62728"]
-    assert failsafe[1]["hovertext"] == "RTL from item 7: crosses NFZ2"
+    assert [t["line"]["color"] for t in failsafe] == ["#2ca02c", "#d62728", "#d62728"]
+    assert failsafe[1]["hovertext"] == "<b>RTL from item 7</b><br>crosses NFZ2"
+    assert "fill" not in failsafe[1] and failsafe[2]["fill"] == "toself"  # a region is filled
+    assert failsafe[2]["x"] == ring[:, 0].tolist()
     arrow, text = fig["layout"]["annotations"]
     # from the west, so it blows east: the arrow's tail is left of its head, level with it
     assert arrow["ax"] < 0 and abs(arrow["ay"]) < 1e-9
-    assert "8 m/s from 270°" in text["text"]
+    assert "8 m/s from 270°" in text["text"] and "turbulence 1.5 m/s" in text["text"]
+
+
+@pytest.mark.parametrize("frm, ax_sign, ay_sign", [(0.0, 0, -1), (90.0, 1, 0), (225.0, -1, 1)])
+def test_the_wind_arrow_points_where_the_air_goes(validation, frm, ax_sign, ay_sign):
+    # ax, ay: from the head to the tail, screen y down. From the north (0°) the air goes
+    # south: the tail above the head (ay < 0)
+    inputs = dataclasses.replace(validation_inputs(validation), wind=Wind(5.0, frm))
+    arrow = view_figure(inputs)["layout"]["annotations"][0]
+    assert np.sign(np.round(arrow["ax"], 6)) == ax_sign
+    assert np.sign(np.round(arrow["ay"], 6)) == ay_sign
+
+
+def test_a_wind_other_than_the_plans_shows_both_and_still_air_has_no_arrow(validation):
+    inputs = dataclasses.replace(validation_inputs(validation), wind=STILL_AIR,
+                                 planned_wind=Wind(7.0, 300.0))
+    notes = view_figure(inputs)["layout"]["annotations"]
+    assert [a.get("showarrow") for a in notes] == [False, True, False]  # one arrow: planned
+    assert "flown in" in notes[0]["text"] and "still air" in notes[0]["text"]
+    assert "plan made for" in notes[2]["text"] and "7 m/s from 300°" in notes[2]["text"]
 
 
 def test_the_bars_end_the_cycle_at_the_flown_rates(validation):
@@ -121,3 +156,83 @@ def test_a_plan_without_planner_metadata_says_why_it_shows_no_rates(tmp_path):
     assert not {"so-far", "rate", "planned", "cursor"} & set(layers)
     assert fig["layout"]["xaxis2"]["visible"] is False
     assert any("nfzMission" in a["text"] for a in fig["layout"]["annotations"])
+
+
+# --------------------------------------------------------------------------------------------
+# the failsafe audit's paths and the wind, as validate-mission --params --wind draws them
+
+FAILSAFE = REPO / "tests/data/failsafe"
+
+
+def _failsafe(fig) -> list[dict]:
+    return layer(fig, "failsafe")
+
+
+def _audited(site: str, plan: str, params: str):
+    return validate_mission(FAILSAFE / "plans" / plan, FAILSAFE / "sites" / f"{site}.yaml",
+                            vehicle_params=read_params(FAILSAFE / "params" / params))
+
+
+def test_an_rtl_into_a_zone_is_drawn_red_through_it():
+    v = _audited("realistic", "realistic-ardupilot.plan", "thr-rtl.param")
+    assert v.failsafe is not None and not v.failsafe.ok
+    paths = failsafe_paths(v.failsafe, v.flight)
+    region = [p for p in paths if p.kind == "region"]
+    lines = [p for p in paths if p.kind == "line"]
+    assert len(region) == 1 and not region[0].ok
+    # one red line per zone entered, the deepest: it runs through NFZ3 to home
+    assert [p.ok for p in lines] == [False] and "NFZ3" in lines[0].note
+    (a, b), centre = lines[0].xy_m, v.site.nfz_xy_m[v.site.nfz_names.index("NFZ3")]
+    assert np.allclose(b, v.flight.home_xy_m)
+    assert segment_point_distance(a[None], b[None], centre)[0] < v.site.nfz_radius_m[2]
+    # the region holds every start of a return and home, and the zone it crosses
+    shape = shapely.Polygon(region[0].xy_m).buffer(1.0)
+    assert shape.contains(shapely.MultiPoint([*v.flight.path_xy_m, v.flight.home_xy_m,
+                                              centre]))
+
+
+def test_a_clear_rtl_draws_its_closest_return_green():
+    v = _audited("open", "open-ardupilot.plan", "all-rtl.param")
+    assert v.failsafe is not None and v.failsafe.ok
+    paths = failsafe_paths(v.failsafe, v.flight)
+    assert {p.kind for p in paths} == {"region", "line"} and all(p.ok for p in paths)
+    w = v.failsafe.worst_return
+    line = next(p for p in paths if p.kind == "line")
+    assert w is not None and np.allclose(line.xy_m, [w.xy_m, w.destination_xy_m])
+
+
+def test_the_planners_own_file_retraces_the_mission_and_flies_no_straight_return():
+    v = _audited("realistic", "realistic-ardupilot.plan", "realistic-ardupilot-planned.param")
+    paths = failsafe_paths(v.failsafe, v.flight)
+    assert [p.kind for p in paths] == ["retrace"]
+    assert np.array_equal(paths[0].xy_m, v.flight.path_xy_m)
+    assert "FS_THR_ENABLE" in paths[0].note
+
+
+def test_validate_mission_html_draws_the_failsafe_paths_and_both_winds(tmp_path, capsys):
+    out = tmp_path / "view.html"
+    argv = [str(FAILSAFE / "plans/realistic-ardupilot.plan"), "--site",
+            str(FAILSAFE / "sites/realistic.yaml"), "--params",
+            str(FAILSAFE / "params/thr-rtl.param"), "--wind", "6@300,1.5", "--html", str(out)]
+    assert validate_mission_main(argv) == 1  # the RTL enters NFZ3
+    capsys.readouterr()
+    fig = page_figure(out.read_text(encoding="utf-8"))
+    kinds = [(t["meta"]["kind"], t["meta"]["ok"]) for t in _failsafe(fig)]
+    assert ("region", False) in kinds and ("line", False) in kinds
+    assert "NFZ3" in next(t["hovertext"] for t in _failsafe(fig) if t["meta"]["kind"] == "line")
+    texts = [a["text"] for a in fig["layout"]["annotations"]]
+    flown = next(t for t in texts if "flown in" in t)
+    assert "6 m/s from 300°" in flown and "turbulence 1.5 m/s" in flown
+    assert any("plan made for" in t and "still air" in t for t in texts)
+
+
+def test_validate_mission_html_without_params_or_wind_draws_neither(tmp_path, capsys):
+    out = tmp_path / "view.html"
+    assert validate_mission_main([str(FAILSAFE / "plans/realistic-ardupilot.plan"), "--site",
+                                  str(FAILSAFE / "sites/realistic.yaml"), "--html",
+                                  str(out)]) == 0
+    capsys.readouterr()
+    fig = page_figure(out.read_text(encoding="utf-8"))
+    assert _failsafe(fig) == []
+    assert not any("wind" in a["text"] or "flown in" in a["text"]
+                   for a in fig["layout"].get("annotations", []))

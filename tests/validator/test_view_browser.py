@@ -242,3 +242,56 @@ def test_the_map_background_view_draws_the_layers_and_moves_the_vehicle(
         np.abs(v.replay_track.t_s - 100.0))])
     assert after["lat"] != before and np.allclose([after["lat"][0], after["lon"][0]],
                                                   [lat, lon], atol=1e-6)
+
+
+FAILSAFE = REPO / "tests/data/failsafe"
+
+
+@pytest.fixture(scope="module")
+def audited():
+    """issue 27's site: the RC-loss RTL of thr-rtl.param flies through NFZ3; in wind."""
+    from validator.autopilot.param_file import read_params
+    from validator.wind import Wind
+
+    return validate_mission(FAILSAFE / "plans/realistic-ardupilot.plan",
+                            FAILSAFE / "sites/realistic.yaml", replay_flight=True,
+                            vehicle_params=read_params(FAILSAFE / "params/thr-rtl.param"),
+                            wind=Wind(6.0, 300.0, 1.5))
+
+
+@pytest.mark.parametrize("map_background", [False, True])
+def test_failsafe_paths_and_the_wind_are_drawn(browser, audited, served, monkeypatch,
+                                               map_background):
+    import validator.view.page as page
+
+    monkeypatch.setattr(page, "MAP_STYLE", "white-bg")  # no tiles to fetch in a test
+    folder, url = served
+    write_view(folder / "failsafe.html", validation_inputs(audited),
+               map_background=map_background)
+    browser.get_log("browser")
+    browser.get(f"{url}/failsafe.html")
+    assert browser.execute_async_script(WAIT_FOR_PLOT), "the view never appeared"
+    offline = ("ERR_NAME_NOT_RESOLVED", "ERR_INTERNET_DISCONNECTED", "AJAXError", "favicon")
+    assert [e["message"] for e in browser.get_log("browser") if e["level"] == "SEVERE"
+            and not any(s in e["message"] for s in offline)] == []
+    problems = browser.execute_script(
+        "const gd = document.getElementById('mission-view');"
+        "return Plotly.validate(gd.data, gd.layout) || [];")
+    assert [p["msg"] for p in problems if p["code"] != "dynamic"] == []
+    counts = _layer_counts(browser)
+    assert counts["failsafe"] == 3  # the return region, the RTL into NFZ3, SmartRTL's path
+    region = next(_trace(browser, "failsafe", i) for i in range(3)
+                  if _trace(browser, "failsafe", i)["meta"]["kind"] == "region")
+    assert region["fill"] == "toself" and region["meta"]["ok"] is False
+    if not map_background:  # drawn: a filled SVG path, light red (the zones are darker)
+        fills = browser.find_elements("css selector", ".scatterlayer .js-fill")
+        assert sum("fill: rgb(214, 39, 40); fill-opacity: 0.08" in f.get_attribute("style")
+                   for f in fills) == 1
+    arrows = browser.find_elements("css selector", ".annotation-arrow-g")
+    assert len(arrows) == 1  # the flown wind; the plan was made for still air: no arrow
+    texts = [a.text for a in browser.find_elements("css selector", ".annotation-text-g")]
+    assert any("6 m/s from 300°" in t for t in texts)
+    assert any("still air" in t for t in texts)
+    shot = os.environ.get("VIEW_FAILSAFE_SCREENSHOT")
+    if shot and not map_background:
+        browser.get_screenshot_as_file(shot)

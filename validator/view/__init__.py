@@ -2,20 +2,22 @@
 page (plotly), written by ``plan-mission --html`` and ``validate-mission --html``.
 
 - :mod:`.inputs`: what a view shows (:class:`ViewInputs`); optional layers (failsafe paths,
-  wind) are fields other checks fill;
+  wind) are fields other checks fill (:func:`failsafe_paths` from a failsafe audit);
 - :mod:`.layers`: the still map layers as plotly traces;
 - :mod:`.timeline`: the flights on a time slider, the node served and the rates;
 - :mod:`.page`: the figure and the HTML page (:func:`view_html`, :func:`write_view`).
 """
 
 from validator.view.inputs import (
+    STILL_AIR,
     FailsafePath,
     TrackLayer,
     ViewInputs,
     Wind,
+    failsafe_paths,
     validation_inputs,
 )
 from validator.view.page import view_figure, view_html, write_view
 
-__all__ = ["FailsafePath", "TrackLayer", "ViewInputs", "Wind", "validation_inputs",
-           "view_figure", "view_html", "write_view"]
+__all__ = ["STILL_AIR", "FailsafePath", "TrackLayer", "ViewInputs", "Wind", "failsafe_paths",
+           "validation_inputs", "view_figure", "view_html", "write_view"]

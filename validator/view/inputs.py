@@ -3,22 +3,28 @@ it, and the layers other checks know about when they ran (failsafe paths, wind).
 
 Every layer past the plan and the site is optional, so a feature adds its layer by filling
 one field, and the view draws only what it is given. Positions are metres east/north of the
-site origin, times seconds from the takeoff, speeds m/s.
+site origin, times seconds from the takeoff, speeds m/s; a wind is :class:`validator.wind.Wind`
+(the direction it blows FROM, degrees true).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
+from validator.failsafe import FailsafeCheck, FailsafeReport, PathFinding
 from validator.flight import Flight
 from validator.plan_format import Plan
 from validator.replay import Track
 from validator.site import Site
 from validator.validation import Validation
+from validator.wind import Wind
+
+STILL_AIR = Wind(0.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -33,29 +39,24 @@ class TrackLayer:
 @dataclass(frozen=True)
 class FailsafePath:
     """A path the vehicle would fly on a failsafe (an RTL from some point, a fence breach
-    return), as a failsafe audit checked it: ``xy_m`` (P, 2); ``ok`` False when it failed."""
+    return), as a failsafe audit checked it: ``xy_m`` (P, 2) is a ``line``, the outline of
+    the ``region`` a family of paths sweeps, or the mission's own path it ``retrace``s;
+    ``ok`` False when it enters a zone or its buffer."""
 
     name: str
     xy_m: NDArray[np.float64]
     ok: bool = True
     note: str = ""
-
-
-@dataclass(frozen=True)
-class Wind:
-    """The wind a plan was checked against: ``speed_mps`` blowing FROM ``from_deg`` (degrees
-    clockwise from north, as a forecast gives it)."""
-
-    speed_mps: float
-    from_deg: float
-    note: str = ""
+    kind: Literal["line", "region", "retrace"] = "line"
 
 
 @dataclass(frozen=True)
 class ViewInputs:
     """Everything one view draws. ``flight`` is the plan resolved on the site
     (:func:`validator.flight.resolve_flight`); ``tracks`` are drawn in order and the first one
-    leads the time slider's node and rate read-outs."""
+    leads the time slider's node and rate read-outs. ``wind`` is the air the tracks fly in
+    and the plan was made for; ``planned_wind`` the one the plan was made for when that is
+    another (:data:`STILL_AIR` for still air, as ``wind`` may be)."""
 
     plan: Plan
     site: Site
@@ -63,12 +64,62 @@ class ViewInputs:
     tracks: tuple[TrackLayer, ...] = ()
     failsafe_paths: tuple[FailsafePath, ...] = ()
     wind: Wind | None = None
+    planned_wind: Wind | None = None
     title: str = ""
+
+
+def _flown_by(checks: list[FailsafeCheck]) -> str:
+    return "<br>".join(f"{c.trigger}: {c.param} {c.value:g} ({c.action}, {c.source})"
+                       for c in checks)
+
+
+def failsafe_paths(report: FailsafeReport, flight: Flight) -> tuple[FailsafePath, ...]:
+    """The paths of a failsafe audit (:func:`validator.failsafe.audit_failsafes`) a map can
+    show: for the actions flying a straight return (RTL), the region of every such return
+    and, per zone it enters, the deepest return; when none enters one, the return coming
+    closest to a zone. For SmartRTL (and PX4's mission-path Return) the mission's own path.
+    Land, Brake and Hold stay where the vehicle is: nothing to draw."""
+    flown: dict[str, list[FailsafeCheck]] = {}
+    for c in report.checks:
+        for kind in c.paths:
+            flown.setdefault(kind, []).append(c)
+    out: list[FailsafePath] = []
+    if "rtl" in flown:
+        who = _flown_by(flown["rtl"])
+        bad = [f for f in report.findings if f.path == "rtl"]
+        out += [FailsafePath("straight returns (RTL) from the mission", ring, not bad,
+                             f"the region of every straight return, flown by<br>{who}", "region")
+                for ring in report.return_region_xy_m]
+        deepest: dict[str, PathFinding] = {}
+        for f in bad:
+            if f.zone not in deepest or f.clearance_m < deepest[f.zone].clearance_m:
+                deepest[f.zone] = f
+        for f in deepest.values():
+            where = "home" if f.from_item < 0 else f"item {f.from_item}"
+            depth = (f"{-f.clearance_m:.2f} m deep into {f.zone}" if f.clearance_m < 0 else
+                     f"{f.clearance_m:.2f} m from {f.zone}, inside its {f.buffer_m:g} m buffer")
+            out.append(FailsafePath(
+                f"RTL to {f.destination} from the leg {where} -> item {f.item}",
+                np.array([f.start_xy_m, f.destination_xy_m]), False, depth))
+        w = report.worst_return
+        if not bad and w is not None:
+            out.append(FailsafePath(
+                f"the straight return closest to a zone: from item {w.item} to {w.destination}",
+                np.array([w.xy_m, w.destination_xy_m]), True,
+                f"{w.clearance_m:.2f} m from {w.zone}"))
+    retrace = flown.get("smartrtl", []) + flown.get("mission_path", [])
+    if retrace and flight.legs:
+        notes = [n for n in report.notes if "SmartRTL" in n or "SRTL" in n]
+        out.append(FailsafePath("retraced path (SmartRTL)", flight.path_xy_m, True,
+                                "<br>".join([f"retraces the mission, flown by<br>"
+                                             f"{_flown_by(retrace)}", *notes]), "retrace"))
+    return tuple(out)
 
 
 def validation_inputs(v: Validation, title: str = "") -> ViewInputs:
     """A :class:`~validator.validation.Validation`'s view: its plan and site, its replay and
-    the flown track of its flight (SITL or a recorded one), when it has them."""
+    the flown track of its flight (SITL or a recorded one), when it has them; the failsafe
+    paths its parameter file leaves; the wind it is flown in, and the plan's when another."""
     tracks = []
     if v.replay_track is not None and v.profile is not None:
         tracks.append(TrackLayer(f"replay ({v.profile.name})", v.replay_track))
@@ -77,5 +128,9 @@ def validation_inputs(v: Validation, title: str = "") -> ViewInputs:
         if "recorded_flight" in v.extra:
             who = f"recorded, {Path(v.extra['recorded_flight']['file']).name}"
         tracks.append(TrackLayer(f"flown ({who})", v.recorded.track(v.flight, v.site)))
-    return ViewInputs(v.plan, v.site, v.flight, tuple(tracks),
+    paths = failsafe_paths(v.failsafe, v.flight) if v.failsafe is not None else ()
+    wind, planned = v.flown_wind, None
+    if not v.wind_as_planned:
+        wind, planned = v.flown_wind or STILL_AIR, v.planned_wind or STILL_AIR
+    return ViewInputs(v.plan, v.site, v.flight, tuple(tracks), paths, wind, planned,
                       title=title or f"{v.site.name}: {Path(v.plan_path).name}")

@@ -25,6 +25,7 @@ from validator.view.inputs import ViewInputs
 Trace = dict[str, Any]
 
 ZONE_RED = "#d62728"
+FAILSAFE_GREEN = "#2ca02c"
 FENCE_ORANGE = "#ff7f0e"
 INCLUSION_BLUE = "#1f77b4"
 # Node colours: a qualitative palette without red, which the zones keep
@@ -281,17 +282,30 @@ def track_traces(inputs: ViewInputs, step: int = 5) -> list[Trace]:
 
 
 def failsafe_traces(inputs: ViewInputs) -> list[Trace]:
-    """The failsafe paths an audit checked: green when they held, red when not."""
+    """The failsafe paths an audit checked, green when they held, red when not: a region of
+    returns as a light filled outline, one return as a dash-dot line, the mission's path a
+    SmartRTL retraces as a halo under the legs."""
     out = []
-    for i, path in enumerate(inputs.failsafe_paths):
-        legend = "failsafe path" if path.ok else "failsafe path (failed)"
-        out.append({"type": "scatter", "mode": "lines", **_xy(path.xy_m), "name": legend,
-                    "legendgroup": legend, "showlegend": all(
-                        p.ok != path.ok for p in inputs.failsafe_paths[:i]),
-                    "meta": {"layer": "failsafe"}, "hoverinfo": "text",
-                    "hovertext": path.name + (f": {path.note}" if path.note else ""),
-                    "line": {"color": "#2ca02c" if path.ok else ZONE_RED, "width": 1.5,
-                             "dash": "dashdot"}})
+    shown: set[str] = set()
+    for path in inputs.failsafe_paths:
+        colour, fill = ((FAILSAFE_GREEN, "rgba(44,160,44,0.08)") if path.ok
+                        else (ZONE_RED, "rgba(214,39,40,0.08)"))
+        legend = {"region": "failsafe returns", "line": "failsafe return",
+                  "retrace": "failsafe retrace"}[path.kind] + (
+                      " (clear)" if path.ok else " (into a zone or buffer)")
+        t: Trace = {"type": "scatter", "mode": "lines", **_xy(path.xy_m), "name": legend,
+                    "legendgroup": legend, "showlegend": legend not in shown,
+                    "meta": {"layer": "failsafe", "kind": path.kind, "ok": path.ok},
+                    "hoverinfo": "text", "hoveron": "points",
+                    "hovertext": f"<b>{path.name}</b>" + (f"<br>{path.note}" if path.note else ""),
+                    "line": {"color": colour, "width": 2.0, "dash": "dashdot"}}
+        if path.kind == "region":
+            t.update(fill="toself", fillcolor=fill, line={"color": colour, "width": 0.8,
+                                                          "dash": "dot"})
+        elif path.kind == "retrace":
+            t.update(line={"color": colour, "width": 10.0}, opacity=0.3)
+        out.append(t)
+        shown.add(legend)
     return out
 
 

@@ -29,6 +29,10 @@ MAP_STYLE = "open-street-map"  # plotly's name for OpenStreetMap's tiles
 MAP_X = (0.0, 0.55)  # paper fractions: the map, and the panels to its right
 PANEL_X = (0.68, 1.0)
 MAP_Y = (0.2, 1.0)
+WIND_BLUE, WIND_GREY = "#1f77b4", "#666666"
+# the wind's place: beside the map, under the speed colour bar (layers.waypoint_trace)
+WIND_X, WIND_Y, WIND_ROW = 0.605, 0.42, 0.12
+WIND_ARROW_PX = 14  # half the wind arrow's length
 # What scattermap traces cannot take from their local-metre twins
 _MAP_DROP_LINE = ("dash",)
 _MAP_DROP_MARKER = ("symbol", "line")
@@ -80,20 +84,41 @@ def _map_view(inputs: ViewInputs) -> dict[str, Any]:
 
 
 def _wind_annotation(inputs: ViewInputs) -> list[dict[str, Any]]:
-    """An arrow in the map's corner pointing where the wind blows, with its speed."""
-    w = inputs.wind
-    if w is None:
-        return []
-    to = math.radians(w.from_deg + 180.0)
-    dx, dy = math.sin(to), -math.cos(to)  # screen y points down
-    head = {"x": MAP_X[0] + 0.05, "y": MAP_Y[1] - 0.06, "xref": "paper", "yref": "paper"}
-    return [{**head, "ax": -dx * 28, "ay": -dy * 28, "text": "", "showarrow": True,
-             "arrowhead": 2, "arrowsize": 1.2, "arrowwidth": 3, "arrowcolor": "#1f77b4",
-             "xshift": dx * 28, "yshift": -dy * 28},
-            {**head, "showarrow": False, "xanchor": "left", "xshift": 40,
-             "text": f"wind {w.speed_mps:g} m/s from {w.from_deg:g}°"
-                     + (f"<br>{html.escape(w.note)}" if w.note else ""),
-             "bgcolor": "rgba(255,255,255,0.8)", "font": {"size": 11, "color": "#1f77b4"}}]
+    """Beside the map's lower right corner (under the speed colour bar, where it hides no
+    data), per wind: an arrow pointing where it blows and what it is: speed, the direction it
+    blows FROM in degrees true, turbulence (at the flight altitude when the forecast has
+    layers). The wind flown in, and the one the plan was made for when it is another."""
+    rows = []
+    if inputs.wind is not None:
+        rows.append(("wind" if inputs.planned_wind is None else "flown in", inputs.wind,
+                     WIND_BLUE))
+    if inputs.planned_wind is not None:
+        rows.append(("plan made for", inputs.planned_wind, WIND_GREY))
+    out: list[dict[str, Any]] = []
+    for i, (what, wind, colour) in enumerate(rows):
+        at = wind.at(inputs.site.altitude_m)
+        centre = {"x": WIND_X, "y": WIND_Y - WIND_ROW * i, "xref": "paper", "yref": "paper"}
+        if not at.calm:
+            to = math.radians(at.from_deg + 180.0)
+            dx, dy = math.sin(to), -math.cos(to)  # screen y points down
+            # centred on its point: the head a half-length ahead, the tail two behind it
+            out.append({**centre, "ax": -2 * dx * WIND_ARROW_PX, "ay": -2 * dy * WIND_ARROW_PX,
+                        "text": "", "showarrow": True, "arrowhead": 2, "arrowsize": 1.2,
+                        "arrowwidth": 3, "arrowcolor": colour, "xshift": dx * WIND_ARROW_PX,
+                        "yshift": -dy * WIND_ARROW_PX})
+        lines = [f"<b>{what}</b>"]
+        if at.calm:
+            lines.append("still air")
+        else:
+            lines.append(f"{at.speed_mps:g} m/s from {at.from_deg:g}°")
+            if at.turbulence_mps:
+                lines.append(f"turbulence {at.turbulence_mps:g} m/s")
+        if wind.layers:
+            lines.append(f"at {inputs.site.altitude_m:g} m")
+        out.append({**centre, "showarrow": False, "xanchor": "center", "yanchor": "top",
+                    "yshift": -WIND_ARROW_PX - 4, "text": "<br>".join(lines),
+                    "align": "center", "font": {"size": 10, "color": colour}})
+    return out
 
 
 def _layout(inputs: ViewInputs, timeline: Timeline, map_background: bool) -> dict[str, Any]:
