@@ -26,6 +26,7 @@ from validator.site import Site, load_site
 DATA = Path(__file__).resolve().parents[1] / "data" / "px4-corners"
 NEAR_M = 15.0  # a corner's turn is judged on the track within this distance of its waypoint
 MIN_TURN_DEG = 10.0  # gentler bends are flown as straight lines (no turn to measure)
+MIN_LEG_M = 2 * NEAR_M  # a corner is measured alone: no other waypoint within NEAR_M of it
 
 
 def names() -> list[str]:
@@ -55,15 +56,22 @@ def load(name: str) -> CornerFlight:
 
 def corner_legs(flight: Flight) -> list[int]:
     """Legs ``k`` of ``flight`` whose waypoint is flown through (no hold) into a turn of at
-    least :data:`MIN_TURN_DEG` onto leg ``k + 1``."""
+    least :data:`MIN_TURN_DEG` onto leg ``k + 1``, both legs at least :data:`MIN_LEG_M` long."""
     out = []
     for k, leg in enumerate(flight.legs[:-1]):
         nxt = flight.legs[k + 1]
         if not leg.pass_through or leg.kind != "waypoint" or nxt.kind != "waypoint":
             continue
+        if min(_length_m(leg.start_xy_m, leg.end_xy_m), _length_m(nxt.start_xy_m, nxt.end_xy_m)
+               ) < MIN_LEG_M:
+            continue
         if _turn_deg(leg.start_xy_m, leg.end_xy_m, nxt.end_xy_m) >= MIN_TURN_DEG:
             out.append(k)
     return out
+
+
+def _length_m(a: NDArray[np.float64], b: NDArray[np.float64]) -> float:
+    return float(np.hypot(*(np.asarray(b, dtype=float) - np.asarray(a, dtype=float))))
 
 
 def _turn_deg(a: NDArray[np.float64], c: NDArray[np.float64], b: NDArray[np.float64]) -> float:
