@@ -76,17 +76,7 @@ def build_parser() -> argparse.ArgumentParser:
                          "outage is always judged against the published radius")
     p4.add_argument("--max-iterations", type=int, default=None,
                     help="cap on Algorithm 1's iterations (planner default)")
-    p4.add_argument("--workers", type=int, default=None,
-                    help="local worker processes (all CPUs); 1 runs in this process")
-    p4.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
-                    help="run the trials on this Dask scheduler instead")
-    p4.add_argument("--format", dest="table_format", default="csv",
-                    help="trial table format: csv or parquet (needs pyarrow)")
-    p4.add_argument("--retry-errors", action="store_true",
-                    help="re-run logged trials that ended in an error")
-    p4.add_argument("--no-progress", "--quiet", action="store_true",
-                    help="no progress bar (trials done, rate, time left; shown only on a "
-                         "terminal)")
+    _add_trial_options(p4)
 
     pw = sub.add_parser("wind", help="one site planned for and flown in a sweep of winds")
     pw.add_argument("site", help="site YAML file")
@@ -99,18 +89,24 @@ def build_parser() -> argparse.ArgumentParser:
                     help="turbulence of every windy trial, m/s (0)")
     pw.add_argument("--autopilot", choices=("ardupilot", "px4"), default="ardupilot",
                     help="the plans' autopilot and flight model (ardupilot)")
-    pw.add_argument("--workers", type=int, default=None,
-                    help="local worker processes (all CPUs); 1 runs in this process")
-    pw.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
-                    help="run the trials on this Dask scheduler instead")
-    pw.add_argument("--format", dest="table_format", default="csv",
-                    help="trial table format: csv or parquet (needs pyarrow)")
-    pw.add_argument("--retry-errors", action="store_true",
-                    help="re-run logged trials that ended in an error")
-    pw.add_argument("--no-progress", "--quiet", action="store_true",
-                    help="no progress bar (trials done, rate, time left; shown only on a "
-                         "terminal)")
+    _add_trial_options(pw)
     return parser
+
+
+def _add_trial_options(p: argparse.ArgumentParser) -> None:
+    """How a study's trials run and are kept: workers or a Dask scheduler, the table format,
+    retrying errors, the progress bar (the same for every study)."""
+    p.add_argument("--workers", type=int, default=None,
+                   help="local worker processes (all CPUs); 1 runs in this process")
+    p.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                   help="run the trials on this Dask scheduler instead")
+    p.add_argument("--format", dest="table_format", default="csv",
+                   help="trial table format: csv or parquet (needs pyarrow)")
+    p.add_argument("--retry-errors", action="store_true",
+                   help="re-run logged trials that ended in an error")
+    p.add_argument("--no-progress", "--quiet", action="store_true",
+                   help="no progress bar (trials done, rate, time left; shown only on a "
+                        "terminal)")
 
 
 def _options(args: argparse.Namespace) -> Any:
