@@ -8,6 +8,7 @@ the full 20-try figure is ``benchmarks/bench_lossy_link.py``.
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import pytest
@@ -57,6 +58,21 @@ def clear_lists(url: str) -> None:
                     ["MISSION_ACK"], lambda a, m=int(mtype): a.mission_type == m):
                 if ack is not None:
                     break
+
+
+def back_once_rebooted(url: str, patience_s: float = 120.0) -> None:
+    """Wait until the rebooted vehicle answers and is ready again (a connection made while it
+    restarts may be closed under us: try again)."""
+    deadline = time.monotonic() + patience_s
+    while True:
+        try:
+            with Link(url, timeout_s=30) as link:
+                wait_until_ready(link)
+            return
+        except LinkError:
+            if time.monotonic() > deadline:
+                raise
+            time.sleep(1.0)
 
 
 def holds(url: str, plan: Plan) -> bool:
@@ -112,6 +128,7 @@ def test_a_reboot_mid_upload_on_its_tcp_link_is_a_clear_error_and_the_next_uploa
                                             r"connection \(it rebooted or stopped\) after item"):
             upload_to(link, plan, params)
         assert reboot.sent
+    back_once_rebooted(sitl_url)  # as an operator would: upload again once it is back
     report = upload_plan(plan, sitl_url, timeout_s=30, params=params)
     assert report.counts["mission"] == len(plan_to_wire(plan, home_item=True).mission)
     assert holds(sitl_url, plan)
