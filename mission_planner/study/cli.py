@@ -152,16 +152,7 @@ def _fig4(args: argparse.Namespace) -> int:
         progress=False if args.no_progress else None, table_format=args.table_format,
         retry_errors=args.retry_errors,
     )
-    run = result.run
-    print(f"{len(run.rows)} trials ({run.executed} run now, {run.skipped} from {args.out})")
-    for path in result.files:
-        print(path)
-    if run.failed:
-        print(f"warning: {len(run.failed)} trials failed, e.g. {run.failed[0]['key']}: "
-              f"{run.failed[0]['error']}", file=sys.stderr)
-        if len(run.failed) == len(run.rows):
-            return 1
-    return 0
+    return _said(result, args.out)
 
 
 def _wind(args: argparse.Namespace) -> int:
@@ -174,8 +165,13 @@ def _wind(args: argparse.Namespace) -> int:
         scheduler=args.scheduler, progress=False if args.no_progress else None,
         table_format=args.table_format, retry_errors=args.retry_errors,
     )
+    return _said(result, args.out)
+
+
+def _said(result: Any, out: str) -> int:
+    """Print what a study run did and wrote; exit 1 when every trial failed."""
     run = result.run
-    print(f"{len(run.rows)} trials ({run.executed} run now, {run.skipped} from {args.out})")
+    print(f"{len(run.rows)} trials ({run.executed} run now, {run.skipped} from {out})")
     for path in result.files:
         print(path)
     if run.failed:
