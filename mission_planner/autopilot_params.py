@@ -36,7 +36,7 @@ A value outside the documented range is still written (the plan needs it) and li
 :func:`dumps_params` writes them as an ArduPilot ``.param`` file (``NAME VALUE`` per line, as
 Mission Planner and MAVProxy load) or, for PX4, as a QGroundControl parameter file
 (``SYSID COMPID NAME VALUE TYPE``, tab-separated; :mod:`validator.autopilot.param_file`);
-``#`` lines are comments in both, and ``upload-mission --set-params`` reads both.
+``#`` lines are comments in both, and ``upload-mission --params`` reads both.
 """
 
 from __future__ import annotations

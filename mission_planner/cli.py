@@ -4,7 +4,7 @@
         [--report R.json] [--dynamics vehicle|none] [--buffer-m B] [--autopilot ardupilot|px4]
         [--cycles C] [--wind SPEED@FROM[,TURB]]
         [--fence-margin-m M] [--operating-area polygon|circle] [--operating-area-margin-m A]
-        [--format plan|waypoints] [--params F.param] [--no-merge] [--stop-at-every-waypoint]
+        [--format plan|waypoints] [--params-out F.param] [--no-merge] [--stop-at-every-waypoint]
         [--second-start] [--geojson F.geojson] [--plot F.png] [--html F.html [--html-map]]
         [--force] [--quiet] [--at ISO-8601] [--authorised ZONE ...]
 
@@ -14,7 +14,7 @@ reproduces its results. With ``--dynamics vehicle`` an ArduCopter plan flies thr
 whose blended turn keeps the buffer (:mod:`mission_planner.optimize.corners`);
 ``--stop-at-every-waypoint`` makes it stop at each. ``--second-start`` runs Algorithm 1 from a
 second starting schedule and keeps the better plan (twice the time). Beside the mission goes the
-parameter file the autopilot needs (``OUT.param`` or ``--params``;
+parameter file the autopilot needs (``OUT.param`` or ``--params-out FILE``;
 :mod:`mission_planner.autopilot_params`). The mission is then replayed with the validator's
 model of the autopilot set to those parameters (:mod:`mission_planner.flight_report`): the
 report gets a ``"flight"`` section and stderr a one-line warning when the flown cycle is more
@@ -29,9 +29,11 @@ apply at ``--at`` for the mission's duration (:mod:`mission_planner.airspace_tim
 those ``--authorised``; the report's ``"airspace"`` section lists every zone within reach,
 taken or why not, and stderr a line per zone.
 
-Exit status: 0 written; 1 refused by the safety gate (some leg inside an NFZ plus its buffer,
-or another problem of :func:`mission_planner.mission.plan_problems`), nothing written unless
-``--force``; 2 bad input (one line on stderr naming the field), nothing written.
+The result line goes to stdout; progress, notes and warnings to stderr. Exit status
+(:data:`validator.cli_common.EXIT_STATUS`): 0 written; 1 refused by the safety gate (some leg
+inside an NFZ plus its buffer, or another problem of
+:func:`mission_planner.mission.plan_problems`), nothing written unless ``--force``; 2 bad input
+(one line on stderr naming the field), nothing written; 130 interrupted, nothing written.
 Every output is prepared in memory first and written atomically.
 
 The same steps from Python: the front door, :mod:`mission_planner.api` (``plan_mission``,
@@ -50,7 +52,6 @@ from mission_planner.api import write_mission
 from mission_planner.autopilot_params import AutopilotParams, recommended_params
 from mission_planner.flight_report import FlightCheck, replay_mission
 from mission_planner.mission import (
-    AUTOPILOTS,
     OPERATING_AREAS,
     Mission,
     MissionOptions,
@@ -65,17 +66,27 @@ from mission_planner.pipeline import (
     speed_warning,
 )
 from mission_planner.progress import PlanProgress
-from validator.errors import CommandParser, InputError, UserError, report_error
+from validator.cli_common import (
+    EXIT_OK,
+    EXIT_VERDICT,
+    add_autopilot_arguments,
+    add_deprecated,
+    add_quiet_argument,
+    command_parser,
+    run_command,
+)
+from validator.errors import InputError
+from validator.plan_format import Autopilot
 from validator.site import Site
 from validator.uas_zones.applicability import AirspaceOptions, parse_at
 from validator.wind import parse_wind_arg
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = CommandParser(
-        prog="plan-mission",
-        description="Optimise a site's UAV service cycle (trajectory, slot lengths, power, "
-        "scheduling) avoiding no-fly zones, and export it as an autopilot mission.",
+    p = command_parser(
+        "plan-mission",
+        "Optimise a site's UAV service cycle (trajectory, slot lengths, power, scheduling) "
+        "avoiding no-fly zones, and export it as an autopilot mission.",
     )
     p.add_argument("site", type=Path, help="site file (YAML)")
     p.add_argument("-o", "--output", type=Path, required=True,
@@ -105,8 +116,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="the day's wind forecast at the flight altitude, overriding the "
                    "site's wind: m/s and the direction it blows from in degrees true, "
                    "e.g. 7@300; SPEED@FROM,TURB adds the turbulence (m/s); 0 for still air")
-    p.add_argument("--autopilot", choices=tuple(AUTOPILOTS), default="ardupilot",
-                   help="firmware the plan is for (default: ardupilot)")
+    add_autopilot_arguments(p, default=Autopilot.ARDUPILOTMEGA,
+                            help="firmware the plan is for (default: ardupilot)")
     p.add_argument("--cycles", type=int, default=1,
                    help="service cycles to fly before returning (DO_JUMP; default 1)")
     p.add_argument("--fence-margin-m", type=float,
@@ -119,10 +130,13 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--format", choices=FORMATS,
                    help="plan (QGroundControl) or waypoints (QGC WPL 110 with .fence/.rally "
                    "files beside it); default: from the output's suffix, else plan")
-    p.add_argument("--params", type=Path,
-                   help="autopilot parameter file to write (default: the output with suffix "
-                   ".param): WPNAV_SPEED/ACCEL/JERK/RADIUS for ArduPilot, MPC_XY_CRUISE, "
-                   "MPC_XY_VEL_MAX, MPC_ACC_HOR, MPC_JERK_AUTO, NAV_ACC_RAD for PX4")
+    p.add_argument("--params-out", type=Path, metavar="FILE",
+                   help="the parameter file to write for the vehicle to fly with (default: "
+                   "the output with suffix .param): WPNAV_SPEED/ACCEL/JERK/RADIUS for "
+                   "ArduPilot, MPC_XY_CRUISE, MPC_XY_VEL_MAX, MPC_ACC_HOR, MPC_JERK_AUTO, "
+                   "NAV_ACC_RAD for PX4; the other commands read it as --params FILE")
+    add_deprecated(p, "--params", "--params-out", dest="params_out", type=Path,
+                   metavar="FILE")
     p.add_argument("--no-merge", action="store_true",
                    help="one waypoint per moving slot (default: straight slots at one speed "
                    "merge into one long leg)")
@@ -143,9 +157,9 @@ def _parser() -> argparse.ArgumentParser:
                    "browser when the page opens, so online only; default: local metres)")
     p.add_argument("--force", action="store_true",
                    help="write the mission even if the safety gate refuses it")
-    p.add_argument("--quiet", "--no-progress", action="store_true",
-                   help="no progress line (warnings and the result still print; there is none "
-                   "either when stderr is not a terminal)")
+    add_quiet_argument(p, "no progress line and no notes on stderr (warnings and the result "
+                          "still print; there is no progress either when stderr is not a "
+                          "terminal)")
     # Removed: the optimiser is deterministic, so a seed never did anything. Accepted with a
     # deprecation line for one release.
     p.add_argument("--seed", type=int, help=argparse.SUPPRESS)
@@ -154,78 +168,76 @@ def _parser() -> argparse.ArgumentParser:
 
 def plan_mission_main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``plan-mission`` (see the module doc); returns the exit status."""
-    args = _parser().parse_args(argv)
+    return run_command("plan-mission", lambda: _plan(_parser().parse_args(argv)))
+
+
+def _plan(args: argparse.Namespace) -> int:
     if args.seed is not None:
-        print("plan-mission: --seed is deprecated and has no effect (the optimiser is "
+        print("warning: --seed is deprecated and has no effect (the optimiser is "
               "deterministic)", file=sys.stderr)
-    try:
-        fmt = args.format or ("waypoints" if args.output.suffix == ".waypoints" else "plan")
-        param_file = args.params or params_path(args.output)
-        if args.html_map and not args.html:
-            raise InputError("--html-map: only with --html")
-        outputs = [args.output, param_file] + [
-            p for p in (args.report, args.geojson, args.plot, args.html) if p]
-        if fmt == "waypoints":
-            from validator.waypoints_format import sidecar_paths
+    autopilot: Autopilot = args.autopilot
+    fmt = args.format or ("waypoints" if args.output.suffix == ".waypoints" else "plan")
+    param_file = args.params_out or params_path(args.output)
+    if args.html_map and not args.html:
+        raise InputError("--html-map: only with --html")
+    outputs = [args.output, param_file] + [
+        p for p in (args.report, args.geojson, args.plot, args.html) if p]
+    if fmt == "waypoints":
+        from validator.waypoints_format import sidecar_paths
 
-            outputs += list(sidecar_paths(args.output))
-        check_output_paths(outputs)
-        airspace = AirspaceOptions(parse_at(args.at) if args.at else None,
-                                   authorised=frozenset(args.authorised))
-        wind = parse_wind_arg(args.wind) if args.wind is not None else None
-        options = MissionOptions(
-            autopilot=args.autopilot,
-            cycles=args.cycles,
-            fence_margin_m=args.fence_margin_m,
-            operating_area=args.operating_area,
-            operating_area_margin_m=args.operating_area_margin_m,
-            merge_legs=not args.no_merge,
-        )
+        outputs += list(sidecar_paths(args.output))
+    check_output_paths(outputs)
+    airspace = AirspaceOptions(parse_at(args.at) if args.at else None,
+                               authorised=frozenset(args.authorised))
+    wind = parse_wind_arg(args.wind) if args.wind is not None else None
+    options = MissionOptions(
+        autopilot=autopilot.key,
+        cycles=args.cycles,
+        fence_margin_m=args.fence_margin_m,
+        operating_area=args.operating_area,
+        operating_area_margin_m=args.operating_area_margin_m,
+        merge_legs=not args.no_merge,
+    )
 
-        def forecast(site: Site) -> Site:
-            """The site in the day's forecast, which overrides the site's own wind."""
-            return site if wind is None else site.with_limits(wind=None if wind.calm else wind)
+    def forecast(site: Site) -> Site:
+        """The site in the day's forecast, which overrides the site's own wind."""
+        return site if wind is None else site.with_limits(wind=None if wind.calm else wind)
 
-        def made(site: Site) -> tuple[Mission, AutopilotParams, FlightCheck]:
-            mission = plan_and_build(forecast(site), args.scheme, options, dynamics=args.dynamics,
-                                     progress=progress if progress.shown else None,
-                                     pass_through_corners=not args.stop_at_every_waypoint,
-                                     second_start=args.second_start,
-                                     wind_buffer=args.buffer_m is None)
-            params = recommended_params(mission)
-            return mission, params, replay_mission(mission, params)
+    def made(site: Site) -> tuple[Mission, AutopilotParams, FlightCheck]:
+        mission = plan_and_build(forecast(site), args.scheme, options, dynamics=args.dynamics,
+                                 progress=progress if progress.shown else None,
+                                 pass_through_corners=not args.stop_at_every_waypoint,
+                                 second_start=args.second_start,
+                                 wind_buffer=args.buffer_m is None)
+        params = recommended_params(mission)
+        return mission, params, replay_mission(mission, params)
 
-        with PlanProgress(enabled=False if args.quiet else None) as progress:
-            site, (mission, autopilot_params, flight) = plan_for_time(
-                args.site, airspace, args.cycles, made, lambda m: m[2].report.duration_s,
-                args.buffer_m)
-        site = forecast(site)
-        for line in site.airspace.lines():
-            print(f"plan-mission: {line}", file=sys.stderr)
-        if args.at and not site.airspace.uas:
-            print("plan-mission: note: the site names no UAS zones (ED-269, ED-318): --at "
-                  "changes nothing", file=sys.stderr)
-        if mission.problems:
-            for problem in mission.problems:
-                print(f"plan-mission: unsafe: {problem}", file=sys.stderr)
-            if not args.force:
-                print(f"plan-mission: refused to write {args.output} "
-                      f"({len(mission.problems)} problems); --force writes it anyway",
-                      file=sys.stderr)
-                return 1
-            print("plan-mission: --force: writing the unsafe mission", file=sys.stderr)
-        written = write_mission(mission, args.output, fmt=fmt, report=args.report,
-                                geojson=args.geojson, plot=args.plot, params=param_file,
-                                autopilot_params=autopilot_params, flight=flight,
-                                html=args.html, html_map=args.html_map, force=True)
-    except UserError as err:
-        return report_error("plan-mission", err)
-    except KeyboardInterrupt:
-        print("plan-mission: interrupted; nothing written", file=sys.stderr)
-        return 130
-    for note in autopilot_params.notes:
+    with PlanProgress(enabled=False if args.quiet else None) as progress:
+        site, (mission, autopilot_params, flight) = plan_for_time(
+            args.site, airspace, args.cycles, made, lambda m: m[2].report.duration_s,
+            args.buffer_m)
+    site = forecast(site)
+    for line in site.airspace.lines():
+        print(f"plan-mission: {line}", file=sys.stderr)
+    if args.at and not site.airspace.uas and not args.quiet:
+        print("plan-mission: note: the site names no UAS zones (ED-269, ED-318): --at "
+              "changes nothing", file=sys.stderr)
+    if mission.problems:
+        for problem in mission.problems:
+            print(f"plan-mission: unsafe: {problem}", file=sys.stderr)
+        if not args.force:
+            print(f"plan-mission: refused to write {args.output} "
+                  f"({len(mission.problems)} problems); --force writes it anyway",
+                  file=sys.stderr)
+            return EXIT_VERDICT
+        print("plan-mission: --force: writing the unsafe mission", file=sys.stderr)
+    written = write_mission(mission, args.output, fmt=fmt, report=args.report,
+                            geojson=args.geojson, plot=args.plot, params=param_file,
+                            autopilot_params=autopilot_params, flight=flight,
+                            html=args.html, html_map=args.html_map, force=True)
+    for note in () if args.quiet else autopilot_params.notes:
         print(f"plan-mission: note: {note}", file=sys.stderr)
-    too_fast = speed_warning(site, args.dynamics, args.autopilot)
+    too_fast = speed_warning(site, args.dynamics, autopilot.key)
     if too_fast:
         print(f"plan-mission: warning: {too_fast}", file=sys.stderr)
     warning = flight.warning()
@@ -241,9 +253,8 @@ def plan_mission_main(argv: Sequence[str] | None = None) -> int:
         + ("none (no NFZ)" if clearance is None else f"{clearance:.3f} m")
         + f"; {flight.profile.name} replay: " + _replay_summary(flight)
         + (f"; planned for wind {site.wind.label()}" if site.wind is not None else ""),
-        file=sys.stderr,
     )
-    return 0
+    return EXIT_OK
 
 
 def _replay_summary(flight: FlightCheck) -> str:

@@ -1,27 +1,30 @@
 """``validate-mission``: audit a ``.plan`` against a site, optionally replay it in time.
 
-    validate-mission PLAN --site SITE [--report OUT] [--replay] [--profile ideal|arducopter|px4]
+    validate-mission PLAN --site SITE [--report OUT] [--replay]
+                     [--autopilot ardupilot|px4 | --profile ideal]
                      [--params FILE [--force]] [--param NAME=VALUE ...] [--dt SECONDS]
                      [--flown TRACK.csv] [--html OUT.html [--html-map]]
-                     [--wind SPEED@FROM[,TURB]]
-                     [--sitl [--sitl-binary PATH | --sitl-url URL] [--fault KIND] ...]
+                     [--wind SPEED@FROM[,TURB]] [--quiet]
+                     [--sitl [--sitl-binary PATH | --connect URL [--sysid N]
+                      [--signing-key FILE]] [--timeout S] [--fault KIND] ...]
                      [--at ISO-8601] [--authorised ZONE ...]
 
-Prints a table; ``--report OUT`` (formerly ``--json``) also writes the full report
-atomically. Exit status: 0 clear, 1 a violation (audit or replay), 2 bad input (one line on
-stderr, no output file).
-``--profile`` or ``--param`` imply ``--replay``; the default profile follows the plan's
-firmware (PX4 -> ``px4``, otherwise ``arducopter``). ``--params FILE`` is the parameter file
-the vehicle will fly with (``plan-mission`` writes one beside the plan): its motion parameters
-feed the replay, it is set on the vehicle of a ``--sitl`` flight, a file that leaves the
-geofence off or with a breach action that can cross another zone is flagged, and the path of
-every failsafe it leaves is audited (:mod:`validator.failsafe`): one that crosses a zone or its
-buffer fails the audit (exit 1) unless ``--force``. ``--at`` and ``--authorised`` re-decide
-the site's UAS zones (ED-269, ED-318) for the plan's flight from that time: a leg in a zone
-active then is a violation (without ``--at`` every zone is taken as active).
+Prints a table on stdout; ``--report OUT`` also writes the full report atomically. Exit
+status: :data:`validator.cli_common.EXIT_STATUS` (0 clear, 1 a violation (audit, replay or
+flight), 2 bad input (one line on stderr, no output file), 130 interrupted).
+``--autopilot``, ``--profile ideal`` or ``--param`` imply ``--replay``; the default flight model
+follows the plan's firmware (PX4 -> ``px4``, otherwise ``arducopter``). ``--params FILE`` is the
+parameter file the vehicle will fly with (``plan-mission`` writes one beside the plan): its
+motion parameters feed the replay, it is set on the vehicle of a ``--sitl`` flight, a file that
+leaves the geofence off or with a breach action that can cross another zone is flagged, and
+the path of every failsafe it leaves is audited (:mod:`validator.failsafe`): one that crosses
+a zone or its buffer fails the audit (exit 1) unless ``--force``. ``--at`` and
+``--authorised`` re-decide the site's UAS zones (ED-269, ED-318) for the plan's flight from
+that time: a leg in a zone active then is a violation (without ``--at`` every zone is taken as
+active).
 
 Everything here parses and prints around :func:`validator.validation.validate_mission`, which
-notebooks can call.
+notebooks can call (or :mod:`validator.api`).
 """
 
 from __future__ import annotations
@@ -34,11 +37,26 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from validator.autopilot.param_file import read_params
-from validator.errors import CommandParser, InputError, UserError, report_error
+from validator.cli_common import (
+    add_autopilot_arguments,
+    add_deprecated,
+    add_quiet_argument,
+    command_parser,
+    read_signing_key_arg,
+    run_command,
+)
+from validator.errors import InputError
 from validator.fileio import write_all_atomic
 from validator.flight import Finding
-from validator.mavlink.sitl_check import add_sitl_arguments, run_sitl, split_sitl_url
-from validator.motion.profile import PROFILES, parse_param_overrides
+from validator.mavlink.sitl_check import (
+    add_sitl_arguments,
+    fly_validation,
+    progress_printer,
+    split_sitl_url,
+)
+from validator.mavlink.vehicles import choose_vehicle
+from validator.motion.profile import ProfileName, parse_param_overrides
+from validator.plan_format import Autopilot
 from validator.replay import TrackReport
 from validator.track_file import write_track
 from validator.uas_zones.applicability import AirspaceOptions, parse_at
@@ -221,21 +239,21 @@ def build_parser() -> argparse.ArgumentParser:
     ``--sitl [URL]`` (fly the mission on a MAVLink vehicle and score its telemetry into
     ``Validation.sitl``) belongs to :mod:`validator.mavlink` and is added here by it.
     """
-    p = CommandParser(
-        prog="validate-mission",
-        description="Prove a mission's continuous-path NFZ clearance: exact audit of every "
-                    "straight leg and the geofence, and a time-domain replay of how a "
-                    "multicopter flies it.",
-        epilog="Exit status: 0 clear, 1 violation, 2 bad input.",
+    p = command_parser(
+        "validate-mission",
+        "Prove a mission's continuous-path NFZ clearance: exact audit of every straight leg "
+        "and the geofence, and a time-domain replay of how a multicopter flies it.",
     )
     p.add_argument("plan", help="QGroundControl .plan file")
     p.add_argument("--site", required=True, help="site YAML file")
     p.add_argument("--report", metavar="OUT",
                    help="also write the full report as JSON (as plan-mission --report)")
-    p.add_argument("--json", metavar="OUT", help=argparse.SUPPRESS)  # the old --report
+    add_deprecated(p, "--json", "--report", dest="report", metavar="OUT")
     p.add_argument("--replay", action="store_true", help="fly the mission in time")
-    p.add_argument("--profile", choices=PROFILES,
-                   help="flight model (default: by the plan's firmware); implies --replay")
+    add_autopilot_arguments(
+        p, help="replay with this autopilot's flight model (default: by the plan's firmware); "
+                "implies --replay",
+        profile="replay with the kinematic model instead (top speed only); implies --replay")
     p.add_argument("--params", metavar="FILE",
                    help="the parameter file the vehicle flies with (as plan-mission writes "
                         "beside the plan): feeds the replay, is set on a --sitl vehicle, "
@@ -271,53 +289,66 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--html-map", action="store_true",
                    help="with --html, draw the view on OpenStreetMap tiles (fetched by the "
                         "browser when the page opens, so online only; default: local metres)")
+    add_quiet_argument(p, "no flight progress on stderr (shown only on a terminal; warnings, "
+                          "errors and the table still print)")
     add_sitl_arguments(p)
     return p
 
 
 def validate_mission_main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``validate-mission``; returns the exit status."""
-    args = build_parser().parse_args(split_sitl_url(sys.argv[1:] if argv is None else argv))
-    report_path = args.report or args.json
-    if args.json:
-        print("validate-mission: --json is deprecated: use --report", file=sys.stderr)
-    try:
-        flying = bool(args.sitl or args.sitl_binary or args.sitl_url)
-        if args.html_map and not args.html:
-            raise InputError("--html-map: only with --html")
-        if args.flown and flying:
-            raise InputError("--flown: a recorded flight, or a flight now (--sitl…), not both")
-        for out in (args.html, report_path, args.track):
-            if out and not Path(out).resolve().parent.is_dir():
-                raise InputError(f"{out}: folder {Path(out).parent} does not exist")
-        if args.track and not flying:
-            raise InputError("--track: only a flight has a track (add --sitl, --sitl-binary "
-                             "or --sitl-url)")
-        params = parse_param_overrides(args.param)
-        vehicle_params = read_params(args.params) if args.params else None
-        wind = parse_wind_arg(args.wind) if args.wind is not None else None
-        v = validate_mission(args.plan, args.site,
-                             replay_flight=args.replay or bool(args.html) or wind is not None,
-                             profile=args.profile, params=params or None, dt_s=args.dt,
-                             vehicle_params=vehicle_params, flown_track=args.flown, wind=wind,
-                             airspace=AirspaceOptions(parse_at(args.at) if args.at else None,
-                                                      authorised=frozenset(args.authorised)),
-                             force=args.force)
-        if flying:
-            run_sitl(v, args, vehicle_params)
+    return run_command("validate-mission", lambda: _validate(build_parser().parse_args(
+        split_sitl_url(sys.argv[1:] if argv is None else argv))))
+
+
+def _validate(args: argparse.Namespace) -> int:
+    flying = bool(args.sitl or args.sitl_binary or args.connect)
+    if args.html_map and not args.html:
+        raise InputError("--html-map: only with --html")
+    if args.flown and flying:
+        raise InputError("--flown: a recorded flight, or a flight now (--sitl…), not both")
+    for out in (args.html, args.report, args.track):
+        if out and not Path(out).resolve().parent.is_dir():
+            raise InputError(f"{out}: folder {Path(out).parent} does not exist")
+    if args.track and not flying:
+        raise InputError("--track: only a flight has a track (add --sitl, --sitl-binary "
+                         "or --connect)")
+    params = parse_param_overrides(args.param)
+    vehicle_params = read_params(args.params) if args.params else None
+    wind = parse_wind_arg(args.wind) if args.wind is not None else None
+    autopilot: Autopilot | None = args.autopilot
+    profile: ProfileName | None = args.profile or (
+        autopilot.profile_name if autopilot is not None else None)
+    v = validate_mission(args.plan, args.site,
+                         replay_flight=args.replay or bool(args.html) or wind is not None,
+                         profile=profile, params=params or None, dt_s=args.dt,
+                         vehicle_params=vehicle_params, flown_track=args.flown, wind=wind,
+                         airspace=AirspaceOptions(parse_at(args.at) if args.at else None,
+                                                  authorised=frozenset(args.authorised)),
+                         force=args.force)
+    if flying:
+        choice = choose_vehicle(v.plan, url=args.connect, binary=args.sitl_binary,
+                                speedup_x=args.sitl_speedup, defaults=args.sitl_defaults,
+                                sysid=args.sysid,
+                                signing_key=read_signing_key_arg(args.signing_key))
+        flown = fly_validation(v, choice, vehicle_params=vehicle_params, overrides=params,
+                               fault=args.fault, timeout_s=args.timeout,
+                               time_limit_s=args.sitl_time_limit,
+                               progress=progress_printer("validate-mission", args.quiet))
+        if flown.wind_note is not None:
+            v.extra["sitl_wind"] = flown.wind_note
+        v.extra["sitl_flight"] = flown.as_dict()
         if args.track and v.recorded is not None:
             write_track(args.track, v.recorded,
-                        (f"plan {args.plan}", f"vehicle {v.extra['sitl_flight']['vehicle']}"))
-        files: dict[Path, str | bytes] = {}
-        if report_path:
-            files[Path(report_path)] = json.dumps(v.as_dict(), indent=1, allow_nan=False) + "\n"
-        if args.html:
-            from validator.view import validation_inputs, view_html
+                        (f"plan {args.plan}", f"vehicle {flown.vehicle}"))
+    files: dict[Path, str | bytes] = {}
+    if args.report:
+        files[Path(args.report)] = json.dumps(v.as_dict(), indent=1, allow_nan=False) + "\n"
+    if args.html:
+        from validator.view import validation_inputs, view_html
 
-            files[Path(args.html)] = view_html(validation_inputs(v), map_background=args.html_map)
-        write_all_atomic(files)
-    except (UserError, OSError) as err:
-        return report_error("validate-mission", err)
+        files[Path(args.html)] = view_html(validation_inputs(v), map_background=args.html_map)
+    write_all_atomic(files)
     print(format_report(v))
     return v.exit_status
 

@@ -13,8 +13,12 @@ class UserError(Exception):
     The message is one line that names the file, field, item or vehicle at fault.
     Command-line entry points print it (:func:`report_error`) and exit with status 2. Control
     characters and line breaks a hostile file put into a key or value are shown escaped, so
-    the message stays one line by construction.
+    the message stays one line by construction. A few are a verdict on the mission rather than
+    a fault of the input (a vehicle that holds something other than what was sent): those set
+    ``exit_status`` to 1.
     """
+
+    exit_status = 2
 
     def __init__(self, message: object = "") -> None:
         super().__init__(_one_line(str(message)))

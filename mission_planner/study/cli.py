@@ -1,16 +1,17 @@
 """``nfz-study``: the paper's Fig. 3 and Fig. 4, and a wind sweep (thin wrapper over fig3, fig4
 and wind).
 
-    nfz-study fig3 SITE -o DIR [--buffer-m B] [--max-iterations I]
+    nfz-study fig3 SITE -o DIR [--buffer-m B] [--max-iterations I] [--quiet]
     nfz-study fig4 -o DIR [--trials N] [--radii 10,20,30,40,50] [--counts 1,2,3,4,5] [--seed S]
                    [--slots N] [--max-iterations I] [--workers W | --scheduler tcp://HOST:PORT]
-                   [--format csv|parquet] [--retry-errors] [--no-progress]
+                   [--format csv|parquet] [--retry-errors] [--quiet]
     nfz-study wind SITE -o DIR [--speeds 0,2,4,6,8] [--directions 0,90,180,270]
                    [--turbulence M/S] [--autopilot ardupilot|px4] [--workers W | --scheduler ...]
 
-Bad input: one line on stderr, exit 2, no output. Interrupted: exit 130; run the same command
-again to resume. Any failed trials: listed in the table, a warning on stderr, exit 0 (exit 1
-if every trial failed).
+Exit status (:data:`validator.cli_common.EXIT_STATUS`): bad input or a broken executor (a
+scheduler that cannot be reached): one line on stderr, exit 2, no output. Interrupted: exit
+130; run the same command again to resume. Any failed trials: listed in the table, a warning on
+stderr, exit 0 (exit 1 if every trial failed). Results (figures, tables) on stdout.
 """
 
 from __future__ import annotations
@@ -18,9 +19,24 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Callable, Sequence
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
-from validator.errors import InputError, UserError, report_error
+from validator.cli_common import (
+    EXIT_INPUT,
+    EXIT_STATUS,
+    EXIT_VERDICT,
+    add_autopilot_arguments,
+    add_deprecated,
+    add_quiet_argument,
+    run_command,
+)
+from validator.errors import InputError
+from validator.plan_format import Autopilot
+
+if TYPE_CHECKING:
+    from mission_planner.optimize.bcd import PlannerOptions
+    from mission_planner.study.fig4 import Fig4Result
+    from mission_planner.study.wind import WindResult
 
 T = TypeVar("T")
 STUDY_EXTRA = ("tqdm", "dask", "distributed")
@@ -47,19 +63,23 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="nfz-study", description=__doc__.split("\n")[0] if __doc__ else None)
+    parser = _Parser(prog="nfz-study", description=__doc__.split("\n")[0] if __doc__ else None,
+                     epilog=EXIT_STATUS, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    raw = argparse.RawDescriptionHelpFormatter
 
-    p3 = sub.add_parser("fig3", help="both schemes on one site: map, δ[n], p[n] (PNG + CSV)")
+    p3 = sub.add_parser("fig3", help="both schemes on one site: map, δ[n], p[n] (PNG + CSV)",
+                        epilog=EXIT_STATUS, formatter_class=raw)
     p3.add_argument("site", help="site YAML file")
-    p3.add_argument("-o", "--out", required=True, help="output directory")
+    _add_output(p3, "output directory")
     p3.add_argument("--buffer-m", type=float, default=None,
                     help="replace the site's safety buffer, m (0 reproduces the paper)")
     p3.add_argument("--max-iterations", type=int, default=None,
                     help="cap on Algorithm 1's iterations (planner default)")
 
-    p4 = sub.add_parser("fig4", help="Monte-Carlo sweeps of NFZ radius and count (Fig. 4)")
-    p4.add_argument("-o", "--out", required=True, help="output directory (re-run to resume)")
+    p4 = sub.add_parser("fig4", help="Monte-Carlo sweeps of NFZ radius and count (Fig. 4)",
+                        epilog=EXIT_STATUS, formatter_class=raw)
+    _add_output(p4, "output directory (re-run to resume)")
     p4.add_argument("--trials", type=int, default=100, help="random sites per point (100)")
     p4.add_argument("--radii", type=_list_of(float), default=(10, 20, 30, 40, 50),
                     help="NFZ radii of the radius sweep, m (10,20,30,40,50)")
@@ -78,19 +98,26 @@ def build_parser() -> argparse.ArgumentParser:
                     help="cap on Algorithm 1's iterations (planner default)")
     _add_trial_options(p4)
 
-    pw = sub.add_parser("wind", help="one site planned for and flown in a sweep of winds")
+    pw = sub.add_parser("wind", help="one site planned for and flown in a sweep of winds",
+                        epilog=EXIT_STATUS, formatter_class=raw)
     pw.add_argument("site", help="site YAML file")
-    pw.add_argument("-o", "--out", required=True, help="output directory (re-run to resume)")
+    _add_output(pw, "output directory (re-run to resume)")
     pw.add_argument("--speeds", type=_list_of(float), default=(0.0, 2.0, 4.0, 6.0, 8.0),
                     help="wind speeds, m/s (0,2,4,6,8)")
     pw.add_argument("--directions", type=_list_of(float), default=(0.0, 90.0, 180.0, 270.0),
                     help="directions the wind blows from, degrees true (0,90,180,270)")
     pw.add_argument("--turbulence", type=float, default=0.0,
                     help="turbulence of every windy trial, m/s (0)")
-    pw.add_argument("--autopilot", choices=("ardupilot", "px4"), default="ardupilot",
-                    help="the plans' autopilot and flight model (ardupilot)")
+    add_autopilot_arguments(pw, default=Autopilot.ARDUPILOTMEGA,
+                            help="the plans' autopilot and flight model (ardupilot)")
     _add_trial_options(pw)
+    add_quiet_argument(p3, "accepted for every command alike (fig3 shows no progress)")
     return parser
+
+
+def _add_output(p: argparse.ArgumentParser, help: str) -> None:
+    p.add_argument("-o", "--output", required=True, metavar="DIR", help=help)
+    add_deprecated(p, "--out", "--output", dest="output", metavar="DIR")
 
 
 def _add_trial_options(p: argparse.ArgumentParser) -> None:
@@ -104,12 +131,11 @@ def _add_trial_options(p: argparse.ArgumentParser) -> None:
                    help="trial table format: csv or parquet (needs pyarrow)")
     p.add_argument("--retry-errors", action="store_true",
                    help="re-run logged trials that ended in an error")
-    p.add_argument("--no-progress", "--quiet", action="store_true",
-                   help="no progress bar (trials done, rate, time left; shown only on a "
-                        "terminal)")
+    add_quiet_argument(p, "no progress bar (trials done, rate, time left; shown only on a "
+                          "terminal)")
 
 
-def _options(args: argparse.Namespace) -> Any:
+def _options(args: argparse.Namespace) -> PlannerOptions:
     """PlannerOptions from the command line: the paper's model (the figures reproduce it), the
     planner's defaults where not given."""
     from dataclasses import replace
@@ -129,7 +155,7 @@ def _fig3(args: argparse.Namespace) -> int:
 
     options = _options(args)
     site = load_site(args.site)
-    result = run_fig3(site, args.out, options=options, buffer_m=args.buffer_m)
+    result = run_fig3(site, args.output, options=options, buffer_m=args.buffer_m)
     for sol in result.solutions:
         print(f"{sol.scheme}: min rate {sol.min_rate_bps_hz:.4f} bps/Hz, "
               f"min leg clearance {sol.nfz_clearance_min_m:.2f} m")
@@ -148,11 +174,11 @@ def _fig4(args: argparse.Namespace) -> int:
         radius_m=args.radius, num_nfzs=args.count, buffer_m=args.buffer_m,
     )
     result = run_fig4(
-        args.out, config, options=_options(args), workers=args.workers, scheduler=args.scheduler,
-        progress=False if args.no_progress else None, table_format=args.table_format,
+        args.output, config, options=_options(args), workers=args.workers, scheduler=args.scheduler,
+        progress=False if args.quiet else None, table_format=args.table_format,
         retry_errors=args.retry_errors,
     )
-    return _said(result, args.out)
+    return _said(result, args.output)
 
 
 def _wind(args: argparse.Namespace) -> int:
@@ -160,15 +186,15 @@ def _wind(args: argparse.Namespace) -> int:
     from validator.site import load_site
 
     result = run_wind_study(
-        load_site(args.site), args.out, speeds_mps=args.speeds, directions_deg=args.directions,
-        turbulence_mps=args.turbulence, autopilot=args.autopilot, workers=args.workers,
-        scheduler=args.scheduler, progress=False if args.no_progress else None,
+        load_site(args.site), args.output, speeds_mps=args.speeds, directions_deg=args.directions,
+        turbulence_mps=args.turbulence, autopilot=args.autopilot.key, workers=args.workers,
+        scheduler=args.scheduler, progress=False if args.quiet else None,
         table_format=args.table_format, retry_errors=args.retry_errors,
     )
-    return _said(result, args.out)
+    return _said(result, args.output)
 
 
-def _said(result: Any, out: str) -> int:
+def _said(result: Fig4Result | WindResult, out: str) -> int:
     """Print what a study run did and wrote; exit 1 when every trial failed."""
     run = result.run
     print(f"{len(run.rows)} trials ({run.executed} run now, {run.skipped} from {out})")
@@ -178,32 +204,31 @@ def _said(result: Any, out: str) -> int:
         print(f"warning: {len(run.failed)} trials failed, e.g. {run.failed[0]['key']}: "
               f"{run.failed[0]['error']}", file=sys.stderr)
         if len(run.failed) == len(run.rows):
-            return 1
+            return EXIT_VERDICT
     return 0
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``nfz-study``; returns the exit status."""
+    return run_command("nfz-study", lambda: _main(argv),
+                       interrupted="interrupted; finished trials are kept, run again to resume")
+
+
+def _main(argv: Sequence[str] | None) -> int:
     from mission_planner.study.executors import ExecutorError
 
     try:
         args = build_parser().parse_args(argv)
         return {"fig3": _fig3, "fig4": _fig4, "wind": _wind}[args.command](args)
-    except UserError as err:
-        return report_error("nfz-study", err)
     except ModuleNotFoundError as err:
         if err.name not in STUDY_EXTRA:
             raise
         print(f"nfz-study: needs the study extra (missing {err.name}): "
               "pip install 'nfz-mission[study]'", file=sys.stderr)
-        return 2
+        return EXIT_INPUT
     except ExecutorError as err:
         print(f"nfz-study: {err}; finished trials are kept, run again to resume", file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        print("nfz-study: interrupted; finished trials are kept, run again to resume",
-              file=sys.stderr)
-        return 130
+        return EXIT_INPUT
 
 
 if __name__ == "__main__":

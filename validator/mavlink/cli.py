@@ -2,18 +2,19 @@
 --sitl`` is :mod:`validator.mavlink.sitl_check`).
 
     upload-mission PLAN --connect URL [--timeout S] [--sysid N] [--signing-key FILE]
-                   [--set-params FILE] [--site SITE [--force]] [--allow-fence-off]
-    download-mission --connect URL -o PLAN [--params OUT] [--timeout S] [--sysid N]
-                     [--signing-key FILE]
-    sitl-vehicle [--listen URL] --home LAT,LON,ALT [--speedup X] [--loss P] [--seed N]
-                 [--profile NAME] [--param NAME=VALUE ...] [--sysid N] [--signing-key FILE]
+                   [--params FILE] [--site SITE [--force]] [--allow-fence-off] [--quiet]
+    download-mission --connect URL -o PLAN [--params-out FILE] [--timeout S] [--sysid N]
+                     [--signing-key FILE] [--quiet]
+    sitl-vehicle [--connect URL] --home LAT,LON,ALT [--speedup X] [--loss P] [--seed N]
+                 [--autopilot ardupilot|px4 | --profile ideal] [--param NAME=VALUE ...]
+                 [--sysid N] [--signing-key FILE] [--quiet]
 
-Exit status: 0 success, 1 a plan the validator rejects (upload refused), 2 bad input or a
-failed link (one line on stderr; no output file). Each command is a thin wrapper over a
-documented function: :func:`validator.mavlink.link.upload_plan`,
-:func:`~validator.mavlink.link.download_plan`, :class:`validator.mavlink.sim.SitlVehicle`,
-:func:`validator.mavlink.driver.fly_and_score`. pymavlink and MAVSDK are imported only when a
-command needs them, so ``validate-mission`` without ``--sitl`` starts as fast as before.
+Exit status: :data:`validator.cli_common.EXIT_STATUS` (0 done, 1 a plan the validator refuses
+or a read-back that differs, 2 bad input or a failed link, 130 interrupted). Each command is a
+thin wrapper over a documented function: :func:`validator.mavlink.link.upload_plan`,
+:func:`~validator.mavlink.link.download_plan`, :class:`validator.mavlink.sim.SitlVehicle`.
+pymavlink and MAVSDK are imported only when a command needs them, so ``validate-mission``
+without ``--sitl`` starts as fast as before.
 """
 
 from __future__ import annotations
@@ -24,72 +25,30 @@ import re
 import signal
 import sys
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from pathlib import Path
+from types import FrameType
 
-from validator.errors import CommandParser, InputError, UserError, report_error
-
-if TYPE_CHECKING:
-    pass
+from validator.cli_common import (
+    EXIT_OK,
+    EXIT_VERDICT,
+    add_autopilot_arguments,
+    add_deprecated,
+    add_link_arguments,
+    add_quiet_argument,
+    command_parser,
+    positive,
+    read_signing_key_arg,
+    run_command,
+)
+from validator.errors import InputError
+from validator.plan_format import Autopilot
 
 # Profile parameters that are the model's, not an autopilot's: never sent with PARAM_SET.
 MODEL_ONLY_PARAMS = frozenset({"VEHICLE_SPEED_MAX", "SPEED", "SPEED_UP", "SPEED_DN",
                                "VEHICLE_DRAG", "ALT_AMSL", "WIND_SPEED", "WIND_FROM"})
 
-
-def _positive(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
-    return value
-
-
-def _sysid(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if not 1 <= value <= 255:
-        raise argparse.ArgumentTypeError(f"must be 1..255, got {text}")
-    return value
-
-
-SIGNING_KEY_HELP = (
-    "sign every packet (MAVLink 2 signing) and refuse every packet from the vehicle that is "
-    "not signed with this key. FILE holds one line: a passphrase of printable ASCII without "
-    "spaces, whose SHA-256 is the key, as MAVProxy's 'signing setup PASSPHRASE' gives it to "
-    "the vehicle"
-)
-
-
-def _signing_key_arg(p: argparse.ArgumentParser | argparse._ArgumentGroup, help: str) -> None:
-    p.add_argument("--signing-key", metavar="FILE", help=help)
-
-
-def _signing_key(args: argparse.Namespace) -> bytes | None:
-    """The key of ``--signing-key FILE``, or None (:class:`InputError` for a bad file)."""
-    from validator.mavlink.signing import key_file_exposure, read_signing_key
-
-    if not args.signing_key:
-        return None
-    key = read_signing_key(args.signing_key)
-    warning = key_file_exposure(args.signing_key)
-    if warning is not None:
-        print(warning, file=sys.stderr)
-    return key
-
-
-def _link_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--connect", required=True, metavar="URL",
-                   help="pymavlink connection string: udpin:0.0.0.0:14550, udpout:HOST:PORT, "
-                        "tcp:HOST:PORT, or a serial port such as /dev/ttyACM0")
-    p.add_argument("--timeout", type=_positive, default=10.0, metavar="S",
-                   help="give up when the vehicle does not answer for S seconds (default 10)")
-    p.add_argument("--sysid", type=_sysid, metavar="N",
-                   help="MAVLink system id of the vehicle (default: the first one heard)")
-    _signing_key_arg(p, SIGNING_KEY_HELP)
+CONNECT_HELP = ("pymavlink connection string: udpin:0.0.0.0:14550, udpout:HOST:PORT, "
+                "tcp:HOST:PORT, or a serial port such as /dev/ttyACM0")
 
 
 # --------------------------------------------------------------------------------------------
@@ -97,57 +56,58 @@ def _link_args(p: argparse.ArgumentParser) -> None:
 
 
 def upload_parser() -> argparse.ArgumentParser:
-    p = CommandParser(
-        prog="upload-mission",
-        description="Upload a .plan's mission, geofence and rally points over MAVLink 2, then "
-                    "download all three again and compare them item by item.",
-        epilog="Exit status: 0 uploaded, held by the vehicle as sent (by its own storage "
-               "rules) and its geofence on with a safe breach action; 1 refused (the plan "
-               "fails the audit against --site); 2 bad input, a failed link, a read-back "
-               "difference or a fence left off.",
+    p = command_parser(
+        "upload-mission",
+        "Upload a .plan's mission, geofence and rally points over MAVLink 2, then download all "
+        "three again and compare them item by item. Succeeds (0) when the vehicle holds them as "
+        "sent (by its own storage rules) with its geofence on and a safe breach action; a plan "
+        "that fails the audit against --site is refused and a read-back that differs is a "
+        "verdict (1); a failed link or a fence left off is 2.",
     )
     p.add_argument("plan", help="QGroundControl .plan file")
-    _link_args(p)
-    p.add_argument("--set-params", metavar="FILE",
-                   help="parameter file (NAME VALUE per line, .param/.parm or QGC format) to set "
-                        "and read back before the mission")
+    add_link_arguments(p, connect_help=CONNECT_HELP, required=True)
+    p.add_argument("--params", metavar="FILE",
+                   help="the parameter file the vehicle flies with (NAME VALUE per line, "
+                        ".param/.parm or QGC format, as plan-mission writes beside the plan): "
+                        "set and read back before the mission")
+    add_deprecated(p, "--set-params", "--params", dest="params", metavar="FILE")
     p.add_argument("--site", metavar="SITE",
                    help="audit the plan against this site first and refuse a violating plan")
     p.add_argument("--force", action="store_true", help="upload even if the audit fails")
     p.add_argument("--allow-fence-off", action="store_true",
                    help="succeed even when the vehicle's geofence stays off or its breach "
                         "action can fly across another zone (checked after the upload)")
+    add_quiet_argument(p, "no notes on stderr (warnings, errors and the result still print)")
     return p
 
 
 def upload_mission_main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``upload-mission``; returns the exit status."""
-    args = upload_parser().parse_args(argv)
-    try:
-        from validator.autopilot.param_file import read_params
-        from validator.mavlink.link import upload_plan
-        from validator.plan_format import read_plan
+    return run_command("upload-mission", lambda: _upload(upload_parser().parse_args(argv)))
 
-        plan = read_plan(args.plan)
-        params = read_params(args.set_params) if args.set_params else None
-        key = _signing_key(args)
-        if args.site:
-            from validator.validation import audit_refusal
 
-            refused = audit_refusal(args.plan, args.site, params)
-            if refused and not args.force:
-                print(f"upload-mission: {refused}; --force uploads it anyway", file=sys.stderr)
-                return 1
-        elif params is not None:
-            print("upload-mission: --set-params without --site: the failsafe paths are not "
-                  "audited (add --site SITE)", file=sys.stderr)
-        report = upload_plan(plan, args.connect, timeout_s=args.timeout, sysid=args.sysid,
-                             params=params, require_fence=not args.allow_fence_off,
-                             signing_key=key)
-    except UserError as err:
-        return report_error("upload-mission", err)
+def _upload(args: argparse.Namespace) -> int:
+    from validator.autopilot.param_file import read_params
+    from validator.mavlink.link import upload_plan
+    from validator.plan_format import read_plan
+
+    plan = read_plan(args.plan)
+    params = read_params(args.params) if args.params else None
+    key = read_signing_key_arg(args.signing_key)
+    if args.site:
+        from validator.validation import audit_refusal
+
+        refused = audit_refusal(args.plan, args.site, params)
+        if refused and not args.force:
+            print(f"upload-mission: {refused}; --force uploads it anyway", file=sys.stderr)
+            return EXIT_VERDICT
+    elif params is not None and not args.quiet:
+        print("upload-mission: --params without --site: the failsafe paths are not "
+              "audited (add --site SITE)", file=sys.stderr)
+    report = upload_plan(plan, args.connect, timeout_s=args.timeout, sysid=args.sysid,
+                         params=params, require_fence=not args.allow_fence_off, signing_key=key)
     print(report.summary())
-    return 0
+    return EXIT_OK
 
 
 # --------------------------------------------------------------------------------------------
@@ -155,50 +115,48 @@ def upload_mission_main(argv: Sequence[str] | None = None) -> int:
 
 
 def download_parser() -> argparse.ArgumentParser:
-    p = CommandParser(
-        prog="download-mission",
-        description="Download the mission, geofence and rally points a vehicle holds and write "
-                    "them as a QGroundControl .plan (to audit with validate-mission).",
-        epilog="Exit status: 0 written, 2 bad input or a failed link (no file written).",
+    p = command_parser(
+        "download-mission",
+        "Download the mission, geofence and rally points a vehicle holds and write them as a "
+        "QGroundControl .plan (to audit with validate-mission).",
     )
-    _link_args(p)
+    add_link_arguments(p, connect_help=CONNECT_HELP, required=True)
     p.add_argument("-o", "--output", required=True, metavar="PLAN", help="the .plan to write")
-    p.add_argument("--params", metavar="OUT",
+    p.add_argument("--params-out", metavar="FILE",
                    help="also fetch every parameter the vehicle holds and write them as a "
                         "parameter file (ArduPilot NAME VALUE lines, QGroundControl format for "
                         "PX4), to audit with validate-mission --params")
+    add_deprecated(p, "--params", "--params-out", dest="params_out", metavar="FILE")
+    add_quiet_argument(p, "no notes on stderr (warnings, errors and the result still print)")
     return p
 
 
 def download_mission_main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``download-mission``; returns the exit status."""
-    args = download_parser().parse_args(argv)
-    try:
-        from validator.mavlink.link import download_plan
-        from validator.plan_format import write_plan
+    return run_command("download-mission",
+                       lambda: _download(download_parser().parse_args(argv)))
 
-        key = _signing_key(args)
-        plan = download_plan(args.connect, timeout_s=args.timeout, sysid=args.sysid,
-                             signing_key=key)
-        from validator.mavlink.param_download import download_params_text
 
-        text = (download_params_text(args.connect, timeout_s=args.timeout, sysid=args.sysid,
-                                     signing_key=key) if args.params else None)
-        write_plan(plan, args.output)
-        if args.params and text is not None:
-            from validator.fileio import write_atomic
+def _download(args: argparse.Namespace) -> int:
+    from validator.fileio import write_all_atomic
+    from validator.mavlink.link import download_plan
+    from validator.mavlink.param_download import download_params_text
+    from validator.plan_format import dumps_plan
 
-            write_atomic(args.params, text[1])
-    except UserError as err:
-        return report_error("download-mission", err)
-    except OSError as err:
-        name = err.filename or args.output
-        return report_error("download-mission", InputError(f"{name}: {err.strerror}"))
+    key = read_signing_key_arg(args.signing_key)
+    plan = download_plan(args.connect, timeout_s=args.timeout, sysid=args.sysid,
+                         signing_key=key)
+    text = (download_params_text(args.connect, timeout_s=args.timeout, sysid=args.sysid,
+                                 signing_key=key) if args.params_out else None)
+    files: dict[Path, str | bytes] = {Path(args.output): dumps_plan(plan)}
+    if args.params_out and text is not None:
+        files[Path(args.params_out)] = text[1]
+    write_all_atomic(files)  # both or neither, also when interrupted
     print(f"wrote {args.output}: {len(plan.items)} mission items, {len(plan.circles)} fence "
           f"circle(s), {len(plan.polygons)} polygon(s), {len(plan.rally)} rally point(s)")
-    if args.params and text is not None:
-        print(f"wrote {args.params}: {text[0]} parameters")
-    return 0
+    if args.params_out and text is not None:
+        print(f"wrote {args.params_out}: {text[0]} parameters")
+    return EXIT_OK
 
 
 # --------------------------------------------------------------------------------------------
@@ -261,61 +219,65 @@ def is_loopback(host: str) -> bool:
 
 
 def sitl_parser() -> argparse.ArgumentParser:
-    from validator.motion.profile import PROFILES
-
-    p = CommandParser(
-        prog="sitl-vehicle",
-        description="A simulated multicopter that speaks MAVLink 2 as ArduCopter does and flies "
-                    "uploaded missions in AUTO with the validator's flight model. Runs until "
-                    "interrupted.",
+    p = command_parser(
+        "sitl-vehicle",
+        "A simulated multicopter that speaks MAVLink 2 as ArduCopter does and flies uploaded "
+        "missions in AUTO with the validator's flight model. Runs until interrupted (then 0).",
     )
-    p.add_argument("--listen", metavar="URL",
-                   help=f"where to listen (default {DEFAULT_LISTEN}): udpin:HOST:PORT, "
-                        "HOST:PORT or PORT (port 0: any free port); loopback unless a host "
-                        "is named, e.g. udpin:0.0.0.0:14550 for every interface")
+    add_link_arguments(
+        p, timeout=False, sysid_default=1, sysid_help="MAVLink system id (default 1)",
+        connect_help=f"where to listen (default {DEFAULT_LISTEN}): udpin:HOST:PORT, HOST:PORT "
+                     "or PORT (port 0: any free port); loopback unless a host is named, e.g. "
+                     "udpin:0.0.0.0:14550 for every interface",
+        signing_help="sign every packet (MAVLink 2 signing) and ignore every packet not signed "
+                     "with this key; FILE as for upload-mission --signing-key",
+        old={"--connect": "--listen"})
     p.add_argument("--home", required=True, metavar="LAT,LON,ALT",
                    help="home position: degrees, degrees, metres AMSL")
-    p.add_argument("--speedup", type=_positive, default=1.0, metavar="X",
+    p.add_argument("--speedup", type=positive, default=1.0, metavar="X",
                    help="simulated seconds per wall second (default 1)")
     p.add_argument("--loss", type=float, default=0.0, metavar="P",
                    help="drop this fraction of packets at random, each way (default 0)")
     p.add_argument("--seed", type=int, default=0, help="random seed for --loss (default 0)")
-    p.add_argument("--profile", choices=PROFILES, default="arducopter",
-                   help="flight model in AUTO (default arducopter)")
+    add_autopilot_arguments(
+        p, help="whose navigation the flight model in AUTO imitates (default ardupilot; the "
+                "vehicle always speaks ArduCopter's MAVLink)",
+        profile="fly the kinematic model instead (top speed only, no autopilot's navigation)")
     p.add_argument("--param", action="append", metavar="NAME=VALUE",
                    help="initial parameter value, e.g. WPNAV_ACCEL=500 (repeatable)")
-    p.add_argument("--sysid", type=_sysid, default=1, help="MAVLink system id (default 1)")
-    _signing_key_arg(p, "sign every packet (MAVLink 2 signing) and ignore every packet not "
-                        "signed with this key; FILE as for upload-mission --signing-key")
+    add_quiet_argument(p, "no notes on stderr (warnings, errors and the listening address "
+                          "still print)")
     return p
 
 
 def sitl_vehicle_main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``sitl-vehicle``; runs until SIGINT or SIGTERM, then returns 0."""
-    args = sitl_parser().parse_args(_glue_home(list(sys.argv[1:] if argv is None else argv)))
-    try:
-        from validator.mavlink.sim import SitlVehicle, VehicleConfig
-        from validator.motion.profile import parse_param_overrides
+    return run_command("sitl-vehicle", lambda: _sitl_vehicle(sitl_parser().parse_args(
+        _glue_home(list(sys.argv[1:] if argv is None else argv)))))
 
-        if not 0.0 <= args.loss < 1.0:
-            raise InputError(f"--loss: must be in [0, 1), got {args.loss}")
-        config = VehicleConfig(
-            home=parse_home(args.home),
-            system_id=args.sysid,
-            speedup=args.speedup,
-            loss=args.loss,
-            seed=args.seed,
-            profile=args.profile,
-            params=parse_param_overrides(args.param),
-            signing_key=_signing_key(args),
-        )
-        url = listen_url(args.listen)
-        try:
-            vehicle = SitlVehicle(url, config)
-        except (OSError, ValueError) as err:
-            raise InputError(f"--listen {url}: cannot listen ({err})") from None
-    except UserError as err:
-        return report_error("sitl-vehicle", err)
+
+def _sitl_vehicle(args: argparse.Namespace) -> int:
+    from validator.mavlink.sim import SitlVehicle, VehicleConfig
+    from validator.motion.profile import parse_param_overrides
+
+    if not 0.0 <= args.loss < 1.0:
+        raise InputError(f"--loss: must be in [0, 1), got {args.loss}")
+    profile = args.profile or (args.autopilot or Autopilot.ARDUPILOTMEGA).profile_name
+    config = VehicleConfig(
+        home=parse_home(args.home),
+        system_id=args.sysid,
+        speedup=args.speedup,
+        loss=args.loss,
+        seed=args.seed,
+        profile=profile,
+        params=parse_param_overrides(args.param),
+        signing_key=read_signing_key_arg(args.signing_key),
+    )
+    url = listen_url(args.connect)
+    try:
+        vehicle = SitlVehicle(url, config)
+    except (OSError, ValueError) as err:
+        raise InputError(f"--connect {url}: cannot listen ({err})") from None
     host, port = vehicle.address
     if not is_loopback(host):
         print(f"sitl-vehicle: listening on {host}, not loopback: any machine that reaches "
@@ -323,18 +285,14 @@ def sitl_vehicle_main(argv: Sequence[str] | None = None) -> int:
     scheme = url.split(":", 1)[0]
     signed = ", signed" if args.signing_key else ""
     print(f"sitl-vehicle: listening on {scheme}:{host}:{port} (ArduCopter, system "
-          f"{args.sysid}, {args.profile}, x{args.speedup:g}{signed})", flush=True)
+          f"{args.sysid}, {profile}, x{args.speedup:g}{signed})", flush=True)
 
-    def stop(_sig: int, _frame: Any) -> None:
+    def stop(_sig: int, _frame: FrameType | None) -> None:
         vehicle.stop()
 
     signal.signal(signal.SIGTERM, stop)
     try:
         vehicle.run()
     except KeyboardInterrupt:
-        pass
-    return 0
-
-
-# --------------------------------------------------------------------------------------------
-# validate-mission --sitl
+        pass  # the way to stop it: not an interruption of a job
+    return EXIT_OK

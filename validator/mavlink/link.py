@@ -66,6 +66,7 @@ __all__ = [
     "Link",
     "LinkError",
     "ParamValue",
+    "ReadBackMismatch",
     "UploadReport",
     "VehicleInfo",
     "command_name",
@@ -143,15 +144,22 @@ class UploadReport:
 # -- what the commands do ------------------------------------------------------------------
 
 
+class ReadBackMismatch(LinkError):
+    """The vehicle holds lists other than those sent: a verdict on the upload (exit status 1),
+    not a failed link."""
+
+    exit_status = 1
+
+
 def verify_lists(link: Link, sent: WireLists) -> None:
-    """Download all three lists and raise :class:`LinkError` at the first item the vehicle
+    """Download all three lists and raise :class:`ReadBackMismatch` at the first item the vehicle
     does not hold as sent (verbatim, or as its autopilot documents to store it:
     :mod:`validator.mavlink.storage`)."""
     held = link.download()
     for mtype in MissionType:
         diff = _held_difference(link, sent.of(mtype), held.of(mtype), mtype)
         if diff is not None:
-            raise LinkError(f"read-back differs from the upload: {diff}")
+            raise ReadBackMismatch(f"read-back differs from the upload: {diff}")
 
 
 def _held_difference(link: Connection, sent: tuple[WireItem, ...], held: tuple[WireItem, ...],
@@ -198,7 +206,7 @@ def upload_to(link: Link, plan: Plan, params: Mapping[str, float] | None = None,
         problems = fence_problems(link, plan)
         if problems:
             raise LinkError(f"the mission is on the vehicle but its geofence is not protecting "
-                            f"it: {problems[0]}; set the plan's parameter file (--set-params "
+                            f"it: {problems[0]}; set the plan's parameter file (--params "
                             "X.param) or pass --allow-fence-off")
     return UploadReport(
         link.vehicle,

@@ -4,7 +4,7 @@ Three kinds, chosen by :func:`choose_vehicle` the way ``validate-mission --sitl`
 
 ``external``
     An autopilot someone else runs (ArduPilot or PX4 SITL, or a real vehicle) at a pymavlink
-    connection string (``--sitl-url``); nothing is started or stopped.
+    connection string (``--connect``); nothing is started or stopped.
 ``sitl-binary``
     A real autopilot's SITL binary (``--sitl-binary``, else ``$ARDUPILOT_SITL``, or
     ``$PX4_SITL`` for a PX4 plan) started at the plan's home for the flight
@@ -95,10 +95,10 @@ def choose_vehicle(
     if url:
         return VehicleChoice("external", url=url, sysid=sysid, signing_key=signing_key)
     if signing_key is not None:
-        raise InputError("--signing-key: only with --sitl-url (the vehicles --sitl starts "
+        raise InputError("--signing-key: only with --connect (the vehicles --sitl starts "
                          "itself run on loopback, unsigned)")
     if sysid is not None:
-        raise InputError("--sitl-sysid: only with --sitl-url")
+        raise InputError("--sysid: only with --connect")
     found = find_binary(str(binary) if binary is not None else None,
                         px4=Autopilot.of(plan) is Autopilot.PX4)
     if found is not None:
