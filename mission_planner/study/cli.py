@@ -116,7 +116,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _add_output(p: argparse.ArgumentParser, help: str) -> None:
-    p.add_argument("-o", "--output", required=True, metavar="DIR", help=help)
+    # required, but checked after parsing (_main): argparse would not count the old --out
+    p.add_argument("-o", "--output", metavar="DIR", help=help + " (required)")
     add_deprecated(p, "--out", "--output", dest="output", metavar="DIR")
 
 
@@ -219,6 +220,8 @@ def _main(argv: Sequence[str] | None) -> int:
 
     try:
         args = build_parser().parse_args(argv)
+        if args.output is None:
+            raise InputError("the following arguments are required: -o/--output")
         return {"fig3": _fig3, "fig4": _fig4, "wind": _wind}[args.command](args)
     except ModuleNotFoundError as err:
         if err.name not in STUDY_EXTRA:

@@ -66,7 +66,8 @@ def _run(argv, capsys):
 
 @pytest.fixture(scope="module")
 def small_run(tmp_path_factory):
-    """One default run of the small site: (site path, plan path, report path, stderr)."""
+    """One default run of the small site: (site path, plan path, report path, stderr,
+    stdout)."""
     tmp = tmp_path_factory.mktemp("small")
     site = _write_site(tmp, SMALL)
     out, report = tmp / "m.plan", tmp / "m.report.json"
@@ -74,11 +75,11 @@ def small_run(tmp_path_factory):
                            "--report", str(report), "--cycles", "2", "--dynamics", "none"],
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
-    return site, out, report, proc.stderr
+    return site, out, report, proc.stderr, proc.stdout
 
 
 def test_writes_a_plan_mavsdk_imports(small_run):
-    site_path, out, _, _ = small_run
+    site_path, out, _, _, _ = small_run
     plan = read_plan(out)
     data = mavsdk_import(out, int(Autopilot.ARDUPILOTMEGA))
     assert len(data.mission_items) == len(plan.items) + 1  # + ArduPilot's home at seq 0
@@ -86,14 +87,14 @@ def test_writes_a_plan_mavsdk_imports(small_run):
     assert plan.firmware_type == Autopilot.ARDUPILOTMEGA and plan.vehicle_type == 2
 
 
-def test_no_progress_when_stderr_is_not_a_terminal(small_run):
-    stderr = small_run[3]
+def test_no_progress_when_stderr_is_not_a_terminal_and_the_result_is_on_stdout(small_run):
+    stderr, stdout = small_run[3], small_run[4]
     assert "iteration" not in stderr and "candidate" not in stderr
-    assert "plan-mission: wrote" in stderr
+    assert "plan-mission: wrote" in stdout and "wrote" not in stderr
 
 
 def test_report_is_the_solution_report_plus_the_mission_summary(small_run):
-    _, out, report_path, _ = small_run
+    _, out, report_path, _, _ = small_run
     report = json.loads(report_path.read_text())
     assert report["scheme"] == "proposed" and report["min_rate_bps_hz"] > 0
     mission = report["mission"]
@@ -107,7 +108,7 @@ def test_report_is_the_solution_report_plus_the_mission_summary(small_run):
 
 
 def test_planned_leg_times_sum_to_t_and_speeds_stay_within_v(small_run):
-    site_path, out, _, _ = small_run
+    site_path, out, _, _, _ = small_run
     site = load_site(site_path)
     plan = read_plan(out)
     assert planned_cycle_s(plan, site) == pytest.approx(site.period_s, abs=0.5)
@@ -116,7 +117,7 @@ def test_planned_leg_times_sum_to_t_and_speeds_stay_within_v(small_run):
 
 
 def test_geometry_reread_from_the_file_clears_every_nfz(small_run):
-    site_path, out, _, _ = small_run
+    site_path, out, _, _, _ = small_run
     site = load_site(site_path)
     plan = read_plan(out)
     legs = flown_legs(plan, site)
@@ -190,9 +191,7 @@ def test_malformed_yaml_and_missing_folder_exit_2(tmp_path, capsys):
 
 
 def test_unknown_option_is_one_line_exit_2(tmp_path, capsys):
-    with pytest.raises(SystemExit) as exc:
-        plan_mission_main([str(tmp_path / "s.yaml"), "-o", "x.plan", "--scheme", "fast"])
-    assert exc.value.code == 2
+    assert plan_mission_main([str(tmp_path / "s.yaml"), "-o", "x.plan", "--scheme", "fast"]) == 2
     assert capsys.readouterr().err.count("\n") == 1
 
 
@@ -267,8 +266,7 @@ def test_corners_are_flown_through_unless_told_to_stop(tmp_path, capsys, square_
 
 
 def test_help_says_dynamics_none_reproduces_the_paper(capsys):
-    with pytest.raises(SystemExit):
-        plan_mission_main(["--help"])
+    assert plan_mission_main(["--help"]) == 0
     text = " ".join(capsys.readouterr().out.split())
     assert "--dynamics {vehicle,none}" in text and "reproduces the paper" in text
 
@@ -285,7 +283,7 @@ def test_param_file_is_written_beside_the_mission(tmp_path, capsys, square_plann
 
 def test_params_option_names_the_file_px4_gets_px4_names(tmp_path, capsys, square_planner):
     out, pfile = tmp_path / "m.plan", tmp_path / "vehicle.params"
-    code, err = _run([_write_site(tmp_path, SLOW), "-o", out, "--params", pfile,
+    code, err = _run([_write_site(tmp_path, SLOW), "-o", out, "--params-out", pfile,
                       "--autopilot", "px4"], capsys)
     assert code == 0, err
     assert not (tmp_path / "m.param").exists()
@@ -297,7 +295,7 @@ def test_params_option_names_the_file_px4_gets_px4_names(tmp_path, capsys, squar
 
 def test_params_file_colliding_with_the_mission_is_refused(tmp_path, capsys, square_planner):
     out = tmp_path / "m.plan"
-    code, err = _run([_write_site(tmp_path, SLOW), "-o", out, "--params", out], capsys)
+    code, err = _run([_write_site(tmp_path, SLOW), "-o", out, "--params-out", out], capsys)
     assert code == 2 and "named for two outputs" in err and err.count("\n") == 1
     assert not out.exists()
 
@@ -387,14 +385,17 @@ def test_the_vehicle_search_reports_each_candidate():
 
 @pytest.mark.parametrize("flag", ["--quiet", "--no-progress"])
 def test_quiet_prints_no_progress(tmp_path, capsys, chatty_planner, flag):
-    code, err = _run([_write_site(tmp_path, SLOW), "-o", tmp_path / "m.plan", flag], capsys)
-    assert code == 0 and "iteration" not in err and "wrote" in err
+    code = plan_mission_main([str(_write_site(tmp_path, SLOW)), "-o", str(tmp_path / "m.plan"),
+                              flag])
+    out = capsys.readouterr()
+    assert code == 0 and "iteration" not in out.err and "wrote" in out.out
+    assert ("deprecated" in out.err) == (flag == "--no-progress")
 
 
 def test_seed_is_deprecated_and_changes_nothing(tmp_path, capsys, chatty_planner):
     out = tmp_path / "m.plan"
     code, err = _run([_write_site(tmp_path, SLOW), "-o", out, "--seed", "3", "--quiet"], capsys)
-    assert code == 0 and err.startswith("plan-mission: --seed is deprecated and has no effect")
+    assert code == 0 and err.startswith("warning: --seed is deprecated and has no effect")
 
 
 # ---------------------------------------------------------------------------- issue 11
@@ -417,9 +418,9 @@ def test_a_site_faster_than_the_vehicle_is_one_warning_naming_both_speeds(tmp_pa
 
 def test_html_writes_the_view_with_the_replay(tmp_path, capsys, chatty_planner):
     out = tmp_path / "view.html"
-    code, err = _run([_write_site(tmp_path, SLOW), "-o", tmp_path / "m.plan", "--quiet",
-                      "--html", out], capsys)
-    assert code == 0 and str(out) in err
+    code = plan_mission_main([str(_write_site(tmp_path, SLOW)), "-o", str(tmp_path / "m.plan"),
+                              "--quiet", "--html", str(out)])
+    assert code == 0 and str(out) in capsys.readouterr().out
     page = out.read_text(encoding="utf-8")
     assert "Plotly.newPlot" in page and "replay (arducopter): vehicle" in page
 

@@ -13,7 +13,7 @@ from mission_planner.study.sites import random_site
 from validator.site import site_to_dict
 
 SMALL = ["--trials", "1", "--radii", "50", "--counts", "3", "--radius", "50", "--slots", "10",
-         "--workers", "1", "--no-progress"]
+         "--workers", "1", "--quiet"]
 FAST = ["--max-iterations", "10"]
 
 

@@ -38,7 +38,7 @@ def test_a_wind_beyond_the_vehicle_is_a_failed_row_not_a_crash() -> None:
 def test_wind_study_writes_its_table_and_figure(tmp_path, capsys) -> None:
     out = tmp_path / "w"
     code = main(["wind", SAMPLE, "-o", str(out), "--speeds", "0,5", "--directions", "270",
-                 "--workers", "1", "--no-progress"])
+                 "--workers", "1", "--quiet"])
     assert code == 0
     rows = list(csv.DictReader((out / "wind_trials.csv").open()))
     assert [float(r["speed_mps"]) for r in rows] == [0.0, 5.0]
@@ -49,5 +49,5 @@ def test_wind_study_writes_its_table_and_figure(tmp_path, capsys) -> None:
     assert (out / "wind.png").read_bytes()[:4] == b"\x89PNG"
     # run again: resumed, nothing re-run
     assert main(["wind", SAMPLE, "-o", str(out), "--speeds", "0,5", "--directions", "270",
-                 "--workers", "1", "--no-progress"]) == 0
+                 "--workers", "1", "--quiet"]) == 0
     assert "0 run now, 2 from" in capsys.readouterr().out

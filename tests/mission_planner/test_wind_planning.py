@@ -117,7 +117,7 @@ def windy_plan(tmp_path_factory):
 def test_the_summary_line_says_the_wind(tmp_path, capsys) -> None:
     out = tmp_path / "w.plan"
     assert plan_mission_main([SAMPLE, "-o", str(out), "--wind", "3@90", "--quiet"]) == 0
-    assert "planned for wind 3 m/s from 90°" in capsys.readouterr().err
+    assert "planned for wind 3 m/s from 90°" in capsys.readouterr().out
 
 
 def test_windy_plan_says_its_wind_and_commands_ground_speeds(windy_plan) -> None:

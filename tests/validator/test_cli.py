@@ -121,4 +121,4 @@ def test_the_old_json_option_still_writes_the_report_with_a_deprecation_line(tmp
     status = validate_mission_main([str(plan_path), "--site", str(site_path), "--json",
                                     str(out)])
     assert json.loads(out.read_text())["exit_status"] == status
-    assert capsys.readouterr().err == "validate-mission: --json is deprecated: use --report\n"
+    assert capsys.readouterr().err == "warning: --json is deprecated; use --report\n"

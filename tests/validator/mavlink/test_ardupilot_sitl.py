@@ -54,7 +54,7 @@ def sitl_url(sample: tuple[Path, Path, Path]):
 def test_upload_verifies_against_ardupilots_storage_and_the_fence_is_on(sample, sitl_url,
                                                                        tmp_path, capsys):
     _, plan, params = sample
-    assert upload_mission_main([str(plan), "--connect", sitl_url, "--set-params", str(params),
+    assert upload_mission_main([str(plan), "--connect", sitl_url, "--params", str(params),
                                 "--timeout", "20"]) == 0
     assert capsys.readouterr().out.startswith("uploaded and verified")
     with Link(sitl_url, timeout_s=10) as link:
@@ -165,7 +165,7 @@ def test_a_signed_link_works_with_ardupilots_signing_and_an_unsigned_one_is_refu
         link.recv((), time.monotonic() + 1.0)  # ArduPilot acknowledges nothing: give it time
     host, port = sitl_url.rsplit(":", 1)
     serial1 = f"{host}:{int(port) + 2}"
-    assert upload_mission_main([str(plan), "--connect", serial1, "--set-params", str(params),
+    assert upload_mission_main([str(plan), "--connect", serial1, "--params", str(params),
                                 "--timeout", "20", "--signing-key", str(key_file)]) == 0
     assert capsys.readouterr().out.startswith("uploaded and verified")
     assert download_mission_main(["--connect", serial1, "--timeout", "5",

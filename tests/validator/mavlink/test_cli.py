@@ -29,7 +29,7 @@ def test_upload_mission_sets_params_and_verifies(tmp_path, plan, start_vehicle, 
     write_plan(plan, path)
     params = tmp_path / "copter.param"
     params.write_text("WPNAV_SPEED 1200\nWPNAV_RADIUS 150\n")
-    status = upload_mission_main([str(path), "--connect", url_of(vehicle), "--set-params",
+    status = upload_mission_main([str(path), "--connect", url_of(vehicle), "--params",
                                   str(params)])
     assert status == 0
     assert capsys.readouterr().out.startswith("uploaded and verified 7 mission, 6 fence and 2 "
@@ -93,13 +93,13 @@ def test_download_mission_from_a_dead_link_writes_nothing(tmp_path, capsys):
 
 
 def test_sitl_vehicle_bad_home_exits_2(capsys):
-    assert sitl_vehicle_main(["--listen", "udpin:127.0.0.1:0", "--home", "-35.3,500,0"]) == 2
+    assert sitl_vehicle_main(["--connect", "udpin:127.0.0.1:0", "--home", "-35.3,500,0"]) == 2
     assert capsys.readouterr().err == ("sitl-vehicle: --home -35.3,500,0: latitude or longitude "
                                        "out of range\n")
 
 
 def test_sitl_vehicle_bad_loss_exits_2(capsys):
-    assert sitl_vehicle_main(["--listen", "udpin:127.0.0.1:0", "--home", "1,2,3",
+    assert sitl_vehicle_main(["--connect", "udpin:127.0.0.1:0", "--home", "1,2,3",
                               "--loss", "1.5"]) == 2
     assert "--loss: must be in [0, 1)" in capsys.readouterr().err
 
@@ -116,15 +116,15 @@ def test_sitl_vehicle_bad_loss_exits_2(capsys):
 ])
 def test_sitl_vehicle_listens_on_loopback_unless_a_host_is_named(text, url):
     args = sitl_parser().parse_args(["--home", "1,2,3"] + ([] if text is None else
-                                                           ["--listen", text]))
-    assert listen_url(args.listen) == url
+                                                           ["--connect", text]))
+    assert listen_url(args.connect) == url
 
 
 @pytest.mark.parametrize("listen", ["0", "udpin::0"])
 def test_sitl_vehicle_command_serves_and_stops_on_sigterm(plan, listen):
     code = "import sys; from validator.mavlink.cli import sitl_vehicle_main as m; sys.exit(m())"
     proc = subprocess.Popen(
-        [sys.executable, "-c", code, "--listen", listen, "--home",
+        [sys.executable, "-c", code, "--connect", listen, "--home",
          f"{plan.home_lat_deg},{plan.home_lon_deg},{plan.home_alt_m}", "--speedup", "10"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )

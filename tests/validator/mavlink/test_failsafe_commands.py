@@ -1,4 +1,4 @@
-"""Failsafe parameters on the wire: upload-mission audits the failsafe paths of --set-params
+"""Failsafe parameters on the wire: upload-mission audits the failsafe paths of --params
 before it sends anything, and download-mission fetches the vehicle's parameters to audit."""
 
 from pathlib import Path
@@ -16,7 +16,7 @@ PLAN, SITE = DATA / "plans/river-ardupilot.plan", DATA / "sites/river.yaml"
 def test_upload_refuses_parameters_whose_rtl_crosses_a_zone_before_sending(start_vehicle,
                                                                            capsys):
     vehicle = start_vehicle(read_plan(PLAN))
-    args = [str(PLAN), "--connect", url_of(vehicle), "--site", str(SITE), "--set-params",
+    args = [str(PLAN), "--connect", url_of(vehicle), "--site", str(SITE), "--params",
             str(DATA / "params/thr-rtl.param")]
     assert upload_mission_main(args) == 1
     err = capsys.readouterr().err
@@ -35,7 +35,7 @@ def test_download_fetches_the_parameters_and_validate_audits_them(tmp_path, star
     assert upload_mission_main([str(PLAN), "--connect", url_of(vehicle)]) == 0
     plan_out, params_out = tmp_path / "held.plan", tmp_path / "held.param"
     assert download_mission_main(["--connect", url_of(vehicle), "-o", str(plan_out),
-                                  "--params", str(params_out)]) == 0
+                                  "--params-out", str(params_out)]) == 0
     held = read_params(params_out)
     assert held["FS_THR_ENABLE"] == 1.0 and held["WPNAV_SPEED"] == vehicle.params[
         "WPNAV_SPEED"][0]

@@ -66,7 +66,7 @@ def cut_in_auto(vehicle, relay, *, after_s: float, for_s: float | None) -> threa
 def validate(files, relay, *extra: str) -> tuple[int, dict]:
     tmp, site, plan, _ = files
     out = tmp / "report.json"
-    status = validate_mission_main([str(plan), "--site", str(site), "--sitl-url", relay.url,
+    status = validate_mission_main([str(plan), "--site", str(site), "--connect", relay.url,
                                     "--report", str(out), *extra])
     return status, json.loads(out.read_text())
 
@@ -86,7 +86,7 @@ def test_the_vehicle_flies_on_through_a_gap_and_the_report_says_what_the_track_m
         files, relayed):
     vehicle, relay = relayed
     cut = cut_in_auto(vehicle, relay, after_s=1.0, for_s=1.5)
-    status, report = validate(files, relay, "--sitl-timeout", "6")
+    status, report = validate(files, relay, "--timeout", "6")
     cut.join()
     assert relay.outage_drops > 0
     assert status == 0 and report["result"] == "clear"
@@ -101,7 +101,7 @@ def test_the_vehicle_flies_on_through_a_gap_and_the_report_says_what_the_track_m
 def test_a_link_down_for_good_ends_the_run_with_a_verdict(files, relayed, capsys):
     vehicle, relay = relayed
     cut = cut_in_auto(vehicle, relay, after_s=1.0, for_s=None)
-    status, report = validate(files, relay, "--sitl-timeout", "3")
+    status, report = validate(files, relay, "--timeout", "3")
     cut.join()
     assert status == 1 and report["result"] == "violation"
     assert report["sitl_flight"]["end"] == "link lost"
@@ -119,7 +119,7 @@ def test_a_link_down_for_good_ends_the_run_with_a_verdict(files, relayed, capsys
 def test_a_link_that_comes_back_too_late_lands_the_vehicle(files, relayed):
     vehicle, relay = relayed
     cut = cut_in_auto(vehicle, relay, after_s=1.0, for_s=4.5)  # > the 3 s timeout, < two
-    status, report = validate(files, relay, "--sitl-timeout", "3")
+    status, report = validate(files, relay, "--timeout", "3")
     cut.join()
     assert status == 1
     lost = [m for m in messages(report) if m.startswith("link lost")]

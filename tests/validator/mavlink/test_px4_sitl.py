@@ -64,7 +64,7 @@ def test_upload_verifies_against_px4s_storage_and_the_fence_action_holds(realist
     assert BINARY is not None
     with px4_sih(BINARY, (plan.home_lat_deg, plan.home_lon_deg, plan.home_alt_m),
                  speedup=1.0) as url:
-        assert upload_mission_main([str(plan_path), "--connect", url, "--set-params",
+        assert upload_mission_main([str(plan_path), "--connect", url, "--params",
                                     str(params), "--timeout", "20"]) == 0
         assert capsys.readouterr().out.startswith("uploaded and verified")
         with Link(url, timeout_s=20) as link:

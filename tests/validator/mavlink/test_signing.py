@@ -112,10 +112,10 @@ def test_every_command_refuses_a_malformed_key_file_before_connecting(
         "upload": lambda: upload_mission_main([str(plan_file), *link]),
         "download": lambda: download_mission_main([*link, "-o", str(tmp_path / "out.plan")]),
         "validate": lambda: validate_mission_main([str(plan_file), "--site", str(site),
-                                                   "--sitl-url", "udpout:127.0.0.1:9",
-                                                   "--sitl-timeout", "30",
+                                                   "--connect", "udpout:127.0.0.1:9",
+                                                   "--timeout", "30",
                                                    "--signing-key", str(bad)]),
-        "vehicle": lambda: sitl_vehicle_main(["--listen", "0", "--home", "1,2,3",
+        "vehicle": lambda: sitl_vehicle_main(["--connect", "0", "--home", "1,2,3",
                                               "--signing-key", str(bad)]),
     }[command]()
     assert time.monotonic() - start < 30  # refused at once, not after a link timeout
@@ -259,7 +259,7 @@ def test_validate_mission_flies_over_a_signed_link(tmp_path, key_file, start_veh
     write_plan(plan, plan_path)
     vehicle = start_vehicle(plan, speedup=50.0, signing_key=KEY)
     out = tmp_path / "report.json"
-    status = validate_mission_main([str(plan_path), "--site", str(site_path), "--sitl-url",
+    status = validate_mission_main([str(plan_path), "--site", str(site_path), "--connect",
                                     url_of(vehicle), "--signing-key", str(key_file),
                                     "--report", str(out)])
     report = json.loads(out.read_text())
@@ -273,6 +273,6 @@ def test_validate_mission_takes_a_signing_key_only_with_a_url(tmp_path, key_file
     site.write_text(yaml.safe_dump(site_to_dict(make_site(nfz=((100.0, 0.0, 20.0),)))))
     assert validate_mission_main([str(plan_file), "--site", str(site), "--sitl",
                                   "--signing-key", str(key_file)]) == 2
-    assert capsys.readouterr().err == ("validate-mission: --signing-key: only with --sitl-url "
+    assert capsys.readouterr().err == ("validate-mission: --signing-key: only with --connect "
                                        "(the vehicles --sitl starts itself run on loopback, "
                                        "unsigned)\n")

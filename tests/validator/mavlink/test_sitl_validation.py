@@ -70,7 +70,7 @@ def test_external_vehicle_gets_the_explicit_parameters(files, start_vehicle):
     tmp, site, plan_path, plan = files
     vehicle = start_vehicle(plan, speedup=50.0)
     out = tmp / "ext.json"
-    status = validate_mission_main([str(plan_path), "--site", str(site), "--sitl-url",
+    status = validate_mission_main([str(plan_path), "--site", str(site), "--connect",
                                     url_of(vehicle), "--param", "WPNAV_ACCEL=400",
                                     "--report", str(out)])
     report = json.loads(out.read_text())
@@ -91,8 +91,8 @@ def test_time_limit_cuts_the_flight_with_a_warning(files):
 
 def test_dead_external_vehicle_exits_2_within_the_timeout(files, capsys):
     _, site, plan, _ = files
-    status = validate_mission_main([str(plan), "--site", str(site), "--sitl-url",
-                                    "udpout:127.0.0.1:9", "--sitl-timeout", "1"])
+    status = validate_mission_main([str(plan), "--site", str(site), "--connect",
+                                    "udpout:127.0.0.1:9", "--timeout", "1"])
     assert status == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "no heartbeat within 1 s" in err
@@ -101,10 +101,10 @@ def test_dead_external_vehicle_exits_2_within_the_timeout(files, capsys):
 def test_old_sitl_url_spelling_still_works_with_a_deprecation_line(files, capsys):
     _, site, plan, _ = files
     status = validate_mission_main([str(plan), "--site", str(site), "--sitl",
-                                    "udpout:127.0.0.1:9", "--sitl-timeout", "1"])
+                                    "udpout:127.0.0.1:9", "--timeout", "1"])
     err = capsys.readouterr().err.splitlines()
     assert status == 2
-    assert err[0] == "validate-mission: --sitl URL is deprecated: use --sitl-url URL"
+    assert err[0] == "warning: --sitl URL is deprecated; use --connect URL"
     assert "no heartbeat within 1 s" in err[1]
 
 
