@@ -195,7 +195,7 @@ LOOPBACK = "127.0.0.1"
 
 
 def listen_url(text: str | None) -> str:
-    """The connection string ``sitl-vehicle`` listens on for ``--listen TEXT``: loopback unless
+    """The connection string ``sitl-vehicle`` listens on for ``--connect TEXT``: loopback unless
     a host is named. None is :data:`DEFAULT_LISTEN`; ``PORT`` and ``udpin::PORT`` (which
     pymavlink would bind on every interface) listen on 127.0.0.1; ``HOST:PORT`` is
     ``udpin:HOST:PORT``; any other string is used as it is."""
