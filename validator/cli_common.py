@@ -93,12 +93,12 @@ class Deprecated(argparse.Action):
     does (a value, or ``const`` for a flag) and prints :func:`deprecation` once per run."""
 
     def __init__(self, option_strings: Sequence[str], dest: str, *, new: str,
-                 nargs: int | str | None = None, const: Any = None, **kwargs: Any) -> None:
+                 nargs: int | str | None = None, const: object = None, **kwargs: Any) -> None:
         self.new = new
         super().__init__(option_strings, dest, nargs=nargs, const=const, **kwargs)
 
     def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
-                 values: Any, option_string: str | None = None) -> None:
+                 values: object, option_string: str | None = None) -> None:
         warned: set[str] = namespace.__dict__.setdefault("_deprecations_warned", set())
         if option_string not in warned:
             warned.add(option_string or "")
@@ -107,7 +107,7 @@ class Deprecated(argparse.Action):
 
 
 def add_deprecated(p: argparse.ArgumentParser | argparse._ArgumentGroup, old: str, new: str,
-                   *, dest: str, flag: bool = False, type: Callable[[str], Any] | None = None,
+                   *, dest: str, flag: bool = False, type: Callable[[str], object] | None = None,
                    metavar: str | None = None) -> None:
     """Accept ``old`` as a hidden alias of ``new`` (stored in ``dest``) for one release."""
     if flag:
@@ -178,7 +178,7 @@ def add_link_arguments(
                             f"(default {LINK_TIMEOUT_S:g})")
     g.add_argument("--sysid", type=sysid, default=sysid_default, metavar="N", help=sysid_help)
     g.add_argument("--signing-key", metavar="FILE", help=signing_help)
-    types: dict[str, Callable[[str], Any] | None] = {"--connect": None, "--timeout": positive,
+    types: dict[str, Callable[[str], object] | None] = {"--connect": None, "--timeout": positive,
                                                      "--sysid": sysid, "--signing-key": None}
     for new, former in (old or {}).items():
         add_deprecated(g, former, new, dest=new[2:].replace("-", "_"), type=types[new])
@@ -204,7 +204,7 @@ class AutopilotOrProfile(argparse.Action):
     ``--autopilot`` with a deprecation line."""
 
     def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
-                 values: Any, option_string: str | None = None) -> None:
+                 values: object, option_string: str | None = None) -> None:
         if values == "ideal":
             namespace.profile = "ideal"
             return
