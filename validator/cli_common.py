@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import textwrap
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -28,14 +29,17 @@ EXIT_VERDICT = 1
 EXIT_INPUT = 2
 EXIT_INTERRUPTED = 130
 
+HELP_WIDTH = 79
+
 EXIT_STATUS = """\
 exit status (the same for every nfz-mission command):
   0    done: the mission is clear, written, uploaded as sent
-  1    a verdict against the mission: a violation, a refused or unsafe plan, a read-back
-       that differs from what was sent
-  2    the user's input or environment: a bad file, flag or value, a failed link, a missing
-       tool (one line on stderr, no output file)
-  130  interrupted (Ctrl-C): nothing half-written, a vehicle started here is stopped"""
+  1    a verdict against the mission: a violation, a refused or unsafe plan,
+       a read-back that differs from what was sent
+  2    the user's input or environment: a bad file, flag or value, a failed
+       link, a missing tool (one line on stderr, no output file)
+  130  interrupted (Ctrl-C): nothing half-written, a vehicle started here
+       is stopped"""
 
 # how long a vehicle may stay silent before a command gives up: the link's own default
 # (validator.mavlink.connection.DEFAULT_TIMEOUT_S, not imported here: it loads pymavlink;
@@ -53,8 +57,10 @@ SIGNING_KEY_HELP = (
 def command_parser(prog: str, description: str) -> argparse.ArgumentParser:
     """A command's parser: a mistake is one line and exit 2 (:class:`CommandParser`), and its
     ``--help`` ends with :data:`EXIT_STATUS`."""
-    return CommandParser(prog=prog, description=description, epilog=EXIT_STATUS,
-                         formatter_class=argparse.RawDescriptionHelpFormatter)
+    # the epilog's table keeps its lines (RawDescriptionHelpFormatter), so the one-paragraph
+    # description is wrapped here
+    return CommandParser(prog=prog, description=textwrap.fill(description, HELP_WIDTH),
+                         epilog=EXIT_STATUS, formatter_class=argparse.RawDescriptionHelpFormatter)
 
 
 def run_command(prog: str, work: Callable[[], int], *, interrupted: str = "interrupted") -> int:
