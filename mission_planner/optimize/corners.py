@@ -31,6 +31,8 @@ from validator.geometry import min_leg_clearance
 from validator.motion.fly import fly
 from validator.motion.path import FlownPath
 from validator.motion.profile import Profile
+from validator.motion.px4_mission import px4_run_reached_s
+from validator.motion.px4_swing import swing_clearance_m
 from validator.plan_format import Autopilot
 from validator.zones import PolygonZone, polyline_clearance_m
 
@@ -109,6 +111,51 @@ def blended_motion(
         if stops[nxt]:
             lag[nxt] = float(path.reached_s[k] - end[k])
     return CycleMotion(stops, offset, duration, lag)
+
+
+def px4_motion(
+    points_m: NDArray[np.float64],
+    total_s: NDArray[np.float64],
+    must_stop: NDArray[np.bool_],
+    speed_mps: float,
+    profile: Profile,
+    centres_m: NDArray[np.float64],
+    radii_m: NDArray[np.float64],
+    polygons: tuple[PolygonZone, ...] = (),
+    polygon_clear_m: float = 0.0,
+) -> CycleMotion:
+    """The cycle round ``points_m`` (W, 2) flown by a ``px4`` ``profile`` at ``speed_mps``
+    (each leg's rest-to-rest motion lasting ``total_s``, the arrival included), passing
+    through every waypoint not in ``must_stop`` whose swing region
+    (:func:`validator.motion.px4_swing.swing_clearance_m`, NAV_ACC_RAD either side of both
+    legs) stays ``radii_m`` from the circle centres ``centres_m`` and ``polygon_clear_m`` from
+    the ``polygons``; waypoint 0 always stops. Each run between two stops is flown by the
+    validator's PX4 model (:func:`validator.motion.px4_mission.px4_run_reached_s`): its first
+    leg from the start of its rest-to-rest motion, the others ending where theirs end."""
+    w = len(points_m)
+    stops = np.asarray(must_stop, dtype=bool).copy()
+    stops[0] = True
+    acceptance_m = profile.si("NAV_ACC_RAD")
+    lengths = np.hypot(*(np.roll(points_m, -1, axis=0) - points_m).T)
+    for k in np.flatnonzero(~stops):
+        if lengths[k - 1] <= 0 or lengths[k] <= 0 or swing_clearance_m(
+                points_m[k - 1], points_m[k], points_m[(k + 1) % w], acceptance_m, centres_m,
+                radii_m, polygons, polygon_clear_m) < -CLEARANCE_TOL_M:
+            stops[k] = True
+    total = np.asarray(total_s, dtype=float)
+    offset, duration = np.zeros(w), np.where(lengths > 0, total, 0.0)
+    starts = np.flatnonzero(stops)
+    for i, first in enumerate(starts):
+        end = int(starts[i + 1]) if i + 1 < len(starts) else w
+        if end - first < 2:
+            continue  # stop to stop: the rest-to-rest leg itself
+        idx = np.arange(first, end + 1) % w
+        reached = px4_run_reached_s(points_m[idx], speed_mps, profile)
+        move = np.diff(np.r_[0.0, reached])
+        legs = np.arange(first, end)
+        duration[legs] = move
+        offset[legs[1:]] = np.maximum(total[legs[1:]] - move[1:], 0.0)
+    return CycleMotion(stops, offset, duration, np.zeros(w))
 
 
 def _fly_cycle(points_m: NDArray[np.float64], stops: NDArray[np.bool_], speed_mps: float,
