@@ -83,8 +83,9 @@ def _as_calibrated(opt: PlannerOptions) -> bool:
     speed above the vehicle's, the search ended at the first speed that fits. Simplified
     chord by chord, PX4 plans stopped at more corners, which SIH flew 3-5 % faster than the
     px4 model predicts (about 0.7 s a stop). Its corners are flown through where their swing
-    region keeps the buffer (:mod:`.corners`), and that plan is kept only when it beats the
-    one stopping at every waypoint (:func:`plan_flyable`)."""
+    region keeps the buffer (:mod:`.corners`); the search ending at the first speed that
+    fits, such a plan may be worse than the one stopping at every waypoint, so
+    :func:`mission_planner.pipeline.plan_and_build` makes both and keeps the better flown."""
     return opt.autopilot == "px4"
 
 
@@ -317,17 +318,6 @@ def plan_flyable(
     shapes the paper model's path for flight without acceleration limits, which is not always
     the best flown one."""
     search, tries = _searches(site, scheme, opt, progress)
-    if _as_calibrated(opt) and opt.pass_through_corners:
-        # PX4's search ends at the first speed whose moves fit T: the faster moves of a
-        # path flown through its corners may fit first with a worse path (samples/realistic:
-        # 1.125 bps/Hz against 1.295 stopping), so the plan that stops everywhere is searched
-        # too and the better kept (a tie stops: the shape SIH was calibrated on first).
-        stopping, more = _searches(site, scheme, replace(opt, pass_through_corners=False),
-                                   None)
-        tries += more
-        if stopping.best is not None and (search.best is None
-                                          or stopping.best.min_rate >= search.best.min_rate):
-            search = stopping
     best = search.best
     if best is None:
         raise InputError(
