@@ -10,11 +10,15 @@ optimiser's hover points and the cycle's first waypoint always stop.
 
 The turn is timed and placed by the validator's own ArduCopter model
 (:func:`validator.motion.fly.fly`, the corner rule of :mod:`validator.motion.arducopter`), so the
-plan and its replay agree by construction. PX4 plans stop at every waypoint: on SIH flights
-through corners without a hold (``tests/data/px4-corners``) the px4 model timed them within 5 %,
-but PX4 swung 0.6-1.3 m outside each turn where the model rounds it inside NAV_ACC_RAD, so
-the model cannot yet say which PX4 corners keep the buffer (README, *PX4 corners flown
-through*).
+plan and its replay agree by construction.
+
+PX4 does not cut a corner it flies through: on SIH flights (``tests/data/px4-corners``) it
+passed the waypoint within 0.1-0.4 m and swung 0.6-1.3 m *outside* the turn, the whole track
+within NAV_ACC_RAD of both legs near the corner, where the px4 model rounds it inside. So a
+PX4 corner is judged on that bound, the validator's swing region
+(:func:`validator.motion.px4_swing.swing_clearance_m`: both legs within 15 m of the waypoint,
+widened by NAV_ACC_RAD), which the validator's px4 replay checks too; the run between two
+stops is timed by the px4 model, which timed such corners within 5 % (:func:`px4_motion`).
 
 Positions are metres east/north; times seconds.
 """
