@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 from mission_planner.study.sites import random_site
-
 from tests.validator import px4_corners
 from validator.flight import Flight, Leg
 from validator.motion.px4_swing import (
