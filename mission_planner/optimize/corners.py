@@ -40,6 +40,10 @@ from validator.motion.px4_swing import swing_clearance_m
 from validator.plan_format import Autopilot
 from validator.zones import PolygonZone, polyline_clearance_m
 
+# PX4 corners flown through are timed by the px4 model, checked on SIH for turns of 12-60°
+# (within 5 %); sharper ones (77-137° on samples/realistic.yaml) PX4 crawled round at 0.4-0.6
+# m/s, each leg 2-3 s slower than modelled, and the cycle flew 1.05 T: those stop.
+PX4_MAX_TURN_DEG = 60.0
 CLEARANCE_TOL_M = 1e-3  # a blended turn may touch the buffer to this much (model precision)
 TURN_SAMPLE_S = 0.02  # the turn is checked along its path sampled this often
 
@@ -130,7 +134,8 @@ def px4_motion(
 ) -> CycleMotion:
     """The cycle round ``points_m`` (W, 2) flown by a ``px4`` ``profile`` at ``speed_mps``
     (each leg's rest-to-rest motion lasting ``total_s``, the arrival included), passing
-    through every waypoint not in ``must_stop`` whose swing region
+    through every waypoint not in ``must_stop`` that turns by :data:`PX4_MAX_TURN_DEG` at
+    most and whose swing region
     (:func:`validator.motion.px4_swing.swing_clearance_m`, NAV_ACC_RAD either side of both
     legs) stays ``radii_m`` from the circle centres ``centres_m`` and ``polygon_clear_m`` from
     the ``polygons``; waypoint 0 always stops. Each run between two stops is flown by the
@@ -142,9 +147,11 @@ def px4_motion(
     acceptance_m = profile.si("NAV_ACC_RAD")
     lengths = np.hypot(*(np.roll(points_m, -1, axis=0) - points_m).T)
     for k in np.flatnonzero(~stops):
-        if lengths[k - 1] <= 0 or lengths[k] <= 0 or swing_clearance_m(
-                points_m[k - 1], points_m[k], points_m[(k + 1) % w], acceptance_m, centres_m,
-                radii_m, polygons, polygon_clear_m) < -CLEARANCE_TOL_M:
+        before, corner, after = points_m[k - 1], points_m[k], points_m[(k + 1) % w]
+        if lengths[k - 1] <= 0 or lengths[k] <= 0 or _turn_deg(
+                before, corner, after) > PX4_MAX_TURN_DEG or swing_clearance_m(
+                before, corner, after, acceptance_m, centres_m, radii_m, polygons,
+                polygon_clear_m) < -CLEARANCE_TOL_M:
             stops[k] = True
     total = np.asarray(total_s, dtype=float)
     offset, duration = np.zeros(w), np.where(lengths > 0, total, 0.0)
@@ -160,6 +167,13 @@ def px4_motion(
         duration[legs] = move
         offset[legs[1:]] = np.maximum(total[legs[1:]] - move[1:], 0.0)
     return CycleMotion(stops, offset, duration, np.zeros(w))
+
+
+def _turn_deg(a: NDArray[np.float64], c: NDArray[np.float64], b: NDArray[np.float64]) -> float:
+    """How far (degrees) the path a → c → b turns at c (legs of non-zero length)."""
+    u, v = c - a, b - c
+    cos = float(np.dot(u, v) / (np.hypot(*u) * np.hypot(*v)))
+    return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
 
 
 def _fly_cycle(points_m: NDArray[np.float64], stops: NDArray[np.bool_], speed_mps: float,
