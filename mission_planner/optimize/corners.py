@@ -41,7 +41,7 @@ from validator.plan_format import Autopilot
 from validator.zones import PolygonZone, polyline_clearance_m
 
 # PX4 corners flown through are timed by the px4 model, checked on SIH for turns of 12-60°
-# (within 5 %); sharper ones (77-137° on samples/realistic.yaml) PX4 crawled round at 0.4-0.6
+# (within 5 %); sharper ones (77-137° on samples/realistic.yaml) PX4 crawled round at 0.4-1.2
 # m/s, each leg 2-3 s slower than modelled, and the cycle flew 1.05 T: those stop.
 PX4_MAX_TURN_DEG = 60.0
 CLEARANCE_TOL_M = 1e-3  # a blended turn may touch the buffer to this much (model precision)
