@@ -91,3 +91,17 @@ def test_every_flown_corner_stayed_in_its_swing_region(name: str) -> None:
     assert px4_corners.NEAR_M >= SWING_NEAR_M
     for corner in f.flown["corners"].values():
         assert max(corner["inside_m"], corner["outside_m"]) <= f.params["NAV_ACC_RAD"]
+
+
+def test_validate_mission_lists_the_swing_of_waypoints_flown_through() -> None:
+    # samples/realistic's PX4 plan as flown on SIH (realistic-sharp): its transit rounds NFZ3
+    # through waypoints without a hold, 3 m + 1 cm from it, so their swing regions come within
+    # the buffer; its cycle corners, far from every zone, are not listed
+    from validator.validation import validate_mission
+
+    folder = px4_corners.DATA / "realistic-sharp"
+    v = validate_mission(folder / "mission.plan", folder / "site.yaml", replay_flight=True)
+    assert v.replay is not None
+    swings = [f for f in v.replay.findings if "may swing" in f.message]
+    assert [f.item for f in swings] == [2, 3, 4, 13, 14]
+    assert all(f.severity == "warning" and "NFZ3" in f.message for f in swings)
