@@ -14,6 +14,7 @@ from mission_planner.optimize.corners import PX4_MAX_TURN_DEG
 from tests.validator import px4_corners
 from validator.motion.limits import site_limits
 from validator.motion.profile import flown_params, make_profile
+from validator.motion.px4_swing import swing_width_m
 from validator.replay import replay
 
 ALL_FLIGHTS = px4_corners.names()
@@ -71,11 +72,13 @@ def test_sharper_turns_fly_slower_than_the_replay_times_them():
 
 @pytest.mark.parametrize("name", ALL_FLIGHTS)
 def test_px4_passes_its_corners_within_the_acceptance_radius(name):
-    # The bound a clearance gate for PX4's pass-through corners could take: the flown track
-    # strayed from the two legs by less than NAV_ACC_RAD on either side of every corner.
+    # PX4 passed within NAV_ACC_RAD of every waypoint, and strayed from the two legs by at
+    # most NAV_ACC_RAD on either side of every corner but one: a 16° turn of rs1-planned,
+    # 1.56 m outside (NAV_ACC_RAD 1.5; 1.54 m on an earlier flight), hence the swing region's
+    # margin (validator.motion.px4_swing.SWING_MARGIN_M)
     for radius_m, _, flown in _corners(name):
         assert flown["closest_m"] < radius_m
-        assert max(flown["inside_m"], flown["outside_m"]) < radius_m
+        assert max(flown["inside_m"], flown["outside_m"]) < swing_width_m(radius_m)
 
 
 SWING = pytest.mark.xfail(strict=True, reason=(

@@ -12,10 +12,12 @@ from mission_planner.study.sites import random_site
 from tests.validator import px4_corners
 from validator.flight import Flight, Leg
 from validator.motion.px4_swing import (
+    SWING_MARGIN_M,
     SWING_NEAR_M,
     swing_clearance_m,
     swing_findings,
     swing_polyline,
+    swing_width_m,
 )
 from validator.plan_format import Autopilot
 from validator.zones import polygon_zone
@@ -39,8 +41,8 @@ def test_a_zone_outside_the_turn_counts_as_one_inside_does() -> None:
     # 5 m off the corner, outside the turn (where PX4 swings) and inside it (where it cuts)
     outside = _circle([105.0 + 2.0, -5.0 - 2.0], 2.0)
     inside = _circle([95.0 - 2.0, 5.0 + 2.0], 2.0)
-    assert outside == pytest.approx(np.hypot(7.0, 7.0) - 2.0 - 1.5)
-    assert inside == pytest.approx(5.0 + 2.0 - 2.0 - 1.5)  # nearest the first leg's line
+    assert outside == pytest.approx(np.hypot(7.0, 7.0) - 2.0 - 1.5 - SWING_MARGIN_M)
+    assert inside == pytest.approx(5.0 + 2.0 - 2.0 - 1.5 - SWING_MARGIN_M)  # by the first leg
     assert _circle([105.0 + 2.0, -5.0 - 2.0], 2.0, acceptance_m=0.5) == pytest.approx(
         outside + 1.0)
 
@@ -55,7 +57,7 @@ def test_polygons_count_beyond_their_clearance() -> None:
     square = polygon_zone("P", [(103.0, -10.0), (110.0, -10.0), (110.0, -3.0), (103.0, -3.0)],
                           "test")
     c = swing_clearance_m(A, C, B, 1.5, np.zeros((0, 2)), np.zeros(0), (square,), 1.0)
-    assert c == pytest.approx(np.hypot(3.0, 3.0) - 1.5 - 1.0)  # its corner, off the waypoint
+    assert c == pytest.approx(np.hypot(3.0, 3.0) - 1.5 - SWING_MARGIN_M - 1.0)  # its corner
 
 
 def _flight(pass_through: bool) -> Flight:
@@ -70,9 +72,9 @@ def _flight(pass_through: bool) -> Flight:
                   cycle=None, service=None)
 
 
-@pytest.mark.parametrize(("gap", "severity"), [(4.0, "warning"), (1.0, "violation")])
+@pytest.mark.parametrize(("gap", "severity"), [(4.5, "warning"), (1.5, "violation")])
 def test_the_replay_reports_a_swing_into_a_buffer_or_a_zone(gap: float, severity: str) -> None:
-    # a 5 m circle ``gap`` m from the corner outside the turn: its region comes gap - 1.5 close
+    # a 5 m circle ``gap`` m from the corner outside the turn: its region comes gap - 2 close
     away = (gap + 5.0) / np.sqrt(2.0)
     site = replace(random_site(0, buffer_m=3.0), nfz_names=("Z",),
                    nfz_xy_m=np.array([[100.0 + away, -away]]), nfz_radius_m=np.array([5.0]),
@@ -86,11 +88,12 @@ def test_the_replay_reports_a_swing_into_a_buffer_or_a_zone(gap: float, severity
 @pytest.mark.parametrize("name", px4_corners.names())
 def test_every_flown_corner_stayed_in_its_swing_region(name: str) -> None:
     # the region's bound as measured: PX4's track within SWING_NEAR_M of each corner kept within
-    # NAV_ACC_RAD of the two legs (flown.json, measured within px4_corners.NEAR_M)
+    # the swing width of the two legs (flown.json, measured within px4_corners.NEAR_M)
     f = px4_corners.load(name)
     assert px4_corners.NEAR_M >= SWING_NEAR_M
     for corner in f.flown["corners"].values():
-        assert max(corner["inside_m"], corner["outside_m"]) <= f.params["NAV_ACC_RAD"]
+        assert max(corner["inside_m"], corner["outside_m"]) <= swing_width_m(
+            f.params["NAV_ACC_RAD"])
 
 
 def test_validate_mission_lists_the_swing_of_waypoints_flown_through() -> None:
