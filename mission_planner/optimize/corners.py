@@ -13,11 +13,12 @@ The turn is timed and placed by the validator's own ArduCopter model
 plan and its replay agree by construction.
 
 PX4 does not cut a corner it flies through: on SIH flights (``tests/data/px4-corners``) it
-passed the waypoint within 0.1-0.4 m and swung 0.6-1.3 m *outside* the turn, the whole track
-within NAV_ACC_RAD of both legs near the corner, where the px4 model rounds it inside. So a
-PX4 corner is judged on that bound, the validator's swing region
+passed the waypoint within 0.1-0.6 m and swung 0.6-1.6 m *outside* the turn, the track
+within about NAV_ACC_RAD of both legs near the corner, where the px4 model rounds it inside.
+So a PX4 corner is judged on that bound, the validator's swing region
 (:func:`validator.motion.px4_swing.swing_clearance_m`: both legs within 15 m of the waypoint,
-widened by NAV_ACC_RAD), which the validator's px4 replay checks too; the run between two
+widened by NAV_ACC_RAD plus 0.5 m), which the validator's px4 replay checks too; only turns
+up to :data:`PX4_MAX_TURN_DEG` are flown through; the run between two
 stops is timed by the px4 model, which timed such corners within 5 % (:func:`px4_motion`).
 
 Positions are metres east/north; times seconds.
