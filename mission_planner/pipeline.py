@@ -11,6 +11,7 @@ door, :mod:`mission_planner.api`.
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -20,7 +21,7 @@ from mission_planner.autopilot_params import (
     dumps_params,
     recommended_params,
 )
-from mission_planner.flight_report import FlightCheck
+from mission_planner.flight_report import FlightCheck, replay_mission
 from mission_planner.mission import (
     Mission,
     MissionOptions,
@@ -220,12 +221,35 @@ def plan_and_build(
 ) -> Mission:
     """:func:`plan_solution`, then lay out its mission
     (:func:`~mission_planner.mission.build_mission`). The safety verdict is in
-    ``Mission.problems``; nothing is written here."""
+    ``Mission.problems``; nothing is written here.
+
+    A PX4 vehicle plan flown through its corners (``pass_through_corners``) is kept only
+    where it beats the plan stopping at every waypoint on the min rate along the ``px4``
+    replay (:func:`~mission_planner.flight_report.replay_mission`; a tie, or a plan the gate
+    refuses, stops): PX4's speed search ends at the first planning speed whose moves fit T,
+    and the faster moves of a path flown through may fit first with a worse path."""
     opt = options or MissionOptions()
-    solution = plan_solution(site, scheme, opt, dynamics=dynamics, progress=progress,
-                             pass_through_corners=pass_through_corners,
-                             second_start=second_start, wind_buffer=wind_buffer)
-    return build_mission(solution, opt)
+
+    def made(through: bool, report: Progress | None) -> Mission:
+        return build_mission(plan_solution(
+            site, scheme, opt, dynamics=dynamics, progress=report,
+            pass_through_corners=through, second_start=second_start,
+            wind_buffer=wind_buffer), opt)
+
+    mission = made(pass_through_corners, progress)
+    if opt.autopilot != "px4" or dynamics != "vehicle" or not pass_through_corners:
+        return mission
+    stopping = made(False, None)
+    return mission if _replayed_min_rate(mission) > _replayed_min_rate(stopping) else stopping
+
+
+def _replayed_min_rate(mission: Mission) -> float:
+    """The min rate (bps/Hz) along the replay of ``mission`` at its recommended parameters;
+    -inf for a mission the safety gate refuses or whose replay has no complete cycle."""
+    if mission.problems:
+        return -math.inf
+    rate = replay_mission(mission).replayed_min_rate_bps_hz
+    return -math.inf if rate is None else rate
 
 
 def speed_warning(site: Site, dynamics: str, autopilot: str = "ardupilot") -> str | None:

@@ -10,11 +10,16 @@ optimiser's hover points and the cycle's first waypoint always stop.
 
 The turn is timed and placed by the validator's own ArduCopter model
 (:func:`validator.motion.fly.fly`, the corner rule of :mod:`validator.motion.arducopter`), so the
-plan and its replay agree by construction. PX4 plans stop at every waypoint: on SIH flights
-through corners without a hold (``tests/data/px4-corners``) the px4 model timed them within 5 %,
-but PX4 swung 0.6-1.3 m outside each turn where the model rounds it inside NAV_ACC_RAD, so
-the model cannot yet say which PX4 corners keep the buffer (README, *PX4 corners flown
-through*).
+plan and its replay agree by construction.
+
+PX4 does not cut a corner it flies through: on SIH flights (``tests/data/px4-corners``) it
+passed the waypoint within 0.1-0.6 m and swung 0.6-1.6 m *outside* the turn, the track
+within about NAV_ACC_RAD of both legs near the corner, where the px4 model rounds it inside.
+So a PX4 corner is judged on that bound, the validator's swing region
+(:func:`validator.motion.px4_swing.swing_clearance_m`: both legs within 15 m of the waypoint,
+widened by NAV_ACC_RAD plus 0.5 m), which the validator's px4 replay checks too; only turns
+up to :data:`PX4_MAX_TURN_DEG` are flown through; the run between two
+stops is timed by the px4 model, which timed such corners within 5 % (:func:`px4_motion`).
 
 Positions are metres east/north; times seconds.
 """
@@ -31,9 +36,15 @@ from validator.geometry import min_leg_clearance
 from validator.motion.fly import fly
 from validator.motion.path import FlownPath
 from validator.motion.profile import Profile
+from validator.motion.px4_mission import px4_run_reached_s
+from validator.motion.px4_swing import swing_clearance_m
 from validator.plan_format import Autopilot
 from validator.zones import PolygonZone, polyline_clearance_m
 
+# PX4 corners flown through are timed by the px4 model, checked on SIH for turns of 12-60°
+# (within 5 %); sharper ones (77-137° on samples/realistic.yaml) PX4 crawled round at 0.4-1.2
+# m/s, each leg 2-3 s slower than modelled, and the cycle flew 1.05 T: those stop.
+PX4_MAX_TURN_DEG = 60.0
 CLEARANCE_TOL_M = 1e-3  # a blended turn may touch the buffer to this much (model precision)
 TURN_SAMPLE_S = 0.02  # the turn is checked along its path sampled this often
 
@@ -109,6 +120,61 @@ def blended_motion(
         if stops[nxt]:
             lag[nxt] = float(path.reached_s[k] - end[k])
     return CycleMotion(stops, offset, duration, lag)
+
+
+def px4_motion(
+    points_m: NDArray[np.float64],
+    total_s: NDArray[np.float64],
+    must_stop: NDArray[np.bool_],
+    speed_mps: float,
+    profile: Profile,
+    centres_m: NDArray[np.float64],
+    radii_m: NDArray[np.float64],
+    polygons: tuple[PolygonZone, ...] = (),
+    polygon_clear_m: float = 0.0,
+) -> CycleMotion:
+    """The cycle round ``points_m`` (W, 2) flown by a ``px4`` ``profile`` at ``speed_mps``
+    (each leg's rest-to-rest motion lasting ``total_s``, the arrival included), passing
+    through every waypoint not in ``must_stop`` that turns by :data:`PX4_MAX_TURN_DEG` at
+    most and whose swing region
+    (:func:`validator.motion.px4_swing.swing_clearance_m`, NAV_ACC_RAD either side of both
+    legs) stays ``radii_m`` from the circle centres ``centres_m`` and ``polygon_clear_m`` from
+    the ``polygons``; waypoint 0 always stops. Each run between two stops is flown by the
+    validator's PX4 model (:func:`validator.motion.px4_mission.px4_run_reached_s`): its first
+    leg from the start of its rest-to-rest motion, the others ending where theirs end."""
+    w = len(points_m)
+    stops = np.asarray(must_stop, dtype=bool).copy()
+    stops[0] = True
+    acceptance_m = profile.si("NAV_ACC_RAD")
+    lengths = np.hypot(*(np.roll(points_m, -1, axis=0) - points_m).T)
+    for k in np.flatnonzero(~stops):
+        before, corner, after = points_m[k - 1], points_m[k], points_m[(k + 1) % w]
+        if lengths[k - 1] <= 0 or lengths[k] <= 0 or _turn_deg(
+                before, corner, after) > PX4_MAX_TURN_DEG or swing_clearance_m(
+                before, corner, after, acceptance_m, centres_m, radii_m, polygons,
+                polygon_clear_m) < -CLEARANCE_TOL_M:
+            stops[k] = True
+    total = np.asarray(total_s, dtype=float)
+    offset, duration = np.zeros(w), np.where(lengths > 0, total, 0.0)
+    starts = np.flatnonzero(stops)
+    for i, first in enumerate(starts):
+        end = int(starts[i + 1]) if i + 1 < len(starts) else w
+        if end - first < 2:
+            continue  # stop to stop: the rest-to-rest leg itself
+        idx = np.arange(first, end + 1) % w
+        reached = px4_run_reached_s(points_m[idx], speed_mps, profile)
+        move = np.diff(np.r_[0.0, reached])
+        legs = np.arange(first, end)
+        duration[legs] = move
+        offset[legs[1:]] = np.maximum(total[legs[1:]] - move[1:], 0.0)
+    return CycleMotion(stops, offset, duration, np.zeros(w))
+
+
+def _turn_deg(a: NDArray[np.float64], c: NDArray[np.float64], b: NDArray[np.float64]) -> float:
+    """How far (degrees) the path a → c → b turns at c (legs of non-zero length)."""
+    u, v = c - a, b - c
+    cos = float(np.dot(u, v) / (np.hypot(*u) * np.hypot(*v)))
+    return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
 
 
 def _fly_cycle(points_m: NDArray[np.float64], stops: NDArray[np.bool_], speed_mps: float,

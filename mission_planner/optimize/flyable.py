@@ -79,10 +79,13 @@ class _Flyable:
 
 def _as_calibrated(opt: PlannerOptions) -> bool:
     """Whether plans keep to the shapes the autopilot's replay was calibrated on: PX4's (SIH
-    flights, issue 16): every waypoint a stop (:mod:`.corners`), the skeleton judged a whole
-    stretch at a time, no planning speed above the vehicle's. Simplified chord by chord, PX4
-    plans stopped at more corners, which SIH flew 3-5 % faster than the px4 model predicts
-    (about 0.7 s a stop)."""
+    flights, issues 16 and 26): the skeleton judged a whole stretch at a time, no planning
+    speed above the vehicle's, the search ended at the first speed that fits. Simplified
+    chord by chord, PX4 plans stopped at more corners, which SIH flew 3-5 % faster than the
+    px4 model predicts (about 0.7 s a stop). Its corners are flown through where their swing
+    region keeps the buffer (:mod:`.corners`); the search ending at the first speed that
+    fits, such a plan may be worse than the one stopping at every waypoint, so
+    :func:`mission_planner.pipeline.plan_and_build` makes both and keeps the better flown."""
     return opt.autopilot == "px4"
 
 
@@ -314,13 +317,7 @@ def plan_flyable(
     (re-timed in the wind all the same) and the better plan is kept: the air-frame cone
     shapes the paper model's path for flight without acceleration limits, which is not always
     the best flown one."""
-    search, tries = _search(site, scheme, opt, progress, still_path=False)
-    if site.wind is not None and opt.wind_blind_paths:
-        still, more = _search(site, scheme, opt, None, still_path=True)
-        tries += more
-        if still.best is not None and (search.best is None
-                                       or still.best.min_rate > search.best.min_rate):
-            search = still
+    search, tries = _searches(site, scheme, opt, progress)
     best = search.best
     if best is None:
         raise InputError(
@@ -339,6 +336,20 @@ def plan_flyable(
         "move_s": best.move_s,
     }
     return _solution(site, scheme, sc, best.state, started, notes)
+
+
+def _searches(site: Site, scheme: str, opt: PlannerOptions, progress: Progress | None
+              ) -> tuple[_Search, int]:
+    """The top-speed search, and in wind with ``opt.wind_blind_paths`` the still-air paths'
+    one too, whichever found the better plan; and how many speeds they tried."""
+    search, tries = _search(site, scheme, opt, progress, still_path=False)
+    if site.wind is not None and opt.wind_blind_paths:
+        still, more = _search(site, scheme, opt, None, still_path=True)
+        tries += more
+        if still.best is not None and (search.best is None
+                                       or still.best.min_rate > search.best.min_rate):
+            search = still
+    return search, tries
 
 
 def _search(site: Site, scheme: str, opt: PlannerOptions, progress: Progress | None,

@@ -41,6 +41,7 @@ from mission_planner.optimize.corners import (
     CycleMotion,
     blended_motion,
     path_clearance_m,
+    px4_motion,
     stop_everywhere,
 )
 from mission_planner.optimize.simplify import douglas_peucker
@@ -286,8 +287,9 @@ def time_cycle(
     """The vehicle's total move time (s) round ``sk``, and its timeline of ``slots`` slots
     filling ``period_s`` (trajectory (N+1, 2), slot lengths (N,)); None when it cannot.
 
-    With ``pass_through`` (ArduCopter only) the vehicle flies through every corner that is not
-    a hover point where its turn keeps the buffer (:mod:`.corners`); it stops at the rest. On
+    With ``pass_through`` the vehicle flies through every corner that is not a hover point
+    where its turn (PX4: its swing region) keeps the buffer (:mod:`.corners`); it stops at
+    the rest. On
     the timeline each stop's hover begins with the stop lag (:func:`arrival_lag_s`) and then
     holds as :func:`fit_holds` says (whole seconds but one, at least a second). A PX4 leg
     begins with its departure crawl (:func:`px4_departures_s`), settled with the holds."""
@@ -306,7 +308,8 @@ def time_cycle(
         for _ in range(PX4_CRAWL_ROUNDS):
             if holds is None:
                 break
-            before, crawl = crawl, px4_departures_s(sk, profiles, holds, px4_profile)
+            before = crawl  # (no crawl out of a waypoint flown through)
+            crawl = np.where(base.stops, px4_departures_s(sk, profiles, holds, px4_profile), 0.0)
             motion = replace(base, offset_s=base.offset_s - crawl,
                              duration_s=base.duration_s + crawl)
             holds = fit_holds(sk.hold_s, motion.move_s + float(np.sum(lag)), period_s,
@@ -348,14 +351,19 @@ def cycle_motion(site: Site, sk: Skeleton, profiles: LegMotion, autopilot: str =
                  params: Mapping[str, float] | None = None,
                  pass_through: bool = True) -> CycleMotion:
     """Which waypoints of ``sk`` the vehicle stops at and how long each leg moves
-    (:class:`~.corners.CycleMotion`): every one a stop for PX4 or without ``pass_through``,
-    else the hover points, waypoint 0 and the corners whose blended turn would cut into a
-    zone's buffer (:func:`~.corners.blended_motion`). ``profiles``: the legs' rest-to-rest
+    (:class:`~.corners.CycleMotion`): every one a stop without ``pass_through``, else the
+    hover points, waypoint 0 and the corners whose blended turn (ArduCopter,
+    :func:`~.corners.blended_motion`) or swing region (PX4, :func:`~.corners.px4_motion`)
+    would reach into a zone's buffer. ``profiles``: the legs' rest-to-rest
     motion (:func:`leg_profiles`)."""
     lengths = sk.leg_lengths_m
-    if autopilot == "px4" or not pass_through or len(sk.points_m) < 2:
+    if not pass_through or len(sk.points_m) < 2:
         return stop_everywhere(profiles.total_s, lengths, arrival_lag_s(profiles, autopilot))
     profile = motion_profile(site, autopilot, params)
+    if profile.name == "px4":
+        return px4_motion(sk.points_m, profiles.total_s, sk.hold_s > 0,
+                          px4_top_speed_mps(profile), profile, site.nfz_xy_m,
+                          site.planning_radius_m, site.polygon_zones, site.buffer_m)
     speed = _scurve_speed_mps(scurve_limits(profile))
     return blended_motion(sk.points_m, profiles.total_s, sk.hold_s > 0, speed, profile,
                           site.nfz_xy_m, site.planning_radius_m, site.polygon_zones,

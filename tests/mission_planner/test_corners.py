@@ -5,10 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mission_planner.optimize.corners import blended_motion
+from mission_planner.optimize.corners import PX4_MAX_TURN_DEG, blended_motion, px4_motion
 from mission_planner.optimize.retime import Skeleton, leg_profiles, motion_profile
 from mission_planner.study.sites import random_site
 from validator.motion.arducopter import STOP_LAG_S, scurve_limits
+from validator.motion.px4_mission import px4_top_speed_mps
 from validator.site import Site
 from validator.zones import PolygonZone, polygon_zone
 
@@ -93,3 +94,51 @@ def test_the_realistic_sample_gives_more_per_flown_second_than_the_paper_plan() 
     assert flown["none"][1] > 1.2 * site.period_s  # the paper plan overruns T when flown
     assert flown["vehicle"][1] == pytest.approx(site.period_s, rel=0.02)
     assert flown["vehicle"][0] > flown["none"][0]
+
+
+OCTAGON = 60.0 * np.array([[np.cos(a), np.sin(a)] for a in np.arange(8) * np.pi / 4])
+
+
+def _px4_motion(site: Site, points: np.ndarray = OCTAGON, centres: list[list[float]] = (),
+                radii: list[float] = (), hover: tuple[int, ...] = (0,)):
+    sk = Skeleton(points, np.array([1.0 if k in hover else 0.0 for k in range(len(points))]))
+    profiles = leg_profiles(site, sk.leg_lengths_m, autopilot="px4")
+    profile = motion_profile(site, "px4")
+    return profiles, px4_motion(
+        points, profiles.total_s, sk.hold_s > 0, px4_top_speed_mps(profile), profile,
+        np.array(centres, dtype=float).reshape(-1, 2), np.array(radii, dtype=float))
+
+
+def test_px4_flies_through_clear_gentle_corners_and_saves_time(site: Site) -> None:
+    inner = 60.0 * np.cos(np.pi / 8) - 5.0  # 5 m inside every leg; the turns are 45°
+    profiles, m = _px4_motion(site, centres=[[0.0, 0.0]], radii=[inner])
+    assert m.stops.tolist() == [True] + [False] * 7
+    assert m.move_s < float(profiles.total_s.sum()) - 7.0  # seven stops saved
+    assert np.all(m.arrival_lag_s == 0.0)  # PX4's legs end when it counts them reached
+    # a run from a stop: its first leg from rest, shorter than flown to a stop
+    assert m.offset_s[0] == 0.0 and m.duration_s[0] < profiles.total_s[0]
+
+
+def test_px4_stops_at_turns_sharper_than_calibrated(site: Site) -> None:
+    # 90° corners: beyond the 12-60° turns the px4 model was timed on (PX4_MAX_TURN_DEG)
+    _, m = _px4_motion(site, SQUARE)
+    assert PX4_MAX_TURN_DEG < 90.0 and m.stops.all()
+
+
+def test_px4_stops_where_its_swing_outside_the_turn_would_reach_a_zone(site: Site) -> None:
+    # A circle (its radius with the buffer) 1 m outside corner 1, beyond the turn: ArduCopter
+    # cuts the corner inside and flies through; PX4 swings outside by up to NAV_ACC_RAD
+    # (1.5 m here) and stops.
+    radius = 2.0
+    centre = [OCTAGON[1] / 60.0 * (60.0 + 1.0 + radius)]
+    w = len(OCTAGON)
+    lim = scurve_limits(motion_profile(site))
+    arducopter = blended_motion(
+        OCTAGON, leg_profiles(site, np.full(w, 60.0 * 2 * np.sin(np.pi / 8))).total_s,
+        np.eye(w, dtype=bool)[0], min(lim.default_speed_mps, lim.top_speed_mps),
+        motion_profile(site), np.array(centre), np.array([radius]))
+    _, m = _px4_motion(site, centres=centre, radii=[radius])
+    assert not arducopter.stops[1]
+    assert m.stops.tolist() == [True, True] + [False] * 6
+    _, hover = _px4_motion(site, hover=(0, 2))
+    assert hover.stops.tolist() == [True, False, True] + [False] * 5

@@ -10,13 +10,19 @@ from __future__ import annotations
 
 import pytest
 
+from mission_planner.optimize.corners import PX4_MAX_TURN_DEG
 from tests.validator import px4_corners
 from validator.motion.limits import site_limits
 from validator.motion.profile import flown_params, make_profile
+from validator.motion.px4_swing import swing_width_m
 from validator.replay import replay
 
-FLIGHTS = px4_corners.names()
-WITH_CORNERS = [n for n in FLIGHTS if px4_corners.load(n).flown["corners"]]
+ALL_FLIGHTS = px4_corners.names()
+# the turns the px4 model is timed for (the planner flies no sharper one through)
+FLIGHTS = [n for n in ALL_FLIGHTS if all(c["turn_deg"] <= PX4_MAX_TURN_DEG
+                                         for c in px4_corners.load(n).flown["corners"].values())]
+SHARP = [n for n in ALL_FLIGHTS if n not in FLIGHTS]
+WITH_CORNERS = [n for n in ALL_FLIGHTS if px4_corners.load(n).flown["corners"]]
 
 
 def _modelled(name: str) -> tuple[px4_corners.CornerFlight, dict, dict]:
@@ -55,13 +61,24 @@ def test_the_replay_times_the_way_through_each_corner(name):
                                                                rel=0.05)
 
 
-@pytest.mark.parametrize("name", FLIGHTS)
+def test_sharper_turns_fly_slower_than_the_replay_times_them():
+    # why the planner flies no turn sharper than PX4_MAX_TURN_DEG through: samples/realistic
+    # flown through 77-137° turns took 1.054 T on SIH where the replay said 1.000 T
+    assert SHARP
+    for name in SHARP:
+        _, model, flown = _modelled(name)
+        assert flown["cycle_s"] > 1.03 * model["cycle_s"]
+
+
+@pytest.mark.parametrize("name", ALL_FLIGHTS)
 def test_px4_passes_its_corners_within_the_acceptance_radius(name):
-    # The bound a clearance gate for PX4's pass-through corners could take: the flown track
-    # strayed from the two legs by less than NAV_ACC_RAD on either side of every corner.
+    # PX4 passed within NAV_ACC_RAD of every waypoint, and strayed from the two legs by at
+    # most NAV_ACC_RAD on either side of every corner but one: a 16° turn of rs1-planned,
+    # 1.56 m outside (NAV_ACC_RAD 1.5; 1.54 m on an earlier flight), hence the swing region's
+    # margin (validator.motion.px4_swing.SWING_MARGIN_M)
     for radius_m, _, flown in _corners(name):
         assert flown["closest_m"] < radius_m
-        assert max(flown["inside_m"], flown["outside_m"]) < radius_m
+        assert max(flown["inside_m"], flown["outside_m"]) < swing_width_m(radius_m)
 
 
 SWING = pytest.mark.xfail(strict=True, reason=(

@@ -210,6 +210,25 @@ def fly(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
     return FlownPath(t, pos, vel, active_leg(done, t), start, reached, done)
 
 
+def px4_run_reached_s(points_m: ArrayLike, speed_mps: float, profile: Profile
+                      ) -> NDArray[np.float64]:
+    """A ``px4`` profile's vehicle flying from rest at ``points_m[0]`` through the waypoints
+    ``points_m[1:]`` (k + 1, 2) without a hold, stopping at the last, each leg at
+    ``speed_mps`` at most (capped as :func:`px4_rest_to_rest` caps it, in the profile's wind
+    too): (k,) the time (s) its navigator counts each waypoint reached (the last one's arrival
+    lag included; no departure crawl, no hold). The corners are those :func:`fly` flies."""
+    xy = np.asarray(points_m, dtype=float)[:, :2]
+    pts = np.hstack([xy, np.zeros((len(xy), 1))])
+    cruise = _leg_speeds_mps(profile, speed_mps, np.diff(xy, axis=0))
+    path = _run_path(pts[0], pts[1:], cruise, profile)
+    flown = px4.fly_run(path.waypoint_s_m, path.through_mps, cruise,
+                        profile.si("MPC_ACC_HOR"), profile.si("MPC_JERK_AUTO"),
+                        profile.si("NAV_ACC_RAD"), 0.0, cap_s_m=path.s_m, cap_mps=path.cap_mps,
+                        tracking=_tracking(profile, pts[-1] - pts[0]),
+                        arrival_lag_s=PX4_ARRIVAL_LAG_S)
+    return np.asarray(flown.reached_s, dtype=float)
+
+
 def departure_lock_s(profile: Profile, state: tuple[float, float, float], hold_s: float,
                      arriving: ArrayLike, leaving: ArrayLike) -> float:
     """How long (s) a ``px4`` profile's vehicle crawls away from a stop
@@ -244,15 +263,12 @@ def px4_rest_to_rest(profile: Profile, lengths_m: NDArray[np.float64],
     :func:`validator.motion.px4.rest_to_rest`. In the profile's wind each leg, along its
     direction ``unit_xy`` (n, 2), is flown at most at the ground speed its course leaves
     (:func:`validator.wind.ground_speed_mps`), against the drag of the air it moves through."""
-    top = px4_top_speed_mps(profile)
-    speed = min(speed_mps, top)
+    speed = min(speed_mps, px4_top_speed_mps(profile))
     args = (profile.si("MPC_ACC_HOR"), profile.si("MPC_JERK_AUTO"), profile.si("NAV_ACC_RAD"))
-    wind = profile_wind(profile)
-    if wind is None or unit_xy is None:
+    if profile_wind(profile) is None or unit_xy is None:
         return px4.rest_to_rest(lengths_m, speed, *args, _tracking(profile), PX4_ARRIVAL_LAG_S)
     unit = np.atleast_2d(np.asarray(unit_xy, dtype=float))
-    px4_check_wind(profile, unit)
-    ground = np.minimum(ground_speed_mps(top, wind.vector_mps, unit), speed)
+    ground = _leg_speeds_mps(profile, speed, unit)
     parts = [px4.rest_to_rest(np.atleast_1d(float(length)), float(g), *args,
                               _tracking(profile, u), PX4_ARRIVAL_LAG_S)
              for length, g, u in zip(np.atleast_1d(lengths_m), ground, unit, strict=True)]
@@ -260,6 +276,25 @@ def px4_rest_to_rest(profile: Profile, lengths_m: NDArray[np.float64],
         np.asarray(lengths_m, dtype=float), np.concatenate([p.total_s for p in parts]),
         tuple(t for p in parts for t in p.t_s), tuple(x for p in parts for x in p.s_m),
         np.concatenate([p.arrival for p in parts]).reshape(-1, 3))
+
+
+def _leg_speeds_mps(profile: Profile, speed_mps: float, heading: NDArray[np.float64]
+                    ) -> NDArray[np.float64]:
+    """(n,) the speed (m/s) each leg along ``heading`` (n, 2) is flown at: ``speed_mps``
+    capped by :func:`px4_top_speed_mps` and, in the profile's wind, by the ground speed the
+    leg's course leaves (:func:`validator.wind.ground_speed_mps`; a wind too strong refused)."""
+    top = px4_top_speed_mps(profile)
+    h = np.atleast_2d(np.asarray(heading, dtype=float))
+    speed = np.full(len(h), min(speed_mps, top))
+    wind = profile_wind(profile)
+    if wind is None:
+        return speed
+    px4_check_wind(profile, h)
+    norm = np.hypot(h[:, 0], h[:, 1])
+    moving = norm > 1e-9
+    unit = h[moving] / norm[moving, None]
+    speed[moving] = np.minimum(ground_speed_mps(top, wind.vector_mps, unit), speed[moving])
+    return speed
 
 
 def _tracking(profile: Profile, heading: ArrayLike | None = None) -> px4.Tracking:
