@@ -96,7 +96,21 @@ def _summary(site: str, wind: str, kind: str, flown: dict[str, Any]) -> dict[str
         "fence_breach_samples": flown.get("sitl_flight", {}).get("fence_breach_samples"),
         "end": flown.get("sitl_flight", {}).get("end"),
         "buffer_m": None,
+        # Where the min-rate node loses (per node) and when (each waypoint's arrival against
+        # the plan's, flown and replayed): the figures a miss is diagnosed from.
+        "flown_rate_by_gn": _by_gn(sitl), "replayed_rate_by_gn": _by_gn(replay),
+        "flown_lag_s": _lags(sitl), "replayed_lag_s": _lags(replay),
     }
+
+
+def _by_gn(rep: dict[str, Any] | None) -> dict[str, float]:
+    t = (rep or {}).get("throughput") or {}
+    return {g["gn"]: float(g["flown_bps_hz"]) for g in t.get("per_gn", [])}
+
+
+def _lags(rep: dict[str, Any] | None) -> dict[str, float]:
+    lags = (rep or {}).get("waypoint_lag", [])
+    return {str(w["item"]): round(float(w["lag_s"]), 2) for w in lags}
 
 
 def table(flights: list[dict[str, Any]]) -> str:
@@ -127,6 +141,9 @@ def main() -> None:
     ap.add_argument("--winds", nargs="*", default=list(WINDS))
     ap.add_argument("--speedup", type=float, default=10.0)
     ap.add_argument("--blind", action="store_true", help="also fly each site's still-air plan")
+    ap.add_argument("--only-blind", action="store_true",
+                    help="fly only the still-air plans in wind (they do not change with the "
+                    "wind model, so they can be flown apart)")
     ap.add_argument("--table", action="store_true", help="only print the table of --out")
     args = ap.parse_args()
     flights: list[dict[str, Any]] = json.loads(args.out.read_text()) if args.out.exists() else []
@@ -141,6 +158,8 @@ def main() -> None:
                 blind_report = None
                 for wind in args.winds:
                     kinds = ["aware"] + (["blind"] if args.blind and wind != "0@0" else [])
+                    if args.only_blind:
+                        kinds = ["blind"] if wind != "0@0" else []
                     for kind in kinds:
                         if (name, wind, kind) in done:
                             continue
@@ -159,6 +178,11 @@ def main() -> None:
                         row = _summary(name, wind, kind, flown)
                         row["buffer_m"] = float(_site_buffer(site))
                         row["plan_buffer_m"] = float(planned["buffer_m"])
+                        # The report's prediction: its replay in the wind the plan was made for
+                        row["report_min_rate_bps_hz"] = (planned.get("flight") or {}).get(
+                            "replayed_min_rate_bps_hz")
+                        row["report_cycle_s"] = (planned.get("flight") or {}).get(
+                            "replayed_cycle_s")
                         flights.append(row)
                         args.out.write_text(json.dumps(flights, indent=1) + "\n")
                         print(table([row]).splitlines()[-1], flush=True)
