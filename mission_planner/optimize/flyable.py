@@ -75,6 +75,7 @@ class _Flyable:
     move_s: float
     state: _State
     min_rate: float
+    still_path: bool = False  # in wind: the still-air path, re-timed in the wind
 
 
 def _as_calibrated(opt: PlannerOptions) -> bool:
@@ -313,7 +314,8 @@ def plan_flyable(
     docstring). In wind with ``opt.wind_blind_paths`` a second search plans still-air paths
     (re-timed in the wind all the same) and the better plan is kept: the air-frame cone
     shapes the paper model's path for flight without acceleration limits, which is not always
-    the best flown one."""
+    the best flown one. Without it, ``opt.still_path_check`` does the same for one or two
+    still-air candidates (:func:`_still_check`); the notes' ``wind_path`` says which won."""
     search, tries = _search(site, scheme, opt, progress, still_path=False)
     best = search.best
     if site.wind is not None and opt.wind_blind_paths:
@@ -321,6 +323,7 @@ def plan_flyable(
         tries += more
         if still.best is not None and (best is None or still.best.min_rate > best.min_rate):
             search, best = still, still.best
+            best.still_path = True
     elif site.wind is not None and not site.wind.calm and opt.still_path_check:
         cand, more = _still_check(site, scheme, opt)
         tries += more
@@ -342,6 +345,8 @@ def plan_flyable(
         "waypoint_slots": best.waypoint_slots,
         "move_s": best.move_s,
     }
+    if site.wind is not None and not site.wind.calm:
+        notes["wind_path"] = "still-air" if best.still_path else "air-frame"
     return _solution(site, scheme, sc, best.state, started, notes)
 
 
@@ -363,6 +368,8 @@ def _still_check(site: Site, scheme: str, opt: PlannerOptions) -> tuple[_Flyable
     best: _Flyable | None = None
     for attempt in range(2):
         cand, overrun = _retimed(site, scheme, speed, opt, None, still_path=True)
+        if cand is not None:
+            cand.still_path = True
         if cand is not None and (best is None or cand.min_rate > best.min_rate):
             best = cand
         if attempt == 1 or not np.isfinite(overrun) or overrun <= 0:
