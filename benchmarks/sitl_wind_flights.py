@@ -132,6 +132,36 @@ def table(flights: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+def targets(flights: list[dict[str, Any]]) -> str:
+    """Issue 26's targets over the windy flights of plans made for their wind: each aware
+    flight against the report's prediction (its replay in the plan's wind, when recorded)
+    and against the still-air plan flown in the same wind at the same site."""
+    blind = {(f["site"], f["wind"]): f for f in flights if f["plan"] == "blind"}
+    aware = [f for f in flights if f["plan"] == "aware" and f["wind_speed_mps"] > 0
+             and f["flown_cycle_s"]]
+    counts = {"cycle within 5 % of T": 0, "predicted cycle within 3 % of flown": 0,
+              "no flown point inside the site's buffer": 0,
+              "flown min rate >= 0.97 of the report's": 0,
+              "min rate per flown second >= the still-air plan's": 0}
+    compared = 0
+    for f in aware:
+        report = f.get("report_min_rate_bps_hz") or f["replayed_min_rate_bps_hz"]
+        rate = f["flown_min_rate_bps_hz"] or 0.0
+        checks = [abs(f["flown_cycle_s"] / f["period_s"] - 1) <= 0.05,
+                  abs(f["predicted_cycle_s"] / f["flown_cycle_s"] - 1) <= 0.03,
+                  min(f["flown_clearance_m"].values()) >= f["buffer_m"],
+                  report is not None and rate >= 0.97 * report]
+        other = blind.get((f["site"], f["wind"]))
+        if other is not None:
+            compared += 1
+            checks.append(rate >= (other["flown_min_rate_bps_hz"] or 0.0))
+        for key, ok in zip(counts, checks, strict=False):
+            counts[key] += int(ok)
+    return "\n".join([f"{len(aware)} windy flights of plans made for their wind:"]
+                     + [f"- {k}: {v} of {compared if k.startswith('min rate') else len(aware)}"
+                        for k, v in counts.items()])
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--binary", help="ArduCopter SITL binary ('builtin': the model vehicle, "
@@ -187,6 +217,7 @@ def main() -> None:
                         args.out.write_text(json.dumps(flights, indent=1) + "\n")
                         print(table([row]).splitlines()[-1], flush=True)
     print(table(flights))
+    print(targets(flights))
 
 
 def _site_buffer(site: Path) -> float:
