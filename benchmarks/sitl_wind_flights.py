@@ -96,7 +96,21 @@ def _summary(site: str, wind: str, kind: str, flown: dict[str, Any]) -> dict[str
         "fence_breach_samples": flown.get("sitl_flight", {}).get("fence_breach_samples"),
         "end": flown.get("sitl_flight", {}).get("end"),
         "buffer_m": None,
+        # Where the min-rate node loses (per node) and when (each waypoint's arrival against
+        # the plan's, flown and replayed): the figures a miss is diagnosed from.
+        "flown_rate_by_gn": _by_gn(sitl), "replayed_rate_by_gn": _by_gn(replay),
+        "flown_lag_s": _lags(sitl), "replayed_lag_s": _lags(replay),
     }
+
+
+def _by_gn(rep: dict[str, Any] | None) -> dict[str, float]:
+    t = (rep or {}).get("throughput") or {}
+    return {g["gn"]: float(g["flown_bps_hz"]) for g in t.get("per_gn", [])}
+
+
+def _lags(rep: dict[str, Any] | None) -> dict[str, float]:
+    lags = (rep or {}).get("waypoint_lag", [])
+    return {str(w["item"]): round(float(w["lag_s"]), 2) for w in lags}
 
 
 def table(flights: list[dict[str, Any]]) -> str:
@@ -118,6 +132,36 @@ def table(flights: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+def targets(flights: list[dict[str, Any]]) -> str:
+    """Issue 26's targets over the windy flights of plans made for their wind: each aware
+    flight against the report's prediction (its replay in the plan's wind, when recorded)
+    and against the still-air plan flown in the same wind at the same site."""
+    blind = {(f["site"], f["wind"]): f for f in flights if f["plan"] == "blind"}
+    aware = [f for f in flights if f["plan"] == "aware" and f["wind_speed_mps"] > 0
+             and f["flown_cycle_s"]]
+    counts = {"cycle within 5 % of T": 0, "predicted cycle within 3 % of flown": 0,
+              "no flown point inside the site's buffer": 0,
+              "flown min rate >= 0.97 of the report's": 0,
+              "min rate per flown second >= the still-air plan's": 0}
+    compared = 0
+    for f in aware:
+        report = f.get("report_min_rate_bps_hz") or f["replayed_min_rate_bps_hz"]
+        rate = f["flown_min_rate_bps_hz"] or 0.0
+        checks = [abs(f["flown_cycle_s"] / f["period_s"] - 1) <= 0.05,
+                  abs(f["predicted_cycle_s"] / f["flown_cycle_s"] - 1) <= 0.03,
+                  min(f["flown_clearance_m"].values()) >= f["buffer_m"],
+                  report is not None and rate >= 0.97 * report]
+        other = blind.get((f["site"], f["wind"]))
+        if other is not None:
+            compared += 1
+            checks.append(rate >= (other["flown_min_rate_bps_hz"] or 0.0))
+        for key, ok in zip(counts, checks, strict=False):
+            counts[key] += int(ok)
+    return "\n".join([f"{len(aware)} windy flights of plans made for their wind:"]
+                     + [f"- {k}: {v} of {compared if k.startswith('min rate') else len(aware)}"
+                        for k, v in counts.items()])
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--binary", help="ArduCopter SITL binary ('builtin': the model vehicle, "
@@ -127,6 +171,9 @@ def main() -> None:
     ap.add_argument("--winds", nargs="*", default=list(WINDS))
     ap.add_argument("--speedup", type=float, default=10.0)
     ap.add_argument("--blind", action="store_true", help="also fly each site's still-air plan")
+    ap.add_argument("--only-blind", action="store_true",
+                    help="fly only the still-air plans in wind (they do not change with the "
+                    "wind model, so they can be flown apart)")
     ap.add_argument("--table", action="store_true", help="only print the table of --out")
     args = ap.parse_args()
     flights: list[dict[str, Any]] = json.loads(args.out.read_text()) if args.out.exists() else []
@@ -141,6 +188,8 @@ def main() -> None:
                 blind_report = None
                 for wind in args.winds:
                     kinds = ["aware"] + (["blind"] if args.blind and wind != "0@0" else [])
+                    if args.only_blind:
+                        kinds = ["blind"] if wind != "0@0" else []
                     for kind in kinds:
                         if (name, wind, kind) in done:
                             continue
@@ -159,10 +208,16 @@ def main() -> None:
                         row = _summary(name, wind, kind, flown)
                         row["buffer_m"] = float(_site_buffer(site))
                         row["plan_buffer_m"] = float(planned["buffer_m"])
+                        # The report's prediction: its replay in the wind the plan was made for
+                        row["report_min_rate_bps_hz"] = (planned.get("flight") or {}).get(
+                            "replayed_min_rate_bps_hz")
+                        row["report_cycle_s"] = (planned.get("flight") or {}).get(
+                            "replayed_cycle_s")
                         flights.append(row)
                         args.out.write_text(json.dumps(flights, indent=1) + "\n")
                         print(table([row]).splitlines()[-1], flush=True)
     print(table(flights))
+    print(targets(flights))
 
 
 def _site_buffer(site: Path) -> float:

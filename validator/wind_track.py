@@ -3,13 +3,21 @@ share the forecast eats.
 
 The replay (:mod:`validator.motion`) flies the commanded legs and their blended corners
 exactly; a real vehicle in gusts strays from them. From ArduCopter 4.5.6 SITL flights of our
-plans in SITL wind (``tests/data/arducopter-sitl-wind/flights.json``, flown by
+plans in SITL wind (``tests/data/arducopter-sitl-wind/``: ``flights.json`` with the site's
+buffer, ``flights-wind-buffer.json`` with the wind buffer; flown by
 ``benchmarks/sitl_wind_flights.py``) each flight gives the deviation d = (replayed least
 clearance) − (flown least clearance) of its closest zone, and :func:`fit_deviation_model`
 fits d at the quantile :data:`DEVIATION_QUANTILE` as a + b·turbulence + c·wind (least
 squares, then a raised until that share of the flights lies at or below the line).
 :data:`DEVIATION_MODEL` holds the fit that ``tests/validator/test_wind_track.py`` pins
 against the data.
+
+Why 0.99 and not 0.95: the deviations are not spread around the line but mostly near 0 with
+a few corners 0.32-0.39 m (realistic.yaml at 6 m/s from 135°, twice; harbour at 8 m/s from
+0°, twice). A 95th percentile line falls between them, and the flight above it (2.98 m
+against a 3 m buffer) missed the target "no flown point inside the buffer". At 0.99 the line
+lies above all 52 recorded flights (the largest residual; it costs 4.7 cm of buffer at
+8 m/s, turbulence 2 m/s, over the 95th percentile of the same data).
 """
 
 from __future__ import annotations
@@ -22,7 +30,7 @@ import numpy as np
 
 from validator.wind import Wind
 
-DEVIATION_QUANTILE = 0.95
+DEVIATION_QUANTILE = 0.99
 
 
 @dataclass(frozen=True)
@@ -63,12 +71,13 @@ def fit_deviation_model(wind_mps: Sequence[float], turbulence_mps: Sequence[floa
     return DeviationModel(intercept, float(slopes[0]), float(slopes[1]), quantile, int(d.size))
 
 
-# Fitted to the flights of plans made for their wind (see the module docstring; the still-air
-# plans flown in wind are in the data too, but no plan-mission plan flies that way).
-DEVIATION_MODEL = DeviationModel(intercept_m=0.2622844853655352,
-                                 per_turbulence=0.018002938259986917,
-                                 per_wind=0.009828665260687292,
-                                 quantile=DEVIATION_QUANTILE, flights=30)
+# Fitted to the flights of plans made for their wind, in both files (see the module docstring;
+# the still-air plans flown in wind are in the data too, but no plan-mission plan flies that
+# way).
+DEVIATION_MODEL = DeviationModel(intercept_m=0.27731003056387954,
+                                 per_turbulence=0.02089585553137111,
+                                 per_wind=0.013103103711118195,
+                                 quantile=DEVIATION_QUANTILE, flights=52)
 
 
 def wind_buffer_m(buffer_m: float, wind: Wind | None) -> float:

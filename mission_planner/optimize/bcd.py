@@ -77,6 +77,8 @@ class PlannerOptions:
     ``wind_blind_paths``: in wind (the site's ``wind``), the "vehicle" search also re-times
     each candidate speed's still-air path in the wind and keeps whichever flies better (about
     1.7x the CPU; over four sites and three winds it changed one plan of twelve, +26 %).
+    ``still_path_check`` (without ``wind_blind_paths``): in wind, the still-air path is
+    re-timed at two planning speeds at most and kept when it flies better (:mod:`.flyable`).
     "none" is the paper's kinematic model (top speed only): the
     studies reproducing the paper's figures use it (:data:`PAPER_OPTIONS`).
     """
@@ -99,6 +101,7 @@ class PlannerOptions:
     overrelax: bool = True
     search_ahead: bool = True
     wind_blind_paths: bool = False
+    still_path_check: bool = True
 
 
 PAPER_OPTIONS = PlannerOptions(dynamics="none")  # the paper's model, for its figures
