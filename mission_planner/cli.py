@@ -10,11 +10,12 @@
 
 ``--dynamics vehicle`` (default) keeps speed changes within the site's ``uav.max_accel`` and
 ``uav.max_jerk``; ``--dynamics none`` is the paper's kinematic model (top speed only) and
-reproduces its results. With ``--dynamics vehicle`` an ArduCopter plan flies through the corners
-whose blended turn keeps the buffer (:mod:`mission_planner.optimize.corners`);
-``--stop-at-every-waypoint`` makes it stop at each. ``--second-start`` runs Algorithm 1 from a
-second starting schedule and keeps the better plan (twice the time). Beside the mission goes the
-parameter file the autopilot needs (``OUT.param`` or ``--params-out FILE``;
+reproduces its results. With ``--dynamics vehicle`` a plan flies through the corners whose
+turn keeps the buffer (:mod:`mission_planner.optimize.corners`; a PX4 plan only where that
+replays better than stopping); ``--stop-at-every-waypoint`` makes it stop at each.
+``--second-start`` runs Algorithm 1 from a second starting schedule and keeps the better plan
+(twice the time). Beside the mission goes the parameter file the autopilot needs (``OUT.param``
+or ``--params-out FILE``;
 :mod:`mission_planner.autopilot_params`). The mission is then replayed with the validator's
 model of the autopilot set to those parameters (:mod:`mission_planner.flight_report`): the
 report gets a ``"flight"`` section and stderr a one-line warning when the flown cycle is more
@@ -103,7 +104,8 @@ def _parser() -> argparse.ArgumentParser:
                    "only), which reproduces the paper's results")
     p.add_argument("--stop-at-every-waypoint", action="store_true",
                    help="with --dynamics vehicle, stop at every waypoint instead of flying "
-                   "through the corners whose blended turn keeps the buffer (ArduPilot)")
+                   "through the corners whose turn keeps the buffer (PX4: only where that replays "
+                   "better than stopping)")
     p.add_argument("--second-start", action="store_true",
                    help="also run the optimiser from every node sharing every slot and keep "
                    "the better plan: a better optimum on some sites, twice the time")
