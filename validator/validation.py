@@ -71,7 +71,8 @@ class Validation:
             return []
         severity: Severity = "warning" if self.force else "violation"
         return ([Finding(severity, f.message, f.item) for f in self.failsafe.findings]
-                + [Finding("note", n) for n in self.failsafe.notes])
+                + [Finding("note", n) for n in self.failsafe.notes]
+                + [Finding("warning", f.message, f.item) for f in self.failsafe.position_loss])
 
     @property
     def violations(self) -> list[Finding]:

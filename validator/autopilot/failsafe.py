@@ -163,6 +163,33 @@ RETURN_PARAMS = {
 }
 
 
+# How each path is said to an operator (a lost link's verdict, :mod:`validator.mavlink.link_loss`)
+PATH_SAID: dict[PathKind, str] = {
+    "mission": "flies the mission on to its end",
+    "smartrtl": "flies SmartRTL back along its flown path",
+    "mission_path": "returns along the mission's own path",
+    "land": "lands where it is",
+    "brake": "brakes and holds",
+    "hold": "holds where it is",
+    "rtl": "flies straight home (RTL / Return), a path only the failsafe audit (--params) "
+           "proves clear",
+}
+
+# the ground-station (data-link) loss failsafe: its action parameter and its timeout's
+GCS_LOSS_PARAMS = {"ardupilot": ("FS_GCS_ENABLE", "FS_GCS_TIMEOUT"),
+                   "px4": ("NAV_DLL_ACT", "COM_DL_LOSS_T")}
+
+
+def failsafe_of(autopilot: str, param: str) -> Failsafe:
+    """The failsafe whose action ``param`` chooses."""
+    return next(f for f in FAILSAFES[autopilot] if f.param == param)
+
+
+def said(action: Action) -> str:
+    """What the vehicle does, in words: "it lands where it is", "it ..., else ..."."""
+    return "it " + ", else ".join(PATH_SAID[p] for p in action.paths)
+
+
 def failsafe_defaults(autopilot: str) -> dict[str, float]:
     """The firmware default of every parameter the failsafe audit reads: each action, and the
     return path's (the one table of defaults, :mod:`validator.autopilot.ardupilot` / ``px4``)."""
