@@ -27,10 +27,12 @@ failsafe fired. Over a leg the failsafe may fire anywhere, so the region is the 
 leg and the discs ahead of its two ends; at a corner the velocity turns from one leg to the
 next, so the discs ahead of the corner sweep between the two directions.
 
-The speed of a leg is the one rule the exporter and the audit share
-(:func:`position_loss_speed_cap_mps`): the fastest speed whose coast region keeps the buffer;
-the wander alone (a vehicle losing its position while hovering) is no speed's doing, and a
-leg whose wander reaches a zone's buffer is reported as needing a wider berth.
+The region is judged against the zones themselves, not their buffers: the buffer is the
+margin of the planned path, and the coast is what the vehicle does when that path is lost
+(the model already holds the measured worst case). The speed of a leg is one rule
+(:func:`position_loss_speed_cap_mps`): the fastest speed whose coast region stays out of every
+zone; the wander alone (a vehicle losing its position while hovering) is no speed's doing,
+and a leg whose wander reaches a zone is reported as needing a wider berth.
 """
 
 from __future__ import annotations
@@ -56,9 +58,9 @@ MIN_SPEED_MPS = 1.0  # a cap below this is no cap: the leg needs a wider berth i
 
 @dataclass(frozen=True)
 class PositionLossFinding:
-    """A leg from which a position loss may coast into a zone or its buffer: the least
-    clearance of its region at the leg's speed, and the speed that would keep the buffer
-    (None: none does, the wander alone reaches it)."""
+    """A leg from which a position loss may coast into a zone: the least clearance of its
+    region at the leg's speed (negative), the site's buffer, and the speed that would keep
+    the zone out of reach (None: none does, the wander alone reaches it)."""
 
     zone: str
     leg: int
@@ -70,13 +72,11 @@ class PositionLossFinding:
 
     @property
     def message(self) -> str:
-        where = (f"enters {self.zone} {-self.clearance_m:.2f} m deep" if self.clearance_m < 0
-                 else f"passes {self.clearance_m:.2f} m from {self.zone}, inside its "
-                      f"{self.buffer_m:g} m buffer")
-        fix = (f"at most {self.speed_cap_mps:.1f} m/s on this leg keeps the buffer"
+        where = f"may enter {self.zone} {-self.clearance_m:.2f} m deep"
+        fix = (f"at most {self.speed_cap_mps:.1f} m/s on this leg keeps it out"
                if self.speed_cap_mps is not None else
-               f"no speed keeps the buffer (the {WANDER_M:g} m wander alone reaches it): the "
-               "leg needs a wider berth")
+               f"no speed keeps it out (the {WANDER_M:g} m wander alone reaches it): the leg "
+               f"needs a wider berth (a site buffer over the {WANDER_M:g} m wander)")
         return (f"GPS loss: from the leg to item {self.item} at {self.speed_mps:.1f} m/s the "
                 f"coast after the EKF failsafe (Land without a position) {where}; {fix}")
 
@@ -143,13 +143,13 @@ def _leg_region(flight: Flight, k: int, speed_mps: float) -> shapely.Geometry:
 
 def position_loss_speed_cap_mps(flight: Flight, k: int, site: Site, speed_mps: float
                                 ) -> float | None:
-    """The fastest speed, up to ``speed_mps``, at which a position loss on leg ``k`` keeps
-    every zone's buffer (to 0.1 m/s); None when none at or above :data:`MIN_SPEED_MPS` does
+    """The fastest speed, up to ``speed_mps``, at which a position loss on leg ``k`` stays
+    out of every zone (to 0.1 m/s); None when none at or above :data:`MIN_SPEED_MPS` does
     (the wander alone reaches a buffer). The one speed rule of position loss: the exporter
     writes it, the audit checks it."""
     def clear(v: float) -> bool:
         return not site.zone_names or bool(np.all(
-            region_clearances(site, _leg_region(flight, k, v)) >= site.buffer_m))
+            region_clearances(site, _leg_region(flight, k, v)) >= 0.0))
 
     if clear(speed_mps):
         return speed_mps
@@ -164,7 +164,7 @@ def position_loss_speed_cap_mps(flight: Flight, k: int, site: Site, speed_mps: f
 
 def audit_position_loss(flight: Flight, site: Site, default_speed_mps: float
                         ) -> list[PositionLossFinding]:
-    """Every leg whose position-loss region enters a zone or its buffer (a leg without a
+    """Every leg whose position-loss region enters a zone (a leg without a
     commanded speed flies ``default_speed_mps``, the autopilot's WPNAV_SPEED)."""
     out: list[PositionLossFinding] = []
     if not site.zone_names:
@@ -172,7 +172,7 @@ def audit_position_loss(flight: Flight, site: Site, default_speed_mps: float
     for k, leg in enumerate(flight.legs):
         v = leg.speed_mps if leg.speed_mps is not None else default_speed_mps
         clr = region_clearances(site, _leg_region(flight, k, v))
-        bad = [m for m in range(len(clr)) if clr[m] < site.buffer_m]
+        bad = [m for m in range(len(clr)) if clr[m] < 0.0]
         if not bad:
             continue
         cap = position_loss_speed_cap_mps(flight, k, site, v)
