@@ -43,6 +43,7 @@ from validator.autopilot.tables import param_table
 from validator.flight import Flight, Leg
 from validator.geometry import segment_point_distance
 from validator.plan_format import Autopilot, Plan
+from validator.position_loss import PositionLossFinding, audit_position_loss
 from validator.site import Site
 from validator.zones import PolygonZone, point_clearance_m
 
@@ -144,6 +145,9 @@ class FailsafeReport:
     # the outline of every straight return's line when an action flies one (rings, (P, 2)
     # each; for a view, not in as_dict): the region the audit proved clear, or not
     return_region_xy_m: tuple[NDArray[np.float64], ...] = ()
+    # ArduCopter's GPS loss: the legs whose coast may reach a buffer (validator.position_loss;
+    # a warning: no failsafe parameter steers a vehicle without a position)
+    position_loss: tuple[PositionLossFinding, ...] = ()
 
     @property
     def ok(self) -> bool:
@@ -154,7 +158,8 @@ class FailsafeReport:
                 "checks": [c.as_dict() for c in self.checks],
                 "findings": [f.as_dict() for f in self.findings], "notes": list(self.notes),
                 "worst_return": None if self.worst_return is None else
-                self.worst_return.as_dict(), "params": dict(self.params)}
+                self.worst_return.as_dict(), "params": dict(self.params),
+                "position_loss": [f.as_dict() for f in self.position_loss]}
 
 
 # --------------------------------------------------------------------------------------------
@@ -396,9 +401,14 @@ def audit_failsafes(plan: Plan, site: Site, flight: Flight,
             notes.append(f"SRTL_POINTS {values['SRTL_POINTS']:g} may not hold the whole "
                          f"mission's path (up to {need} points): SmartRTL then falls back")
     flies_rtl = any("rtl" in c.paths for c in checks)
+    lost: tuple[PositionLossFinding, ...] = ()
+    if autopilot == "ardupilot" and flight.legs:
+        table = param_table("ardupilot")["WPNAV_SPEED"]
+        speed = table.to_si * float((params or {}).get("WPNAV_SPEED", table.default))
+        lost = tuple(audit_position_loss(flight, site, speed))
     return FailsafeReport(autopilot, tuple(checks), tuple(findings), tuple(notes),
                           _worst_return(flight, site, exposures, dest), dict(values),
-                          _outline(exposures) if flies_rtl else ())
+                          _outline(exposures) if flies_rtl else (), lost)
 
 
 def _pair(xy: NDArray[np.float64]) -> tuple[float, float]:

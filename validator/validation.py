@@ -72,7 +72,8 @@ class Validation:
             return []
         severity: Severity = "warning" if self.force else "violation"
         return ([Finding(severity, f.message, f.item) for f in self.failsafe.findings]
-                + [Finding("note", n) for n in self.failsafe.notes])
+                + [Finding("note", n) for n in self.failsafe.notes]
+                + [Finding("warning", f.message, f.item) for f in self.failsafe.position_loss])
 
     @property
     def violations(self) -> list[Finding]:
@@ -232,7 +233,7 @@ def validate_mission(
 def audit_refusal(plan_path: str, site_path: str,
                    params: Mapping[str, float] | None = None) -> str | None:
     """Why the validator rejects the plan before an upload (``upload-mission --site``; one
-    line), or None: the audit's violations, and with ``params`` (the file ``--set-params``
+    line), or None: the audit's violations, and with ``params`` (the file ``--params``
     will send) every failsafe path they leave that crosses a zone or its buffer."""
     v = validate_mission(plan_path, site_path)
     problems = list(v.violations)

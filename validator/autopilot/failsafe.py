@@ -116,6 +116,11 @@ ARDUPILOT_FAILSAFES: tuple[Failsafe, ...] = (
 # the mission's own audited return) goes on.
 FS_OPTIONS_CONTINUE_AUTO = {"FS_THR_ENABLE": 1, "FS_GCS_ENABLE": 2}
 FS_OPTIONS_RECOMMENDED = 24.0
+# SmartRTL keeps a point each SRTL_ACCURACY metres and simplifies its path to within half that
+# (AP_SmartRTL.h SMARTRTL_SIMPLIFY_EPSILON; loops closer than 0.99 x it are pruned): at the
+# default 2 m its return passed 1.06 m nearer a zone than the mission did (SITL, depot).
+# 1 m halves that; a straight leg still simplifies to its two ends, so SRTL_POINTS holds.
+SRTL_ACCURACY_RECOMMENDED = 1.0
 
 _PX4_MODE = _actions(v0=("None", _OFF), v1=("Warning", _OFF), v2=("Hold mode", ("hold",)),
                      v3=("Return mode", _RTL), v4=("Terminate", _LAND), v5=("Land mode", _LAND))
@@ -163,6 +168,33 @@ RETURN_PARAMS = {
 }
 
 
+# How each path is said to an operator (a lost link's verdict, :mod:`validator.mavlink.link_loss`)
+PATH_SAID: dict[PathKind, str] = {
+    "mission": "flies the mission on to its end",
+    "smartrtl": "flies SmartRTL back along its flown path",
+    "mission_path": "returns along the mission's own path",
+    "land": "lands where it is",
+    "brake": "brakes and holds",
+    "hold": "holds where it is",
+    "rtl": "flies straight home (RTL / Return), a path only the failsafe audit (--params) "
+           "proves clear",
+}
+
+# the ground-station (data-link) loss failsafe: its action parameter and its timeout's
+GCS_LOSS_PARAMS = {"ardupilot": ("FS_GCS_ENABLE", "FS_GCS_TIMEOUT"),
+                   "px4": ("NAV_DLL_ACT", "COM_DL_LOSS_T")}
+
+
+def failsafe_of(autopilot: str, param: str) -> Failsafe:
+    """The failsafe whose action ``param`` chooses."""
+    return next(f for f in FAILSAFES[autopilot] if f.param == param)
+
+
+def said(action: Action) -> str:
+    """What the vehicle does, in words: "it lands where it is", "it ..., else ..."."""
+    return "it " + ", else ".join(PATH_SAID[p] for p in action.paths)
+
+
 def failsafe_defaults(autopilot: str) -> dict[str, float]:
     """The firmware default of every parameter the failsafe audit reads: each action, and the
     return path's (the one table of defaults, :mod:`validator.autopilot.ardupilot` / ``px4``)."""
@@ -178,6 +210,7 @@ def recommended_failsafes(autopilot: str, srtl_points: float | None = None) -> d
            if f.recommended is not None and f.param not in fence}
     if autopilot == "ardupilot":
         out["FS_OPTIONS"] = FS_OPTIONS_RECOMMENDED
+        out["SRTL_ACCURACY"] = SRTL_ACCURACY_RECOMMENDED
         if srtl_points is not None:
             out["SRTL_POINTS"] = srtl_points
     return out

@@ -241,12 +241,8 @@ def _start_ardupilot_mission(link: Link, rec: Recorder, modes: ModeNumbers, alt:
     takeoff and mission start."""
     say("mode hold / arm")
     _set_mode(link, rec, modes, modes.hold, patience_s=ARM_PATIENCE_S)
-    _until_accepted(link, rec, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0,
-                    patience_s=ARM_PATIENCE_S)
     say(f"takeoff to {alt:g} m")
-    takeoff_s = rec.t_s  # before asking: a lost ACK delays the answer, not the climb
-    # ArduPilot reads NAV_TAKEOFF's param7 above home
-    _until_accepted(link, rec, mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, 0, 0, alt)
+    takeoff_s = _arm_and_take_off(link, rec, alt)
 
     def at_altitude() -> bool:
         return bool(rec.rows) and rec.rows[-1][3] >= TAKEOFF_REACHED_FRACTION * alt
@@ -260,6 +256,29 @@ def _start_ardupilot_mission(link: Link, rec: Recorder, modes: ModeNumbers, alt:
     rec.mission_mode = modes.auto
     _until_accepted(link, rec, mavlink.MAV_CMD_MISSION_START, 0, 0)
     return takeoff_s, start_s
+
+
+def _arm_and_take_off(link: Link, rec: Recorder, alt: float) -> float:
+    """Arm, then NAV_TAKEOFF to ``alt`` (above home), arming again whenever the vehicle
+    reports itself disarmed: ArduCopter disarms on the ground DISARM_DELAY (10 s) after arming,
+    1 s of wall clock at x10, so a lost ACK or a loaded machine can leave the take-off asking a
+    disarmed vehicle, which answers FAILED until the patience runs out. The vehicle time of
+    the accepted take-off request."""
+    start = time.monotonic()
+    while True:
+        if not rec.armed:
+            _until_accepted(link, rec, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0,
+                            patience_s=ARM_PATIENCE_S)
+            rec.armed = True  # its ACK says so; a later HEARTBEAT says otherwise if it disarms
+        takeoff_s = rec.t_s  # before asking: a lost ACK delays the answer, not the climb
+        result = link.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, 0, 0, alt)
+        if result == mavlink.MAV_RESULT_ACCEPTED:
+            return takeoff_s
+        if time.monotonic() - start > ARM_PATIENCE_S:
+            name = mavlink.enums["MAV_RESULT"][result].name
+            raise LinkError(f"command {command_name(mavlink.MAV_CMD_NAV_TAKEOFF)}: vehicle "
+                            f"answered {name} for {ARM_PATIENCE_S:g} s")
+        rec.pump(time.monotonic() + 1.0, lambda: not rec.armed)  # a HEARTBEAT updates it
 
 
 def _start_px4_mission(link: Link, rec: Recorder, modes: ModeNumbers,

@@ -30,12 +30,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from validator.errors import InputError
 from validator.flight import Finding
@@ -182,6 +182,8 @@ class FaultReport:
     end_from_home_m: float
     modes: tuple[str, ...]
     messages: tuple[str, ...]
+    coast: Coast | None = None
+    track_xy_m: tuple[tuple[float, float], ...] = ()  # after the fault, a point a second
 
     @property
     def closest_zone(self) -> tuple[str, float] | None:
@@ -202,7 +204,52 @@ class FaultReport:
                 "clearance_m": dict(self.clearance_m), "entered_zone": self.entered_zone,
                 "end_state": self.end_state, "end_xy_m": list(self.end_xy_m),
                 "end_from_home_m": self.end_from_home_m, "modes": list(self.modes),
-                "messages": list(self.messages)}
+                "messages": list(self.messages),
+                "coast": None if self.coast is None else dataclasses.asdict(self.coast),
+                "track_xy_m": [list(p) for p in self.track_xy_m]}
+
+
+@dataclass(frozen=True)
+class Coast:
+    """How far the true track went after the autopilot's own failsafe took over (its first
+    mode change after the fault): the measurement behind the position-loss model
+    (:mod:`validator.position_loss`). ``delay_s`` from the fault to that mode change;
+    ``speed_mps`` the true ground speed then; ``along_m`` / ``across_m`` where the track ended
+    along and across that velocity; ``duration_s`` until it ended."""
+
+    mode: str
+    delay_s: float
+    speed_mps: float
+    along_m: float
+    across_m: float
+    duration_s: float
+
+
+def measure_coast(t: NDArray[np.float64], xy: NDArray[np.float64], t_fault_s: float,
+                  mode_changes: Sequence[tuple[float, str]]) -> Coast | None:
+    """The :class:`Coast` of a true track (``t`` (S,), ``xy`` (S, 2) site metres) after the
+    first mode change at or after ``t_fault_s``; None without one, or without a track there."""
+    change = next(((tc, m) for tc, m in mode_changes if tc >= t_fault_s), None)
+    if change is None or len(t) < 3:
+        return None
+    tc, mode = change
+    i = int(np.searchsorted(t, tc))
+    if i <= 0 or i >= len(t) - 1:
+        return None
+    v = (xy[i] - xy[i - 1]) / max(float(t[i] - t[i - 1]), 1e-6)
+    speed = float(np.hypot(*v))
+    u = v / speed if speed > 1e-6 else np.array([1.0, 0.0])
+    d = xy[-1] - xy[i]
+    return Coast(mode, float(tc - t_fault_s), speed, float(d @ u),
+                 float(u[0] * d[1] - u[1] * d[0]), float(t[-1] - tc))
+
+
+def _every_second(t: NDArray[np.float64], xy: NDArray[np.float64]
+                  ) -> tuple[tuple[float, float], ...]:
+    """The track thinned to a point a second (and its last), rounded to 0.1 m."""
+    keep = np.flatnonzero(np.diff(np.floor(t), prepend=-np.inf) > 0)
+    keep = np.union1d(keep, [len(t) - 1])
+    return tuple((round(float(x), 1), round(float(y), 1)) for x, y in xy[keep])
 
 
 def _track_clearances(site: Site, xy: np.ndarray) -> dict[str, float]:
@@ -241,11 +288,13 @@ def score_fault(injector: FaultInjector, telemetry: Telemetry, site: Site,
         state = end_reason
     modes = tuple(m for t, m in telemetry.mode_changes if math.isfinite(t0) and t >= t0)
     said = tuple(m for t, m in telemetry.messages if math.isfinite(t0) and t >= t0)
+    coast = measure_coast(t, xy, t0, telemetry.mode_changes) if math.isfinite(t0) else None
+    track = _every_second(t[after], xy[after]) if np.any(after) else ()
     return FaultReport(injector.kind, injector.how, source, t0, injector.injected_xy_m,
                        injector.target_xy_m, clearance, state,
                        (float(end[0]), float(end[1])),
                        float(np.hypot(*(end - np.asarray(home_xy_m, dtype=float)))), modes,
-                       said[:20])
+                       said[:20], coast, track)
 
 
 def fault_watch(v: Validation, kind: str, vehicle_params: Mapping[str, float] | None,
@@ -256,7 +305,7 @@ def fault_watch(v: Validation, kind: str, vehicle_params: Mapping[str, float] | 
     failsafes)."""
     if not autopilot:
         raise InputError("--fault: needs an autopilot SITL (--sitl-binary, $ARDUPILOT_SITL or "
-                         "--sitl-url): the built-in vehicle has no failsafes")
+                         "--connect): the built-in vehicle has no failsafes")
     from validator.failsafe import audit_failsafes
 
     px4 = v.plan.firmware_type == 12  # MAV_AUTOPILOT_PX4

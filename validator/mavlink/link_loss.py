@@ -19,6 +19,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 
+from validator.autopilot import failsafe as fs
 from validator.mavlink.connection import Connection
 from validator.mavlink.modes import ModeNumbers, mode_name
 from validator.mavlink.param_protocol import decode_param
@@ -29,29 +30,9 @@ from validator.mavlink.wire import mavlink, mavutil
 PARAM_PATIENCE_S = 2.0
 COMMAND_EVERY_S = 1.0  # LAND is repeated this often while the link is down
 
-# What each autopilot does when it stops hearing the ground station, by the value of its
-# parameter (ArduCopter 4.5 FS_GCS_ENABLE after FS_GCS_TIMEOUT s, default 0 and 5 s, where
-# FS_OPTIONS bit 1 keeps a vehicle in AUTO on its mission; PX4 1.15 NAV_DLL_ACT after
-# COM_DL_LOSS_T s, default 0 and 10 s).
-ARDUCOPTER_GCS_FAILSAFE = {
-    0: "its ground-station failsafe is off: it flies the mission on to its end",
-    1: "it flies RTL: a straight line home at RTL_ALT, which the audit has not checked",
-    2: "it flies RTL (value 2 is read as 1 since ArduCopter 4.0)",
-    3: "it flies SmartRTL back along its flown path, else RTL",
-    4: "it flies SmartRTL back along its flown path, else lands",
-    5: "it lands where it is",
-    6: "it flies to the mission's DO_LAND_START, else RTL",
-    7: "it brakes and holds, else lands",
-}
-ARDUCOPTER_CONTINUE_IN_AUTO = 1 << 1  # FS_OPTIONS: "Continue if in Auto on GCS failsafe"
-PX4_GCS_FAILSAFE = {
-    0: "its data-link failsafe is off: it flies the mission on to its end",
-    1: "it holds where it is",
-    2: "it returns: a path the audit has not checked",
-    3: "it lands where it is",
-    5: "it terminates the flight (motors off)",
-    6: "it locks down (motors off)",
-}
+# What the vehicle does when it stops hearing the ground station is its failsafe table's
+# (validator.autopilot.failsafe: ArduCopter FS_GCS_ENABLE after FS_GCS_TIMEOUT, where
+# FS_OPTIONS bit 1 keeps a vehicle in AUTO on its mission; PX4 NAV_DLL_ACT after COM_DL_LOSS_T).
 
 
 def _read_quickly(link: Connection, name: str, patience_s: float) -> float | None:
@@ -70,24 +51,27 @@ def _read_quickly(link: Connection, name: str, patience_s: float) -> float | Non
 def gcs_failsafe(link: Connection, patience_s: float = PARAM_PATIENCE_S) -> str:
     """What the vehicle says it will do when it stops hearing us (one phrase, from its own
     failsafe parameter), or that it did not say."""
-    if link.vehicle.is_px4:
-        name, after_name, table = "NAV_DLL_ACT", "COM_DL_LOSS_T", PX4_GCS_FAILSAFE
-    else:
-        name, after_name, table = "FS_GCS_ENABLE", "FS_GCS_TIMEOUT", ARDUCOPTER_GCS_FAILSAFE
+    autopilot = "px4" if link.vehicle.is_px4 else "ardupilot"
+    name, after_name = fs.GCS_LOSS_PARAMS[autopilot]
     value = _read_quickly(link, name, patience_s)
     if value is None:
         return f"the vehicle did not report {name}: what it does without a link is unknown"
-    action = table.get(int(value), f"{name} {int(value)}: an action this tool does not know")
-    if int(value) == 0:
-        return f"{action} ({name} 0)"
-    if not link.vehicle.is_px4:
+    failsafe = fs.failsafe_of(autopilot, name)
+    if int(value) not in failsafe.actions:
+        return f"{name} {value:g}: an action this tool does not know ({name} {value:g})"
+    act = failsafe.action(value)
+    if act.paths == ("mission",):
+        return f"its {failsafe.trigger} failsafe is off: {fs.said(act)} ({name} {value:g})"
+    action = fs.said(act)
+    bit = fs.FS_OPTIONS_CONTINUE_AUTO.get(name, 0)
+    if bit:
         options = _read_quickly(link, "FS_OPTIONS", patience_s)
-        if options is not None and int(options) & ARDUCOPTER_CONTINUE_IN_AUTO:
+        if options is not None and int(options) & bit:
             action = ("it flies the mission on in AUTO (FS_OPTIONS continues it), "
                       f"else {action.removeprefix('it ')}")
     after = _read_quickly(link, after_name, patience_s)
     when = f"after {after:g} s without us, " if after is not None else ""
-    return f"{when}{action} ({name} {int(value)})"
+    return f"{when}{action} ({name} {value:g}: {act.name})"
 
 
 def land_mode(modes: ModeNumbers) -> int:

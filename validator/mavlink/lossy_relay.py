@@ -107,6 +107,15 @@ def _loopback_address(url: str, what: str) -> tuple[str, str, int]:
     return scheme, "127.0.0.1" if host == "localhost" else host, int(port)
 
 
+def message_id(packet: bytes) -> int | None:
+    """The message id of one whole MAVLink 1/2 packet (None: not a packet)."""
+    if len(packet) >= 6 and packet[0] == _V1:
+        return packet[5]
+    if len(packet) >= 10 and packet[0] == _V2:
+        return packet[7] | packet[8] << 8 | packet[9] << 16
+    return None
+
+
 def split_packets(buf: bytearray) -> list[bytes]:
     """Take the whole MAVLink 1/2 packets off the front of ``buf`` (a TCP byte stream; bytes
     before a start marker are skipped, an incomplete packet stays for the next read). The
@@ -152,6 +161,9 @@ class LossyRelay:
         self._outages = [(self.started + a, self.started + a + b) for a, b in outages]
         self._cut = False
         self.outage_drops = 0
+        # the message ids a gap kept from the vehicle, in order: a test can wait for what the
+        # ground station does while cut off (its LAND, say) instead of timing it
+        self.swallowed_to_vehicle: list[int] = []
         self._pending: list[tuple[float, int, bool, bytes]] = []  # (due, n, to_vehicle, data)
         self._counter = 0
         self._stream = bytearray()
@@ -217,6 +229,9 @@ class LossyRelay:
         if self._silenced(now):
             d.stats.dropped += 1
             self.outage_drops += 1
+            msgid = message_id(data)
+            if to_vehicle and msgid is not None:
+                self.swallowed_to_vehicle.append(msgid)
             return
         f, rng = d.faults, d.rng
         if f.drop and rng.random() < f.drop:

@@ -162,6 +162,6 @@ def test_the_lost_link_verdict_reads_arducopters_own_failsafe(sitl_url):
         link.set_param("FS_GCS_ENABLE", 5)
         try:
             assert gcs_failsafe(link) == ("after 5 s without us, it lands where it is "
-                                          "(FS_GCS_ENABLE 5)")
+                                          "(FS_GCS_ENABLE 5: Land)")
         finally:
             link.set_param("FS_GCS_ENABLE", 0)

@@ -106,7 +106,7 @@ def test_a_link_down_for_good_names_arducopters_own_failsafe(realistic, sitl_url
     assert "it did not come back within 5 s" in lost.message
     # the plan's .param sets ArduCopter's GCS failsafe to SmartRTL (or Land), and the
     # verdict says what the vehicle will do on its own
-    assert "SmartRTL" in lost.message and "(FS_GCS_ENABLE 4)" in lost.message
+    assert "SmartRTL" in lost.message and "(FS_GCS_ENABLE 4: SmartRTL or Land)" in lost.message
 
 
 def test_a_link_back_too_late_lands_arducopter(realistic, sitl_url):

@@ -18,14 +18,17 @@ def vehicle_with(monkeypatch, params: dict[str, float], *, px4: bool = False):
 
 
 @pytest.mark.parametrize("params, said", [
-    ({"FS_GCS_ENABLE": 0}, "its ground-station failsafe is off: it flies the mission on to its "
-                           "end (FS_GCS_ENABLE 0)"),
+    ({"FS_GCS_ENABLE": 0}, "its ground-station link loss failsafe is off: it flies the mission "
+                           "on to its end (FS_GCS_ENABLE 0)"),
     ({"FS_GCS_ENABLE": 5, "FS_GCS_TIMEOUT": 5}, "after 5 s without us, it lands where it is "
-                                                "(FS_GCS_ENABLE 5)"),
+                                                "(FS_GCS_ENABLE 5: Land)"),
+    ({"FS_GCS_ENABLE": 4, "FS_GCS_TIMEOUT": 5, "FS_OPTIONS": 24},
+     "after 5 s without us, it flies SmartRTL back along its flown path, else lands where it "
+     "is (FS_GCS_ENABLE 4: SmartRTL or Land)"),
     ({"FS_GCS_ENABLE": 1, "FS_GCS_TIMEOUT": 3, "FS_OPTIONS": 2},
      "after 3 s without us, it flies the mission on in AUTO (FS_OPTIONS continues it), else "
-     "flies RTL: a straight line home at RTL_ALT, which the audit has not checked "
-     "(FS_GCS_ENABLE 1)"),
+     "flies straight home (RTL / Return), a path only the failsafe audit (--params) proves "
+     "clear (FS_GCS_ENABLE 1: RTL)"),
     ({"FS_GCS_ENABLE": 9}, "FS_GCS_ENABLE 9: an action this tool does not know "
                            "(FS_GCS_ENABLE 9)"),
     ({}, "the vehicle did not report FS_GCS_ENABLE: what it does without a link is unknown"),
@@ -36,7 +39,16 @@ def test_arducopters_failsafe_is_said_as_its_parameters_have_it(monkeypatch, par
 
 def test_px4s_data_link_failsafe_is_said_too(monkeypatch):
     link = vehicle_with(monkeypatch, {"NAV_DLL_ACT": 3, "COM_DL_LOSS_T": 10}, px4=True)
-    assert gcs_failsafe(link) == "after 10 s without us, it lands where it is (NAV_DLL_ACT 3)"
+    assert gcs_failsafe(link) == ("after 10 s without us, it lands where it is "
+                                  "(NAV_DLL_ACT 3: Land mode)")
+
+
+def test_every_documented_gcs_action_is_said_from_the_one_failsafe_table(monkeypatch):
+    from validator.autopilot.failsafe import failsafe_of
+    for px4, name in ((False, "FS_GCS_ENABLE"), (True, "NAV_DLL_ACT")):
+        for value, action in failsafe_of("px4" if px4 else "ardupilot", name).actions.items():
+            said = gcs_failsafe(vehicle_with(monkeypatch, {name: value}, px4=px4))
+            assert said.endswith(f"({name} {value}: {action.name})") or value == 0, said
 
 
 def test_land_is_each_autopilots_own_mode_number():

@@ -11,7 +11,13 @@ import pytest
 from tests.validator.mavlink.conftest import url_of
 from validator.errors import InputError
 from validator.mavlink.link import Link, LinkError, upload_to
-from validator.mavlink.lossy_relay import LinkFaults, LossyRelay, main, split_packets
+from validator.mavlink.lossy_relay import (
+    LinkFaults,
+    LossyRelay,
+    main,
+    message_id,
+    split_packets,
+)
 from validator.mavlink.wire import MissionType, mavlink, plan_to_wire
 
 
@@ -35,6 +41,19 @@ def test_a_tcp_stream_is_cut_into_whole_packets():
     stream += c[5:]
     assert split_packets(stream) == [c]
     assert stream == bytearray()
+
+
+def test_a_packets_message_id_is_read_in_both_versions():
+    mav = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+    land = bytes(mav.command_long_encode(1, 1, mavlink.MAV_CMD_DO_SET_MODE, 0, 1, 9, 0, 0, 0,
+                                         0, 0).pack(mav))
+    assert message_id(land) == mavlink.MAVLINK_MSG_ID_COMMAND_LONG
+    assert message_id(packet(1)) == mavlink.MAVLINK_MSG_ID_HEARTBEAT
+    mav1 = mavlink.MAVLink(None, srcSystem=1, srcComponent=1, use_native=False)
+    mav1.WIRE_PROTOCOL_VERSION = "1.0"
+    v1 = bytes(mav1.heartbeat_encode(2, 3, 0, 0, 4).pack(mav1, force_mavlink1=True))
+    assert v1[0] == 0xFE and message_id(v1) == mavlink.MAVLINK_MSG_ID_HEARTBEAT
+    assert message_id(b"junk") is None
 
 
 def test_a_mavlink1_packet_is_whole_too():

@@ -1,0 +1,182 @@
+"""Where an ArduCopter that loses its position (GPS) can end up: the position-loss path from
+every point of the mission, measured against every zone and its buffer.
+
+No failsafe action steers a vehicle that does not know where it is. ArduCopter 4.5.6 flies on
+in AUTO on its inertial estimate until EKF3 gives up on position aiding (``posRetryTimeNoVel_ms``
+7000, a constant of AP_NavEKF3.h, no parameter) and ``ekf_check`` has seen it for 10 checks
+at 10 Hz: the EKF failsafe then fires (FS_EKF_THRESH plays no part: it is the lost position,
+not the variances, that fails the check). Its action, Land (FS_EKF_ACTION 1) or AltHold, levels
+the vehicle without a position: it coasts on along its ground velocity while it descends, and
+wanders as its unaided attitude drifts. Measured on ArduCopter 4.5.6 SITL (``validate-mission
+--fault gps-loss``, report ``fault.coast``; 30 m mission altitude, Land's 4 s pause and
+descent ~42 s):
+
+======== ========== ======== =========
+speed    delay      along    across
+======== ========== ======== =========
+10.2 m/s 8.1-8.2 s  30.0 m   7.4-7.8 m
+5.3 m/s  8.1 s      21.3 m   7.7 m
+1.9 m/s  8.1 s      -1.1 m   -9.5 m
+======== ========== ======== =========
+
+The model, fitted to cover every measurement: the vehicle carries on along the mission for
+:data:`DETECTION_DELAY_S` (still on the mission's path, which the mission audit covers), then
+ends within :data:`WANDER_M` of the point :data:`COAST_S` times its speed ahead along its
+velocity; the path there stays within the convex hull of that disc and the point where the
+failsafe fired. Over a leg the failsafe may fire anywhere, so the region is the hull of the
+leg and the discs ahead of its two ends; at a corner the velocity turns from one leg to the
+next, so the discs ahead of the corner sweep between the two directions.
+
+The region is judged against the zones themselves, not their buffers: the buffer is the
+margin of the planned path, and the coast is what the vehicle does when that path is lost
+(the model already holds the measured worst case). The speed of a leg is one rule
+(:func:`position_loss_speed_cap_mps`): the fastest speed whose coast region stays out of every
+zone; the wander alone (a vehicle losing its position while hovering) is no speed's doing,
+and a leg whose wander reaches a zone is reported as needing a wider berth.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import shapely
+from numpy.typing import NDArray
+
+from validator.flight import Flight
+from validator.site import Site
+from validator.zones import polyline_clearance_m
+
+DETECTION_DELAY_S = 8.2  # from the GPS loss to the EKF failsafe's mode change (measured)
+COAST_S = 2.6  # the coast reaches this many seconds of the speed ahead (fitted, measured)
+WANDER_M = 12.0  # ... give or take this much in any direction (measured up to 11.3 m)
+CORNER_STEPS = 8  # directions sampled between two legs' at a corner
+MIN_SPEED_MPS = 1.0  # a cap below this is no cap: the leg needs a wider berth instead
+
+
+@dataclass(frozen=True)
+class PositionLossFinding:
+    """A leg from which a position loss may coast into a zone: the least clearance of its
+    region at the leg's speed (negative), the site's buffer, and the speed that would keep
+    the zone out of reach (None: none does, the wander alone reaches it)."""
+
+    zone: str
+    leg: int
+    item: int
+    speed_mps: float
+    clearance_m: float
+    buffer_m: float
+    speed_cap_mps: float | None
+
+    @property
+    def message(self) -> str:
+        where = f"may enter {self.zone} {-self.clearance_m:.2f} m deep"
+        fix = (f"at most {self.speed_cap_mps:.1f} m/s on this leg keeps it out"
+               if self.speed_cap_mps is not None else
+               f"no speed keeps it out (the {WANDER_M:g} m wander alone reaches it): the leg "
+               f"needs a wider berth (a site buffer over the {WANDER_M:g} m wander)")
+        return (f"GPS loss: from the leg to item {self.item} at {self.speed_mps:.1f} m/s the "
+                f"coast after the EKF failsafe (Land without a position) {where}; {fix}")
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"zone": self.zone, "leg": self.leg, "item": self.item,
+                "speed_mps": self.speed_mps, "clearance_m": self.clearance_m,
+                "buffer_m": self.buffer_m, "speed_cap_mps": self.speed_cap_mps,
+                "message": self.message}
+
+
+def _unit(v: NDArray[np.float64]) -> NDArray[np.float64] | None:
+    n = float(np.hypot(*v))
+    return None if n < 1e-9 else v / n
+
+
+def _disc(p: NDArray[np.float64]) -> shapely.Geometry:
+    return shapely.Point(p).buffer(WANDER_M, quad_segs=16)
+
+
+def coast_region(start: NDArray[np.float64], end: NDArray[np.float64], speed_mps: float,
+                 next_end: NDArray[np.float64] | None = None) -> shapely.Geometry:
+    """Where a position loss on the leg start→end, flown at ``speed_mps``, can take the
+    vehicle; with ``next_end``, the corner at ``end`` into the next leg too."""
+    start, end = np.asarray(start, float), np.asarray(end, float)
+    u = _unit(end - start)
+    reach = COAST_S * speed_mps
+    if u is None:  # a vertical leg: it hovers, the wander only
+        return shapely.convex_hull(shapely.union(_disc(end), shapely.Point(start)))
+    parts = [shapely.MultiPoint([start, end]), _disc(start + reach * u), _disc(end + reach * u)]
+    region = shapely.convex_hull(shapely.union_all(parts))
+    w = None if next_end is None else _unit(np.asarray(next_end, float) - end)
+    if w is not None:
+        a0, a1 = math.atan2(u[1], u[0]), math.atan2(w[1], w[0])
+        turn = (a1 - a0 + math.pi) % (2 * math.pi) - math.pi
+        fan = [shapely.Point(end)] + [
+            _disc(end + reach * np.array([math.cos(a0 + turn * k / CORNER_STEPS),
+                                          math.sin(a0 + turn * k / CORNER_STEPS)]))
+            for k in range(CORNER_STEPS + 1)]
+        region = shapely.union(region, shapely.convex_hull(shapely.union_all(fan)))
+    return region
+
+
+def region_clearances(site: Site, region: shapely.Geometry) -> NDArray[np.float64]:
+    """Signed clearance of ``region`` from every zone (``Site.zone_names`` order; negative:
+    how deep, for a polygon the depth of the region's boundary inside it)."""
+    out = []
+    for c, r in zip(site.nfz_xy_m, site.nfz_radius_m, strict=True):
+        d = float(shapely.distance(shapely.Point(c), region)) - float(r)
+        if d <= -float(r):  # the centre inside the region: as deep as the far side
+            d = -float(r)
+        out.append(d)
+    ring = np.asarray(shapely.get_coordinates(shapely.boundary(region)), dtype=float)
+    for z in site.polygon_zones:
+        d = float(shapely.distance(z.shape, region))
+        out.append(d if d > 0 else min(0.0, polyline_clearance_m(z, ring)[0]))
+    return np.array(out, dtype=float)
+
+
+def _leg_region(flight: Flight, k: int, speed_mps: float) -> shapely.Geometry:
+    leg = flight.legs[k]
+    nxt = flight.legs[k + 1].end_xy_m if k + 1 < len(flight.legs) and leg.pass_through else None
+    return coast_region(leg.start_xy_m, leg.end_xy_m, speed_mps, nxt)
+
+
+def position_loss_speed_cap_mps(flight: Flight, k: int, site: Site, speed_mps: float
+                                ) -> float | None:
+    """The fastest speed, up to ``speed_mps``, at which a position loss on leg ``k`` stays
+    out of every zone (to 0.1 m/s); None when none at or above :data:`MIN_SPEED_MPS` does
+    (the wander alone reaches a buffer). The one speed rule of position loss: the exporter
+    writes it, the audit checks it."""
+    def clear(v: float) -> bool:
+        return not site.zone_names or bool(np.all(
+            region_clearances(site, _leg_region(flight, k, v)) >= 0.0))
+
+    if clear(speed_mps):
+        return speed_mps
+    if not clear(MIN_SPEED_MPS):
+        return None
+    lo, hi = MIN_SPEED_MPS, speed_mps
+    while hi - lo > 0.05:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if clear(mid) else (lo, mid)
+    return math.floor(lo * 10) / 10
+
+
+def audit_position_loss(flight: Flight, site: Site, default_speed_mps: float
+                        ) -> list[PositionLossFinding]:
+    """Every leg whose position-loss region enters a zone (a leg without a
+    commanded speed flies ``default_speed_mps``, the autopilot's WPNAV_SPEED)."""
+    out: list[PositionLossFinding] = []
+    if not site.zone_names:
+        return out
+    for k, leg in enumerate(flight.legs):
+        v = leg.speed_mps if leg.speed_mps is not None else default_speed_mps
+        clr = region_clearances(site, _leg_region(flight, k, v))
+        bad = [m for m in range(len(clr)) if clr[m] < 0.0]
+        if not bad:
+            continue
+        cap = position_loss_speed_cap_mps(flight, k, site, v)
+        for m in bad:
+            out.append(PositionLossFinding(site.zone_names[m], k, leg.item, v, float(clr[m]),
+                                           site.buffer_m, cap))
+    return out
