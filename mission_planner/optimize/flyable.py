@@ -45,7 +45,7 @@ from mission_planner.optimize.bcd import (
     _State,
 )
 from mission_planner.optimize.scaled import LENGTH_UNIT_M, Scaled, min_rate, scale_site
-from mission_planner.optimize.solution import Solution
+from mission_planner.optimize.solution import Solution, VehicleTiming
 from validator.errors import InputError
 from validator.site import Site
 
@@ -126,7 +126,7 @@ def _retimed_path(
     psc: Scaled, state: _State,
 ) -> tuple[_Flyable | None, float]:
     """:func:`_retimed` for one finished paper-model state planned on ``planning_site``."""
-    paper = _solution(planning_site, scheme, psc, state, 0.0, {})
+    paper = _solution(planning_site, scheme, psc, state, 0.0)
     # Simplified legs keep the planner's margin too, so the exporter need not nudge them (a
     # nudged waypoint no longer lies on the S-curve it was timed with).
     sk = retime.skeleton(
@@ -329,16 +329,15 @@ def plan_flyable(
             f"(tried top speeds down to {min(search.tried):.2f} m/s)"
         )
     sc = scale_site(site, opt.nfz_margin_m, opt.gamma)
-    notes: dict[str, object] = {
-        "dynamics": "vehicle",
-        "autopilot": opt.autopilot,
-        "timing_params": dict(opt.timing_params),
-        "planning_speed_mps": best.speed_mps,
-        "speeds_tried": tries,
-        "waypoint_slots": best.waypoint_slots,
-        "move_s": best.move_s,
-    }
-    return _solution(site, scheme, sc, best.state, started, notes)
+    timing = VehicleTiming(
+        autopilot=opt.autopilot,
+        timing_params=dict(opt.timing_params),
+        planning_speed_mps=best.speed_mps,
+        speeds_tried=tries,
+        waypoint_slots=tuple(best.waypoint_slots),
+        move_s=best.move_s,
+    )
+    return _solution(site, scheme, sc, best.state, started, timing)
 
 
 def _search(site: Site, scheme: str, opt: PlannerOptions, progress: Progress | None,

@@ -381,7 +381,8 @@ def test_the_vehicle_search_reports_each_candidate():
     sol = plan(load_site(SAMPLES / "realistic.yaml"), options=PlannerOptions(
         max_iterations=2, search_ahead=False), progress=Recorder())
     candidates = [n for what, n in seen if what == "candidate"]
-    assert candidates == list(range(1, sol.notes["speeds_tried"] + 1))
+    assert sol.timing is not None
+    assert candidates == list(range(1, sol.timing.speeds_tried + 1))
     assert seen[0] == ("candidate", 1) and ("iteration", 1) in seen
 
 

@@ -159,9 +159,9 @@ def test_flyable_plan_fills_the_period_and_respects_the_top_speed(
     # never faster than the vehicle really flies (a 30 m/s site, a quad topping out near 10)
     top = top_speed_mps(site)
     assert np.all(flyable.leg_length_m <= top * flyable.delta_s * (1 + 1e-9))
-    assert flyable.notes["dynamics"] == "vehicle"
-    assert isinstance(flyable.notes["planning_speed_mps"], float)
-    assert flyable.notes["planning_speed_mps"] <= top
+    assert flyable.timing is not None
+    assert isinstance(flyable.timing.planning_speed_mps, float)
+    assert flyable.timing.planning_speed_mps <= top
 
 
 def test_flyable_moves_take_as_long_as_the_vehicle_flies_them(
@@ -169,7 +169,8 @@ def test_flyable_moves_take_as_long_as_the_vehicle_flies_them(
 ) -> None:
     """The moving slots last exactly what the ArduCopter model takes to fly the waypoints,
     stopping where the plan hovers and passing through the other corners."""
-    idx = flyable.notes["waypoint_slots"]
+    assert flyable.timing is not None
+    idx = list(flyable.timing.waypoint_slots)
     pts = flyable.trajectory_m[idx]
     still = flyable.leg_length_m <= 1e-6
     hover = np.array([still[i % len(still)] for i in idx])  # a hover starts on arrival
@@ -184,7 +185,8 @@ def test_pass_through_corners_can_be_turned_off(site: Site) -> None:
     """Without pass-through every corner stops, and the moves are the rest-to-rest S-curves."""
     sol = plan(site, "proposed", options=PlannerOptions(
         dynamics="vehicle", max_iterations=10, pass_through_corners=False))
-    pts = sol.trajectory_m[sol.notes["waypoint_slots"]]
+    assert sol.timing is not None
+    pts = sol.trajectory_m[list(sol.timing.waypoint_slots)]
     lengths = np.linalg.norm(np.roll(pts, -1, axis=0) - pts, axis=1)
     move = float(leg_profiles(site, lengths[lengths > 1e-6]).total_s.sum())
     moving = sol.leg_length_m > 1e-6
@@ -274,7 +276,7 @@ def test_px4_plans_are_timed_with_px4s_own_rules(site: Site, flyable_px4: Soluti
     from mission_planner.flight_report import replay_mission
     from mission_planner.mission import MissionOptions, build_mission
 
-    assert flyable_px4.notes["autopilot"] == "px4"
+    assert flyable_px4.timing is not None and flyable_px4.timing.autopilot == "px4"
     assert leg_profiles(site, [50.0], autopilot="px4").total_s[0] > leg_profiles(
         site, [50.0]).total_s[0]
     mission = build_mission(flyable_px4, MissionOptions(autopilot="px4"))
@@ -316,3 +318,17 @@ def test_px4_timelines_count_the_departure_crawl() -> None:
     move_s, timed = time_cycle(site, sk, tight + 20.0, 40, autopilot="px4")
     assert timed is not None and timed[1].sum() == pytest.approx(tight + 20.0)
     assert move_s == pytest.approx(float(legs.total_s.sum()))
+
+
+def test_a_plan_timed_for_one_autopilot_is_not_built_for_the_other(
+    flyable: Solution, flyable_px4: Solution
+) -> None:
+    """The timing record and the mission options must name the same autopilot: a cycle timed
+    by ArduCopter's S-curves would be late on PX4 (and the reverse)."""
+    from mission_planner.mission import MissionOptions, build_mission
+    from validator.errors import InputError
+
+    with pytest.raises(InputError, match="timed for 'ardupilot'.*built for 'px4'"):
+        build_mission(flyable, MissionOptions(autopilot="px4"))
+    with pytest.raises(InputError, match="timed for 'px4'.*built for 'ardupilot'"):
+        build_mission(flyable_px4, MissionOptions(autopilot="ardupilot"))
