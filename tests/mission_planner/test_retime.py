@@ -221,7 +221,9 @@ def test_flyable_plan_is_flown_on_time_by_the_arducopter_replay(flyable: Solutio
     assert report.throughput.flown_min == pytest.approx(report.throughput.planned_min, rel=0.08)
 
 
-def test_arducopter_holds_are_written_net_of_the_stop_lag(flyable: Solution) -> None:
+def test_arducopter_holds_are_written_net_of_the_stop_lag(
+    flyable: Solution, flyable_px4: Solution
+) -> None:
     """The plan's hover at a stop begins with the autopilot's lag; the written holds leave it
     out, and the cycle as laid out (legs, holds, lags) still lasts T."""
     from mission_planner.mission import (
@@ -244,7 +246,7 @@ def test_arducopter_holds_are_written_net_of_the_stop_lag(flyable: Solution) -> 
         summary["hold_planned_s"], abs=0.5)
     assert cycle_duration_s(mission) == pytest.approx(flyable.site.period_s, abs=0.5)
     # PX4 is not modelled with the lag: its holds are the plan's
-    px4 = build_mission(flyable, MissionOptions(autopilot="px4"))
+    px4 = build_mission(flyable_px4, MissionOptions(autopilot="px4"))
     assert all(s.stop_lag_s == 0.0 for s in px4.steps)
 
 
