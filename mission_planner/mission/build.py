@@ -28,10 +28,10 @@ from mission_planner.mission.steps import (
     service_steps,
     waypoint_steps,
 )
-from mission_planner.optimize.retime import cruise_speed_mps
 from mission_planner.optimize.solution import Solution
 from validator.autopilot.rules import programmed_holds_s
 from validator.errors import InputError
+from validator.motion.speed_model import cruise_speed_mps
 from validator.plan_format import Cmd, Frame, MissionItem, Plan
 
 _NAN = math.nan

@@ -3,7 +3,7 @@
 - **Speed limit.** A leg speed never exceeds the site's V: float excess is clipped (the leg
   then takes a hair longer than δ); an excess above 1 % is reported as a problem. S-curve legs
   and transits fly at V or the vehicle's real top speed, whichever is lower
-  (:func:`mission_planner.optimize.retime.cruise_speed_mps`).
+  (:func:`validator.motion.speed_model.cruise_speed_mps`).
 - **Slow legs.** ArduCopter ignores a DO_CHANGE_SPEED below 0.2 m/s (WPNAV_WP_SPEED_MIN), so
   a leg that would need less is flown at ``min_speed_mps`` and the waypoint holds for the
   rest of its slot: the slot keeps its length and the UAV ends it at the same place.
@@ -31,10 +31,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mission_planner.mission.steps import CycleStep
-from mission_planner.optimize.retime import motion_profile
 from validator.motion.arducopter import STOP_LAG_S, leg_speeds_mps
 from validator.motion.profile import profile_wind
 from validator.motion.px4_mission import px4_top_speed_mps
+from validator.motion.speed_model import motion_profile
 from validator.site import Site
 from validator.wind import ground_speed_mps
 

@@ -23,8 +23,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mission_planner.optimize.retime import LegMotion, leg_profiles
 from validator.geometry import segment_point_closest_fraction, segment_point_distance
+from validator.motion.speed_model import LegMotion, leg_profiles
 from validator.site import Site
 from validator.zones import PolygonZone, path_clearances_m
 

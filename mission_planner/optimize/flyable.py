@@ -47,6 +47,7 @@ from mission_planner.optimize.bcd import (
 from mission_planner.optimize.scaled import LENGTH_UNIT_M, Scaled, min_rate, scale_site
 from mission_planner.optimize.solution import Solution, VehicleTiming
 from validator.errors import InputError
+from validator.motion.speed_model import cruise_speed_mps
 from validator.site import Site
 
 SEARCH_ITERATIONS = 15  # Algorithm 1 iterations per candidate top speed
@@ -103,7 +104,7 @@ def _retimed(
         # The planning speed scales the vehicle's whole ground-speed envelope in the wind,
         # so the wind scales with it: slowing the air speed alone would leave upwind legs a
         # sliver of their real speed (V − w at V = 8.1 m/s in 6 m/s of wind: 2.1, flown 4).
-        cruise = retime.cruise_speed_mps(site, opt.autopilot)
+        cruise = cruise_speed_mps(site, opt.autopilot)
         planning_site = planning_site.with_limits(wind=site.wind.scaled(speed / cruise))
     psc = scale_site(planning_site, opt.nfz_margin_m, opt.gamma)
     # The re-timing, not Algorithm 1's slow tail, decides these candidates: fewer iterations,
@@ -343,7 +344,7 @@ def plan_flyable(
 def _search(site: Site, scheme: str, opt: PlannerOptions, progress: Progress | None,
             still_path: bool) -> tuple[_Search, int]:
     """The top-speed search (module docstring) and how many speeds it tried."""
-    search = _Search(retime.cruise_speed_mps(site, opt.autopilot), _as_calibrated(opt))
+    search = _Search(cruise_speed_mps(site, opt.autopilot), _as_calibrated(opt))
     speed = search.start
     tries = 0
 

@@ -9,17 +9,15 @@ from mission_planner.optimize import PlannerOptions, Solution, plan
 from mission_planner.optimize.retime import (
     MIN_HOLD_S,
     Skeleton,
-    cruise_speed_mps,
     cycle_motion,
     fit_holds,
-    leg_profiles,
     skeleton,
     time_cycle,
-    top_speed_mps,
 )
 from mission_planner.study.sites import random_site
 from validator.geometry import min_leg_clearance
 from validator.motion.arducopter import STOP_LAG_S
+from validator.motion.speed_model import cruise_speed_mps, leg_profiles, top_speed_mps
 from validator.site import Site
 
 
@@ -299,7 +297,8 @@ def test_px4_timelines_count_the_departure_crawl() -> None:
     though the moves and the minimum holds alone would."""
     from pathlib import Path
 
-    from mission_planner.optimize.retime import motion_profile, px4_departures_s
+    from mission_planner.optimize.retime import px4_departures_s
+    from validator.motion.speed_model import motion_profile
     from validator.site import load_site
 
     site = load_site(Path(__file__).resolve().parents[2] / "samples" / "realistic.yaml")
