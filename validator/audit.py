@@ -28,6 +28,7 @@ import shapely
 from numpy.typing import NDArray
 
 from validator.autopilot.fence_storage import fence_storage_problem
+from validator.autopilot.rules import stored_hold_s
 from validator.fence_geometry import local_fence
 from validator.flight import Finding, Flight, resolve_flight
 from validator.geometry import leg_clearances, segment_point_closest_fraction
@@ -263,10 +264,10 @@ def _check_items(plan: Plan, flight: Flight, site: Site) -> list[Finding]:
             flight.is_ardupilot
             and it.command in (Cmd.NAV_WAYPOINT, Cmd.NAV_LOITER_TIME)
             and not math.isnan(it.params[0])
-            and it.params[0] != math.floor(it.params[0])
+            and stored_hold_s(it.params[0], "ardupilot") != it.params[0]
         ):
             out.append(Finding("warning", f"hold {it.params[0]:g} s: ArduCopter truncates it to "
-                               f"{math.floor(it.params[0]):g} s", i))
+                               f"{stored_hold_s(it.params[0], 'ardupilot'):g} s", i))
     default_speed = [leg.item for leg in flight.legs
                      if leg.kind == "waypoint" and leg.length_m > 0 and leg.speed_mps is None]
     if default_speed:

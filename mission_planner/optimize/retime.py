@@ -208,14 +208,14 @@ def time_cycle(
     With ``pass_through`` (ArduCopter only) the vehicle flies through every corner that is not
     a hover point where its turn keeps the buffer (:mod:`.corners`); it stops at the rest. On
     the timeline each stop's hover begins with the stop lag (:func:`arrival_lag_s`) and then
-    holds as :func:`fit_holds` says (whole seconds but one, at least a second). A PX4 leg
-    begins with its departure crawl (:func:`px4_departures_s`), settled with the holds."""
+    holds as :func:`fit_holds` says (as the autopilot stores them, at least a second). A PX4
+    leg begins with its departure crawl (:func:`px4_departures_s`), settled with the holds."""
     profiles = leg_profiles(site, sk.leg_lengths_m, autopilot=autopilot, params=params,
                             unit_xy=sk.leg_units if site.flight_wind is not None else None)
     motion = cycle_motion(site, sk, profiles, autopilot, params, pass_through)
     lag = motion.arrival_lag_s
     holds = fit_holds(sk.hold_s, motion.move_s + float(np.sum(lag)), period_s,
-                      stops=motion.stops)
+                      stops=motion.stops, autopilot=autopilot)
     if autopilot == "px4" and isinstance(profiles, SampledLegs):
         # PX4's departure crawls shorten as the holds before them lengthen, and the holds
         # shorten as the crawls take up the period: from the longest holds, each round
@@ -229,7 +229,7 @@ def time_cycle(
             motion = replace(base, offset_s=base.offset_s - crawl,
                              duration_s=base.duration_s + crawl)
             holds = fit_holds(sk.hold_s, motion.move_s + float(np.sum(lag)), period_s,
-                              stops=motion.stops)
+                              stops=motion.stops, autopilot=autopilot)
             if float(np.max(np.abs(crawl - before))) < 0.01:
                 break
     if holds is None:
@@ -283,7 +283,7 @@ def cycle_motion(site: Site, sk: Skeleton, profiles: LegMotion, autopilot: str =
 
 def fit_holds(
     hold_s: NDArray[np.float64], move_s: float, period_s: float, min_hold_s: float = MIN_HOLD_S,
-    stops: NDArray[np.bool_] | None = None,
+    stops: NDArray[np.bool_] | None = None, autopilot: str = "ardupilot",
 ) -> NDArray[np.float64] | None:
     """Holds so that moves plus holds last exactly the period; None if they cannot.
 
@@ -292,8 +292,9 @@ def fit_holds(
     the rest-to-rest S-curves this module times (with no hold it blends the corner, as the
     others do, see :mod:`.corners`). The spare time goes to the optimiser's hover points in
     proportion to their holds (to the stops alike when there are none). All holds but the
-    longest are whole seconds, as ArduCopter stores them, so that exporting the plan does not
-    shift its timing.
+    longest are as ``autopilot`` stores them (:func:`validator.autopilot.rules.stored_hold_s`:
+    ArduCopter whole seconds, PX4 as planned), so that exporting the plan does not shift its
+    timing.
     """
     hold = np.asarray(hold_s, dtype=float)
     stop = np.ones(len(hold), dtype=bool) if stops is None else np.asarray(stops, dtype=bool)
@@ -309,7 +310,7 @@ def fit_holds(
              else np.where(stop, spare / max(int(np.count_nonzero(stop)), 1), 0.0))
     out = least + share
     longest = int(np.argmax(out))
-    whole = np.array([stored_hold_s(h) for h in out])
+    whole = np.array([stored_hold_s(h, autopilot) for h in out])
     whole[longest] = out[longest]
     whole[longest] += float(np.sum(out - whole))
     return np.asarray(whole, dtype=float)
