@@ -24,6 +24,7 @@ from typing import Any
 from mission_planner.autopilot_params import AutopilotParams, recommended_params
 from mission_planner.mission import Mission
 from validator.flight import Flight, resolve_flight
+from validator.motion.fly import REPLAY_STEP_S
 from validator.motion.limits import site_limits
 from validator.motion.profile import Profile, flown_params, make_profile
 from validator.plan_format import Autopilot
@@ -121,7 +122,7 @@ def replay_mission(
     params: AutopilotParams | Mapping[str, float] | None = None,
     *,
     profile: str | None = None,
-    dt_s: float = 0.05,
+    dt_s: float = REPLAY_STEP_S,
 ) -> FlightCheck:
     """Fly ``mission`` with the validator's model of its autopilot and score the track.
 

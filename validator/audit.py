@@ -31,6 +31,7 @@ from validator.autopilot.fence_storage import fence_storage_problem
 from validator.autopilot.rules import stored_hold_s
 from validator.fence_geometry import local_fence
 from validator.flight import Finding, Flight, resolve_flight
+from validator.geodesy import E7_ROUNDING_MARGIN_M
 from validator.geometry import leg_clearances, segment_point_closest_fraction
 from validator.motion.ideal import ideal_leg_times
 from validator.motion.limits import site_limits
@@ -39,7 +40,7 @@ from validator.plan_format import Autopilot, Cmd, Plan
 from validator.site import Site
 from validator.zones import leg_closest_m, path_clearances_m, point_clearance_m
 
-CLEARANCE_TOLERANCE_M = 0.01  # MAVLink's int32 1e-7° coordinates move a point up to ~0.6 cm
+CLEARANCE_TOLERANCE_M = E7_ROUNDING_MARGIN_M  # MAVLink's 1e-7° rounding (validator.geodesy)
 ALTITUDE_TOLERANCE_M = 0.5
 HOME_MISMATCH_M = 1.0
 

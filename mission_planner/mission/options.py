@@ -8,6 +8,7 @@ from mission_planner.transit import DEFAULT_ARC_STEP_DEG
 from validator.autopilot.rules import ARDUPILOT_MIN_SPEED_MPS, STATIONARY_M
 from validator.autopilot.waypoint_radius import fence_margin_m, waypoint_radius_m
 from validator.errors import InputError
+from validator.geodesy import E7_ROUNDING_MARGIN_M
 from validator.plan_format import Autopilot
 from validator.site import Site
 
@@ -35,7 +36,7 @@ class MissionOptions:
     operating_area: str | None = None
     operating_area_margin_m: float = 20.0
     transit_speed_mps: float | None = None
-    export_margin_m: float = 0.01
+    export_margin_m: float = E7_ROUNDING_MARGIN_M
     max_nudge_m: float = 0.05
     stationary_tol_m: float = STATIONARY_M
     min_speed_mps: float = ARDUPILOT_MIN_SPEED_MPS
