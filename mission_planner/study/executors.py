@@ -22,13 +22,15 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Protocol, TypeVar
 
 from mission_planner.study.store import TrialLog, check_manifest, read_log
 from mission_planner.study.trials import Row, is_failed, run_trial
 from validator.errors import InputError
 
 if TYPE_CHECKING:
+    from distributed import Client
+
     from mission_planner.optimize import PlannerOptions
 
 CONNECT_TIMEOUT_S = 10
@@ -67,7 +69,19 @@ def check_scheduler(address: str) -> str:
     return address
 
 
-def _map_inline(fn: Callable[[Any], Row], specs: Sequence[Any]
+class Spec(Protocol):
+    """What :func:`run_trials` runs: a trial's parameters, hashable, known by its ``key``."""
+
+    @property
+    def key(self) -> str: ...
+
+    def __hash__(self) -> int: ...
+
+
+S = TypeVar("S", bound=Spec)
+
+
+def _map_inline(fn: Callable[[S], Row], specs: Sequence[S]
                 ) -> Iterator[Row]:
     for spec in specs:
         yield fn(spec)
@@ -81,7 +95,7 @@ def _process_context() -> multiprocessing.context.BaseContext:
     return multiprocessing.get_context("spawn")
 
 
-def _map_processes(fn: Callable[[Any], Row], specs: Sequence[Any],
+def _map_processes(fn: Callable[[S], Row], specs: Sequence[S],
                    workers: int) -> Iterator[Row]:
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=_process_context())
     finished = False
@@ -112,7 +126,7 @@ def _terminate(pool: ProcessPoolExecutor) -> None:
         process.terminate()
 
 
-def _connect(address: str) -> Any:
+def _connect(address: str) -> Client:
     """A ``distributed.Client`` for the scheduler at ``address``, or an :class:`InputError`."""
     try:
         from distributed import Client
@@ -128,8 +142,8 @@ def _connect(address: str) -> Any:
         raise InputError(f"--scheduler: cannot reach {address} ({err})") from None
 
 
-def _map_dask(fn: Callable[[Any], Row], specs: Sequence[Any],
-              client: Any) -> Iterator[Row]:
+def _map_dask(fn: Callable[[S], Row], specs: Sequence[S],
+              client: Client) -> Iterator[Row]:
     from distributed import as_completed
 
     try:
@@ -147,7 +161,7 @@ def _map_dask(fn: Callable[[Any], Row], specs: Sequence[Any],
 
 
 def run_trials(
-    specs: Sequence[Any],
+    specs: Sequence[Spec],
     directory: str | Path,
     *,
     options: PlannerOptions | None = None,

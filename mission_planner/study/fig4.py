@@ -16,7 +16,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -127,7 +127,7 @@ def run_fig4(
     return Fig4Result(run=run, summary=summary, files=[table, summary_path, path_a, path_b])
 
 
-def _options_record(options: Any) -> Any:
+def _options_record(options: PlannerOptions) -> dict[str, object] | str:
     """Planner options (a dataclass) as JSON-ready data."""
     try:
         return asdict(options)
