@@ -19,7 +19,6 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
 
 from mission_planner.autopilot_params import AutopilotParams, recommended_params
 from mission_planner.mission import Mission
@@ -91,7 +90,7 @@ class FlightCheck:
         return (f"the {self.profile.name} replay flies the cycle in {self.replayed_cycle_s:.1f} s,"
                 f" {ratio:.2f} x T = {self.period_s:g} s{rate}")
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> dict[str, object]:
         """The report's ``"flight"`` section."""
         c = self.report.cycle
         clearances = self.clearance_by_nfz_m

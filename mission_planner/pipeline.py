@@ -13,7 +13,6 @@ from __future__ import annotations
 import json
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
 
 from mission_planner.autopilot_params import (
     AutopilotParams,
@@ -50,7 +49,7 @@ Progress = Callable[[int, float], None]
 
 
 def mission_report(mission: Mission, flight: FlightCheck | None = None,
-                   params: AutopilotParams | None = None) -> dict[str, Any]:
+                   params: AutopilotParams | None = None) -> dict[str, object]:
     """The report JSON: the solution's report plus the mission summary under ``"mission"``,
     the recommended autopilot parameters under ``"autopilot_params"`` and the replay under
     ``"flight"`` when given."""

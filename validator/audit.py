@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import shapely
@@ -57,7 +56,7 @@ class NfzClosest:
     t_s: float  # mission time at the commanded speeds (ideal timing)
     xy_m: tuple[float, float]
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> dict[str, object]:
         return {"nfz": self.name, "clearance_m": self.clearance_m, "leg": self.leg,
                 "from_item": self.from_item, "item": self.item, "t_s": self.t_s,
                 "xy_m": list(self.xy_m)}
@@ -83,13 +82,15 @@ class AuditReport:
     def ok(self) -> bool:
         return not self.violations
 
-    def unique_legs(self) -> list[dict[str, Any]]:
+    def unique_legs(self) -> list[dict[str, object]]:
         """Legs by (from item, to item), repeated legs (DO_JUMP) counted once."""
-        seen: dict[tuple[int, int, str], dict[str, Any]] = {}
+        seen: dict[tuple[int, int, str], dict[str, object]] = {}
+        counts: dict[tuple[int, int, str], int] = {}
         for k, leg in enumerate(self.flight.legs):
             key = (_from_item(self.flight, k), leg.item, leg.kind)
+            counts[key] = counts.get(key, 0) + 1
             if key in seen:
-                seen[key]["count"] += 1
+                seen[key]["count"] = counts[key]
                 continue
             seen[key] = {
                 "leg": k, "from_item": key[0], "item": leg.item, "kind": leg.kind,
@@ -100,7 +101,7 @@ class AuditReport:
             }
         return list(seen.values())
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> dict[str, object]:
         return {
             "ok": self.ok,
             "legs": self.unique_legs(),

@@ -363,7 +363,7 @@ def _overlap(a: _Zone, b: _Zone) -> bool:
         < circle.radius_m
 
 
-def parse_site(data: Any, source: str = "site", *, base_file: str | Path | None = None,
+def parse_site(data: object, source: str = "site", *, base_file: str | Path | None = None,
                airspace: AirspaceOptions | None = None) -> Site:
     """Validate a site given as a parsed YAML mapping and resolve it into a :class:`Site`.
 
@@ -437,7 +437,7 @@ def loads_site(text: str, source: str = "site", *, base_file: str | Path | None 
     return parse_site(parse_yaml(text, source), source, base_file=base_file, airspace=airspace)
 
 
-def site_to_dict(site: Site) -> dict[str, Any]:
+def site_to_dict(site: Site) -> dict[str, object]:
     """A site file mapping (local x/y points) that :func:`parse_site` reads back to ``site``."""
 
     def dbm(w: float) -> float:

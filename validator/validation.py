@@ -87,8 +87,8 @@ class Validation:
     def exit_status(self) -> int:
         return 1 if self.violations else 0
 
-    def as_dict(self) -> dict[str, Any]:
-        def track(rep: TrackReport | None) -> dict[str, Any] | None:
+    def as_dict(self) -> dict[str, object]:
+        def track(rep: TrackReport | None) -> dict[str, object] | None:
             if rep is None:
                 return None
             d = rep.as_dict()

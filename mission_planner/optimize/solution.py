@@ -11,7 +11,6 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -140,7 +139,7 @@ class Solution:
         c = self.zone_clearance_m
         return {n: float(v) for n, v in zip(self.site.zone_names, np.min(c, axis=0), strict=True)}
 
-    def report(self) -> dict[str, Any]:
+    def report(self) -> dict[str, object]:
         """The JSON-ready report of this solution."""
         site = self.site
         rates = self.rates_bps_hz
@@ -177,7 +176,7 @@ class Solution:
         }
 
 
-def wind_report(site: Site) -> dict[str, Any]:
+def wind_report(site: Site) -> dict[str, object]:
     """What wind a plan was made for: the site's forecast, its layer at the flight altitude
     (:mod:`validator.wind`) and what it eats of the buffer the plan keeps
     (:func:`validator.wind_track.buffer_share`)."""
