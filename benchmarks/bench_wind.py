@@ -30,8 +30,8 @@ from mission_planner.autopilot_params import recommended_params
 from mission_planner.flight_report import FlightCheck, replay_mission
 from mission_planner.mission import Mission, MissionOptions, build_mission
 from mission_planner.optimize import PlannerOptions, plan
-from mission_planner.optimize.retime import cruise_speed_mps
-from mission_planner.waypoint_radius import radius_params
+from validator.autopilot.waypoint_radius import radius_params
+from validator.motion.speed_model import cruise_speed_mps
 from validator.site import Site, load_site
 from validator.wind import Wind, parse_wind_arg
 from validator.wind_track import wind_buffer_m

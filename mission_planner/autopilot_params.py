@@ -7,7 +7,7 @@ site into the parameters that make the vehicle fly the plan with the site's limi
 ArduCopter (names, units and documented ranges: :mod:`validator.autopilot.ardupilot`)
 
 - ``WPNAV_SPEED``: the fastest planned leg (the largest DO_CHANGE_SPEED in the plan) or the
-  vehicle's real top speed (:func:`mission_planner.optimize.retime.top_speed_mps`,
+  vehicle's real top speed (:func:`validator.motion.speed_model.top_speed_mps`,
   lean-limited with drag), whichever is lower: the speed the vehicle will reach. Rounded up to
   a whole cm/s, so a leg without a speed change is never flown slower;
 - ``WPNAV_ACCEL``: the site's ``uav.max_accel``; ``WPNAV_JERK``: its ``uav.max_jerk``;
@@ -46,14 +46,14 @@ from dataclasses import dataclass, field
 
 from mission_planner.mission import Mission
 from mission_planner.mission.options import waypoint_radius_m
-from mission_planner.optimize.retime import top_speed_mps
-from mission_planner.waypoint_radius import radius_params
 from validator.autopilot.failsafe import recommended_failsafes
 from validator.autopilot.fence import FENCE_RULES
 from validator.autopilot.param_file import format_params
 from validator.autopilot.tables import param_table, range_notes
+from validator.autopilot.waypoint_radius import radius_params
 from validator.failsafe import smartrtl_points_needed
 from validator.flight import resolve_flight
+from validator.motion.speed_model import top_speed_mps
 from validator.plan_format import Cmd
 
 

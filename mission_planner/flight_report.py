@@ -19,11 +19,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
 
 from mission_planner.autopilot_params import AutopilotParams, recommended_params
 from mission_planner.mission import Mission
 from validator.flight import Flight, resolve_flight
+from validator.motion.fly import REPLAY_STEP_S
 from validator.motion.limits import site_limits
 from validator.motion.profile import Profile, flown_params, make_profile
 from validator.plan_format import Autopilot
@@ -90,7 +90,7 @@ class FlightCheck:
         return (f"the {self.profile.name} replay flies the cycle in {self.replayed_cycle_s:.1f} s,"
                 f" {ratio:.2f} x T = {self.period_s:g} s{rate}")
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> dict[str, object]:
         """The report's ``"flight"`` section."""
         c = self.report.cycle
         clearances = self.clearance_by_nfz_m
@@ -121,7 +121,7 @@ def replay_mission(
     params: AutopilotParams | Mapping[str, float] | None = None,
     *,
     profile: str | None = None,
-    dt_s: float = 0.05,
+    dt_s: float = REPLAY_STEP_S,
 ) -> FlightCheck:
     """Fly ``mission`` with the validator's model of its autopilot and score the track.
 

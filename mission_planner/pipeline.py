@@ -14,7 +14,6 @@ import json
 import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
 
 from mission_planner.autopilot_params import (
     AutopilotParams,
@@ -29,12 +28,12 @@ from mission_planner.mission import (
     check_options,
     mission_summary,
 )
-from mission_planner.optimize.retime import top_speed_mps
 from mission_planner.optimize.solution import Solution
-from mission_planner.waypoint_radius import radius_params
+from validator.autopilot.waypoint_radius import radius_params
 from validator.errors import InputError
 from validator.fileio import write_all_atomic
 from validator.geojson_format import dumps_geojson, plan_geojson
+from validator.motion.speed_model import top_speed_mps
 from validator.plan_format import dumps_plan
 from validator.site import Site
 from validator.waypoints_format import waypoint_files
@@ -51,7 +50,7 @@ Progress = Callable[[int, float], None]
 
 
 def mission_report(mission: Mission, flight: FlightCheck | None = None,
-                   params: AutopilotParams | None = None) -> dict[str, Any]:
+                   params: AutopilotParams | None = None) -> dict[str, object]:
     """The report JSON: the solution's report plus the mission summary under ``"mission"``,
     the recommended autopilot parameters under ``"autopilot_params"`` and the replay under
     ``"flight"`` when given."""
@@ -254,7 +253,7 @@ def _replayed_min_rate(mission: Mission) -> float:
 
 def speed_warning(site: Site, dynamics: str, autopilot: str = "ardupilot") -> str | None:
     """One line when the site's V is above the vehicle's real top speed
-    (:func:`~mission_planner.optimize.retime.top_speed_mps`), else None."""
+    (:func:`~validator.motion.speed_model.top_speed_mps`), else None."""
     top = top_speed_mps(site, autopilot)
     if site.max_speed_mps <= top:
         return None

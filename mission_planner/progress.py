@@ -11,7 +11,7 @@ shown when stderr is not a terminal (a log or a pipe gets the result lines only)
 from __future__ import annotations
 
 import sys
-from typing import Any, TextIO
+from typing import TextIO
 
 
 class PlanProgress:
@@ -51,5 +51,5 @@ class PlanProgress:
     def __enter__(self) -> PlanProgress:
         return self
 
-    def __exit__(self, *exc: Any) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.close()

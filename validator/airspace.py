@@ -20,7 +20,6 @@ import hashlib
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -91,7 +90,7 @@ def load_airspace(path: str | Path) -> list[AirspaceZone]:
     return parse_airspace(parse_json(read_text(path, "airspace"), str(path)), str(path))
 
 
-def parse_airspace(data: Any, source: str) -> list[AirspaceZone]:
+def parse_airspace(data: object, source: str) -> list[AirspaceZone]:
     """The zones of a parsed GeoJSON FeatureCollection; ``source`` names it in errors."""
     check_tree(data, source)
     if not isinstance(data, dict) or data.get("type") != "FeatureCollection":
@@ -108,7 +107,7 @@ def parse_airspace(data: Any, source: str) -> list[AirspaceZone]:
     return zones
 
 
-def _feature(f: Any, where: str, default_name: str) -> list[AirspaceZone]:
+def _feature(f: object, where: str, default_name: str) -> list[AirspaceZone]:
     if not isinstance(f, dict) or f.get("type") != "Feature":
         raise InputError(f"{where}: expected a GeoJSON Feature")
     props = f.get("properties") or {}
@@ -141,7 +140,7 @@ def _feature(f: Any, where: str, default_name: str) -> list[AirspaceZone]:
                      "Point with radius_m)")
 
 
-def _polygon(rings: Any, name: str, where: str, field: str) -> AirspaceZone:
+def _polygon(rings: object, name: str, where: str, field: str) -> AirspaceZone:
     if not isinstance(rings, list) or not rings:
         raise InputError(f"{field}: expected a list of linear rings")
     if len(rings) > 1:
@@ -156,7 +155,7 @@ def _polygon(rings: Any, name: str, where: str, field: str) -> AirspaceZone:
     return AirspaceZone(name, where, _positions(ring, f"{field}[0]"))
 
 
-def _positions(points: list[Any], field: str) -> NDArray[np.float64]:
+def _positions(points: list[object], field: str) -> NDArray[np.float64]:
     """GeoJSON [lon, lat(, alt)] positions as (P, 2) [lat, lon] degrees."""
     out = np.empty((len(points), 2))
     for j, p in enumerate(points):

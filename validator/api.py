@@ -29,7 +29,9 @@ from typing import TYPE_CHECKING
 from validator.audit import AuditReport, audit
 from validator.errors import InputError
 from validator.flight import Flight, resolve_flight
+from validator.mavlink.connection import DEFAULT_TIMEOUT_S
 from validator.mavlink.vehicles import VehicleChoice, VehicleKind, choose_vehicle, start_vehicle
+from validator.motion.fly import REPLAY_STEP_S
 from validator.motion.limits import site_limits
 from validator.motion.profile import Profile, ProfileName, flown_params, make_profile
 from validator.plan_format import Autopilot, Plan, read_plan
@@ -46,7 +48,6 @@ __all__ = ["Flown", "Replayed", "VehicleChoice", "audit_plan", "choose_vehicle",
            "fly_plan", "load_site", "read_plan", "replay_plan", "score_recorded",
            "write_track"]
 
-REPLAY_STEP_S = 0.05  # 20 Hz, as validate-mission replays
 
 
 def load_site(
@@ -145,7 +146,7 @@ def fly_plan(
     params: Mapping[str, float] | None = None,
     profile: ProfileName | None = None,
     time_limit_s: float | None = None,
-    timeout_s: float = 10.0,
+    timeout_s: float = DEFAULT_TIMEOUT_S,
     progress: Callable[[str], None] | None = None,
     source: str = "plan",
 ) -> Flown:

@@ -21,15 +21,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import shapely
 from numpy.typing import NDArray
 
 from validator.autopilot.fence_storage import fence_storage_problem
+from validator.autopilot.rules import stored_hold_s
 from validator.fence_geometry import local_fence
 from validator.flight import Finding, Flight, resolve_flight
+from validator.geodesy import E7_ROUNDING_MARGIN_M
 from validator.geometry import leg_clearances, segment_point_closest_fraction
 from validator.motion.ideal import ideal_leg_times
 from validator.motion.limits import site_limits
@@ -38,7 +39,7 @@ from validator.plan_format import Autopilot, Cmd, Plan
 from validator.site import Site
 from validator.zones import leg_closest_m, path_clearances_m, point_clearance_m
 
-CLEARANCE_TOLERANCE_M = 0.01  # MAVLink's int32 1e-7° coordinates move a point up to ~0.6 cm
+CLEARANCE_TOLERANCE_M = E7_ROUNDING_MARGIN_M  # MAVLink's 1e-7° rounding (validator.geodesy)
 ALTITUDE_TOLERANCE_M = 0.5
 HOME_MISMATCH_M = 1.0
 
@@ -55,7 +56,7 @@ class NfzClosest:
     t_s: float  # mission time at the commanded speeds (ideal timing)
     xy_m: tuple[float, float]
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> dict[str, object]:
         return {"nfz": self.name, "clearance_m": self.clearance_m, "leg": self.leg,
                 "from_item": self.from_item, "item": self.item, "t_s": self.t_s,
                 "xy_m": list(self.xy_m)}
@@ -81,13 +82,15 @@ class AuditReport:
     def ok(self) -> bool:
         return not self.violations
 
-    def unique_legs(self) -> list[dict[str, Any]]:
+    def unique_legs(self) -> list[dict[str, object]]:
         """Legs by (from item, to item), repeated legs (DO_JUMP) counted once."""
-        seen: dict[tuple[int, int, str], dict[str, Any]] = {}
+        seen: dict[tuple[int, int, str], dict[str, object]] = {}
+        counts: dict[tuple[int, int, str], int] = {}
         for k, leg in enumerate(self.flight.legs):
             key = (_from_item(self.flight, k), leg.item, leg.kind)
+            counts[key] = counts.get(key, 0) + 1
             if key in seen:
-                seen[key]["count"] += 1
+                seen[key]["count"] = counts[key]
                 continue
             seen[key] = {
                 "leg": k, "from_item": key[0], "item": leg.item, "kind": leg.kind,
@@ -98,7 +101,7 @@ class AuditReport:
             }
         return list(seen.values())
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> dict[str, object]:
         return {
             "ok": self.ok,
             "legs": self.unique_legs(),
@@ -263,10 +266,10 @@ def _check_items(plan: Plan, flight: Flight, site: Site) -> list[Finding]:
             flight.is_ardupilot
             and it.command in (Cmd.NAV_WAYPOINT, Cmd.NAV_LOITER_TIME)
             and not math.isnan(it.params[0])
-            and it.params[0] != math.floor(it.params[0])
+            and stored_hold_s(it.params[0], "ardupilot") != it.params[0]
         ):
             out.append(Finding("warning", f"hold {it.params[0]:g} s: ArduCopter truncates it to "
-                               f"{math.floor(it.params[0]):g} s", i))
+                               f"{stored_hold_s(it.params[0], 'ardupilot'):g} s", i))
     default_speed = [leg.item for leg in flight.legs
                      if leg.kind == "waypoint" and leg.length_m > 0 and leg.speed_mps is None]
     if default_speed:

@@ -105,7 +105,7 @@ def _track_lines(title: str, rep: TrackReport) -> list[str]:
         )
     lags = [w for w in rep.waypoint_lag if w["lag_s"] is not None]
     if lags:
-        worst = max(lags, key=lambda w: w["lag_s"])
+        worst = max(lags, key=lambda w: w["lag_s"] or 0.0)  # None filtered out above
         lines.append(f"  lag behind the plan's timing: max {worst['lag_s']:.1f} s "
                      f"(item {worst['item']}), at the last waypoint {lags[-1]['lag_s']:.1f} s")
     lines.append(f"  cross-track deviation from the legs: max {rep.cross_track_max_m:.2f} m, "

@@ -41,6 +41,7 @@ from validator.audit import zone_leg_clearances
 from validator.autopilot import failsafe as fs
 from validator.autopilot.tables import param_table
 from validator.flight import Flight, Leg
+from validator.geodesy import E7_ROUNDING_MARGIN_M
 from validator.geometry import segment_point_distance
 from validator.plan_format import Autopilot, Plan
 from validator.position_loss import PositionLossFinding, audit_position_loss
@@ -49,7 +50,7 @@ from validator.zones import PolygonZone, point_clearance_m
 
 SPLIT_STEP_M = 0.5  # where a leg is probed for a change of return destination
 DEPTH_GRID_M = 0.25  # the depth of a return path inside a polygon zone, to within this
-CLEARANCE_TOLERANCE_M = 0.01  # as the mission audit: MAVLink's coordinate rounding
+CLEARANCE_TOLERANCE_M = E7_ROUNDING_MARGIN_M  # as the mission audit: MAVLink's rounding
 LOITER_SEGMENTS = 16  # a loiter circle as a polygon of 4 x this many sides, drawn outside it
 
 

@@ -8,6 +8,7 @@ with every point taken at that height. (At 584 m, a plane at height 0 instead wo
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -15,6 +16,14 @@ import pymap3d
 from numpy.typing import ArrayLike, NDArray
 
 E7 = 1e7  # MAVLink MISSION_ITEM_INT stores degrees x 1e7 as int32
+# Rounding to the nearest 1e-7° moves a point by at most half a step on each axis: 0.5e-7° of
+# latitude is at most 0.56 cm (a degree of latitude is at most 111.7 km, at the poles), of
+# longitude 0.56 cm x cos(latitude); so at most 0.56 cm x √2 ≈ 0.79 cm in all (on the equator).
+E7_ROUNDING_MAX_M = 0.5 / E7 * 111_700.0 * math.sqrt(2.0)
+# The one margin for that rounding: each clearance check's tolerance, the exporter's extra
+# clearance of legs and transits, and the polygon fence's growth before rounding (m).
+E7_ROUNDING_MARGIN_M = 0.01
+assert E7_ROUNDING_MARGIN_M > E7_ROUNDING_MAX_M
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -36,12 +35,12 @@ def _lonlat(frame: LocalFrame, xy_m: ArrayLike) -> list[list[float]]:
     return [[float(a), float(b)] for a, b in zip(lon, lat, strict=True)]
 
 
-def _feature(geometry: dict[str, Any], **props: Any) -> dict[str, Any]:
+def _feature(geometry: dict[str, object], **props: object) -> dict[str, object]:
     return {"type": "Feature", "geometry": geometry, "properties": props}
 
 
 def _circle(frame: LocalFrame, centre_m: ArrayLike, radius_m: float,
-            **props: Any) -> dict[str, Any]:
+            **props: object) -> dict[str, object]:
     c = np.asarray(centre_m, dtype=float)
     ang = np.linspace(0.0, 2.0 * np.pi, CIRCLE_VERTICES, endpoint=False)
     ring = _lonlat(frame, np.c_[c[0] + radius_m * np.cos(ang), c[1] + radius_m * np.sin(ang)])
@@ -51,24 +50,25 @@ def _circle(frame: LocalFrame, centre_m: ArrayLike, radius_m: float,
                     radius_m=float(radius_m), **props)
 
 
-def _polygon(frame: LocalFrame, vertices_m: ArrayLike, **props: Any) -> dict[str, Any]:
+def _polygon(frame: LocalFrame, vertices_m: ArrayLike, **props: object) -> dict[str, object]:
     ring = _lonlat(frame, vertices_m)
     ring.append(ring[0])
     return _feature({"type": "Polygon", "coordinates": [ring]}, **props)
 
 
-def plan_geojson(plan: Plan, site: Site) -> dict[str, Any]:
+def plan_geojson(plan: Plan, site: Site) -> dict[str, object]:
     """The FeatureCollection of ``plan`` flown at ``site`` (see the module doc)."""
     frame = site.frame
-    feats: list[dict[str, Any]] = []
+    feats: list[dict[str, object]] = []
     nav = [(i, it) for i, it in enumerate(plan.items) if it.command in _POSITION_COMMANDS]
     path = [[it.lon_deg, it.lat_deg] for _, it in nav]
     if len(path) >= 2:
         feats.append(_feature({"type": "LineString", "coordinates": path}, kind="flown_path"))
     extra = plan.extra or {}
-    if isinstance(extra.get("trajectory_m"), list) and len(extra["trajectory_m"]) >= 2:
+    trajectory = extra.get("trajectory_m")
+    if isinstance(trajectory, list) and len(trajectory) >= 2:
         feats.append(_feature({"type": "LineString",
-                               "coordinates": _lonlat(frame, extra["trajectory_m"])},
+                               "coordinates": _lonlat(frame, trajectory)},
                               kind="service_trajectory", scheme=extra.get("scheme"),
                               schedule=extra.get("schedule"), delta_s=extra.get("delta_s")))
     for i, it in nav:
@@ -112,7 +112,7 @@ def plan_geojson(plan: Plan, site: Site) -> dict[str, Any]:
             "features": feats}
 
 
-def dumps_geojson(data: dict[str, Any]) -> str:
+def dumps_geojson(data: dict[str, object]) -> str:
     """GeoJSON text with full double precision."""
     return json.dumps(data, indent=1, allow_nan=False) + "\n"
 

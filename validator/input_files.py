@@ -26,7 +26,6 @@ import json
 import math
 import os
 from pathlib import Path
-from typing import Any
 
 import yaml
 
@@ -64,7 +63,7 @@ def _mib(n: int) -> str:
     return f"{n / 2**20:.3g} MiB"
 
 
-def parse_json(text: str, source: str) -> Any:
+def parse_json(text: str, source: str) -> object:
     """Parse JSON strictly (finite numbers only) and check its structure (:func:`check_tree`)."""
 
     def no_constant(name: str) -> float:
@@ -90,7 +89,7 @@ def parse_json(text: str, source: str) -> Any:
     return data
 
 
-def parse_yaml(text: str, source: str) -> Any:
+def parse_yaml(text: str, source: str) -> object:
     """Parse YAML text safely (no Python objects) and check its structure (:func:`check_tree`)."""
     loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
     try:
@@ -109,7 +108,7 @@ class _NonFinite(ValueError):
     pass
 
 
-def check_tree(data: Any, source: str) -> None:
+def check_tree(data: object, source: str) -> None:
     """Refuse a parsed document that nests deeper than ``MAX_DEPTH``, holds more than
     ``MAX_VALUES`` values (shared YAML aliases counted at each use) or a non-finite number.
 
@@ -117,7 +116,8 @@ def check_tree(data: Any, source: str) -> None:
     """
     if isinstance(data, float) and not math.isfinite(data):
         raise InputError(f"{source}: {data!r} is not a finite number")
-    stack: list[tuple[Any, int]] = [(data, 0)] if isinstance(data, (dict, list)) else []
+    stack: list[tuple[dict[object, object] | list[object], int]] = (
+        [(data, 0)] if isinstance(data, (dict, list)) else [])
     count = 1
     while stack:
         node, depth = stack.pop()
@@ -139,13 +139,14 @@ def check_tree(data: Any, source: str) -> None:
                                  "finite number")
 
 
-def _key(key: Any) -> str | int:
+def _key(key: object) -> str | int:
     return key if isinstance(key, int) and not isinstance(key, bool) else str(key)
 
 
-def _path_to(root: Any, target: Any) -> tuple[str | int, ...]:
+def _path_to(root: object, target: object) -> tuple[str | int, ...]:
     """The keys from ``root`` to the container ``target`` (only called to word an error)."""
-    stack: list[tuple[Any, tuple[str | int, ...]]] = [(root, ())]
+    stack: list[tuple[dict[object, object] | list[object], tuple[str | int, ...]]] = (
+        [(root, ())] if isinstance(root, (dict, list)) else [])
     while stack:
         node, path = stack.pop()
         if node is target:

@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 from pydantic import ValidationError
 
 
-def field_path(loc: tuple[int | str, ...], data: Any) -> str:
+def field_path(loc: tuple[int | str, ...], data: object) -> str:
     """``('ground_nodes', 1, 'x')`` -> ``ground_nodes[1] (GN2).x``."""
     out = ""
     node = data
@@ -15,7 +13,7 @@ def field_path(loc: tuple[int | str, ...], data: Any) -> str:
         if isinstance(part, int):
             out += f"[{part}]"
             try:
-                node = node[part]
+                node = node[part] if isinstance(node, (list, dict)) else None
                 if isinstance(node, dict) and "name" in node:
                     out += f" ({node['name']})"
             except (IndexError, KeyError, TypeError):
@@ -26,7 +24,7 @@ def field_path(loc: tuple[int | str, ...], data: Any) -> str:
     return out
 
 
-def first_error(err: ValidationError, data: Any, root: str = "file") -> str:
+def first_error(err: ValidationError, data: object, root: str = "file") -> str:
     """The first error pydantic found in ``data``, as ``field path: message`` (``root`` when
     it names no field)."""
     e = err.errors()[0]

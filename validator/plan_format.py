@@ -15,7 +15,7 @@ import math
 from dataclasses import dataclass, field
 from enum import IntEnum
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Literal
 
 from validator.errors import InputError
 from validator.fileio import write_atomic
@@ -176,10 +176,10 @@ class Plan:
     # lat, lon, alt above home
     rally: list[tuple[float, float, float]] = field(default_factory=list)
     breach_return: tuple[float, float, float] | None = None
-    extra: dict[str, Any] | None = None  # our EXTRA_KEY metadata, if any
+    extra: dict[str, object] | None = None  # our EXTRA_KEY metadata, if any
 
 
-def _num(v: Any) -> float:
+def _num(v: object) -> float:
     """A JSON number, or NaN for null (as QGroundControl reads it); nothing else."""
     if v is None:
         return math.nan
@@ -191,7 +191,7 @@ def _num(v: Any) -> float:
     return out
 
 
-def _finite(v: Any) -> float:
+def _finite(v: object) -> float:
     """A finite JSON number (no null)."""
     if v is None:
         raise TypeError("null")
@@ -202,11 +202,11 @@ def _json_num(v: float) -> float | None:
     return None if isinstance(v, float) and math.isnan(v) else v
 
 
-def plan_to_dict(plan: Plan) -> dict[str, Any]:
+def plan_to_dict(plan: Plan) -> dict[str, object]:
     """The QGroundControl JSON structure of ``plan`` (full double precision)."""
     items = []
     for i, it in enumerate(plan.items, start=1):
-        entry: dict[str, Any] = {
+        entry: dict[str, object] = {
             "autoContinue": it.autocontinue,
             "command": int(it.command),
             "doJumpId": i,
@@ -224,7 +224,7 @@ def plan_to_dict(plan: Plan) -> dict[str, Any]:
             entry["Altitude"] = it.params[6]
             entry["AltitudeMode"] = mode[Frame(it.frame)]
         items.append(entry)
-    fence: dict[str, Any] = {
+    fence: dict[str, object] = {
         "circles": [
             {
                 "circle": {"center": [c.lat_deg, c.lon_deg], "radius": c.radius_m},
@@ -241,7 +241,7 @@ def plan_to_dict(plan: Plan) -> dict[str, Any]:
     }
     if plan.breach_return is not None:
         fence["breachReturn"] = list(plan.breach_return)
-    out: dict[str, Any] = {
+    out: dict[str, object] = {
         "fileType": "Plan",
         "geoFence": fence,
         "groundStation": "QGroundControl",
@@ -273,7 +273,7 @@ def write_plan(plan: Plan, path: str | Path) -> None:
     write_atomic(path, dumps_plan(plan))
 
 
-# Versions of each part of a .plan this reader knows (QGroundControl's current ones). Any
+# Versions of each part of a .plan this reader knows (QGroundControl's current ones). object
 # other value is refused rather than warned about: QGroundControl itself refuses a plan of a
 # newer version, and the older mission (1) and geoFence (1) layouts hold their items in other
 # places, so reading them as the current layout would silently lose items. A missing version
@@ -288,7 +288,7 @@ MAX_ITEMS = 65535  # per list: MAVLink's MISSION_COUNT is a uint16
 _POSITION_COMMANDS = frozenset({16, 17, 18, 19, 21, 22, 31, 82, 84, 85})
 
 
-def _need(d: Any, key: str, where: str) -> Any:
+def _need(d: object, key: str, where: str) -> object:
     if not isinstance(d, dict):
         raise InputError(f"{where}: expected a JSON object")
     if key not in d:
@@ -296,13 +296,13 @@ def _need(d: Any, key: str, where: str) -> Any:
     return d[key]
 
 
-def _object(v: Any, where: str) -> dict[str, Any]:
+def _object(v: object, where: str) -> dict[str, object]:
     if not isinstance(v, dict):
         raise InputError(f"{where}: expected a JSON object")
     return v
 
 
-def _list(v: Any, where: str, max_len: int = MAX_ITEMS) -> list[Any]:
+def _list(v: object, where: str, max_len: int = MAX_ITEMS) -> list[object]:
     if not isinstance(v, list):
         raise InputError(f"{where}: expected a list")
     if len(v) > max_len:
@@ -310,7 +310,7 @@ def _list(v: Any, where: str, max_len: int = MAX_ITEMS) -> list[Any]:
     return v
 
 
-def _int(v: Any, where: str, lo: int, hi: int) -> int:
+def _int(v: object, where: str, lo: int, hi: int) -> int:
     if isinstance(v, float) and v.is_integer():
         v = int(v)
     if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
@@ -318,25 +318,25 @@ def _int(v: Any, where: str, lo: int, hi: int) -> int:
     return v
 
 
-def _number(v: Any, where: str) -> float:
+def _number(v: object, where: str) -> float:
     try:
         return _finite(v)
     except (TypeError, ValueError):
         raise InputError(f"{where}: expected a finite number, got {_short(v)}") from None
 
 
-def _bool(v: Any, where: str) -> bool:
+def _bool(v: object, where: str) -> bool:
     if not isinstance(v, bool):
         raise InputError(f"{where}: expected true or false, got {_short(v)}")
     return v
 
 
-def _short(v: Any) -> str:
+def _short(v: object) -> str:
     text = json.dumps(v) if isinstance(v, (int, float, str, bool, type(None))) else type(v).__name__
     return text if len(text) <= 40 else text[:37] + "..."
 
 
-def _latlon(v: Any, where: str, size: int = 2) -> list[float]:
+def _latlon(v: object, where: str, size: int = 2) -> list[float]:
     """[lat, lon] (``size`` 2) or [lat, lon, alt] (3), finite, degrees in range."""
     if not isinstance(v, list) or len(v) != size:
         raise InputError(f"{where}: expected [lat, lon{', alt' if size == 3 else ''}]")
@@ -350,14 +350,15 @@ def _check_latlon(lat: float, lon: float, where: str) -> None:
         raise InputError(f"{where}: latitude/longitude ({lat}, {lon}) out of range")
 
 
-def _version(part: dict[str, Any], expected: int, where: str) -> None:
+def _version(part: dict[str, object], expected: int, where: str) -> None:
     if "version" in part and part["version"] != expected:
         raise InputError(f"{where}.version: expected {expected}, got {_short(part['version'])} "
                          "(not a QGroundControl plan layout this tool reads; re-save it with "
                          "a current QGroundControl)")
 
 
-def _item(entry: Any, where: str) -> MissionItem:
+def _item(raw_entry: object, where: str) -> MissionItem:
+    entry = _object(raw_entry, where)
     kind = _need(entry, "type", where)
     if kind == "ComplexItem":
         raise InputError(
@@ -384,12 +385,13 @@ def _item(entry: Any, where: str) -> MissionItem:
     return MissionItem(command, params, frame, auto)
 
 
-def plan_from_dict(data: Any, source: str = "plan") -> Plan:
+def plan_from_dict(raw: object, source: str = "plan") -> Plan:
     """Parse a QGroundControl plan structure, raising :class:`InputError` naming the field.
 
     Versions other than the current ones are refused (see ``PLAN_VERSION``); every number
     must be finite, except the params QGroundControl writes as null (NaN: "unchanged").
     """
+    data = _object(raw, source)
     if _need(data, "fileType", source) != "Plan":
         raise InputError(f"{source}.fileType: expected 'Plan'")
     mission = _object(_need(data, "mission", source), f"{source}.mission")
@@ -406,7 +408,8 @@ def plan_from_dict(data: Any, source: str = "plan") -> Plan:
     circles: list[FenceCircle] = []
     for i, c in enumerate(_list(fence.get("circles", []), f"{source}.geoFence.circles")):
         where = f"{source}.geoFence.circles[{i}]"
-        _version(_object(c, where), FENCE_SHAPE_VERSION, where)
+        c = _object(c, where)
+        _version(c, FENCE_SHAPE_VERSION, where)
         circle = _need(c, "circle", where)
         lat, lon = _latlon(_need(circle, "center", f"{where}.circle"), f"{where}.circle.center")
         radius = _number(_need(circle, "radius", f"{where}.circle"), f"{where}.circle.radius")
@@ -417,7 +420,8 @@ def plan_from_dict(data: Any, source: str = "plan") -> Plan:
     polygons: list[FencePolygon] = []
     for i, p in enumerate(_list(fence.get("polygons", []), f"{source}.geoFence.polygons")):
         where = f"{source}.geoFence.polygons[{i}]"
-        _version(_object(p, where), FENCE_SHAPE_VERSION, where)
+        p = _object(p, where)
+        _version(p, FENCE_SHAPE_VERSION, where)
         raw_verts = _list(_need(p, "polygon", where), f"{where}.polygon")
         verts = [_latlon(v, f"{where}.polygon[{j}]") for j, v in enumerate(raw_verts)]
         if len(verts) < 3:
@@ -450,7 +454,7 @@ def plan_from_dict(data: Any, source: str = "plan") -> Plan:
         polygons=polygons,
         rally=rally,
         breach_return=breach,
-        extra=data.get(EXTRA_KEY),
+        extra=_object(data[EXTRA_KEY], f"{source}.{EXTRA_KEY}") if EXTRA_KEY in data else None,
     )
 
 

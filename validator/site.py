@@ -38,6 +38,7 @@ import shapely
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from validator.autopilot.ardupilot import PARAMS as ARDUPILOT_PARAMS
 from validator.errors import InputError
 from validator.geodesy import LocalFrame
 from validator.input_files import (
@@ -54,8 +55,10 @@ from validator.wind import Wind, WindModel
 from validator.zones import MAX_VERTICES, PolygonZone, point_clearance_m, polygon_zone
 
 DEFAULT_BUFFER_M = 2.0
-DEFAULT_MAX_ACCEL_MPS2 = 2.5  # ArduCopter WPNAV_ACCEL default
-DEFAULT_MAX_JERK_MPS3 = 1.0  # ArduCopter WPNAV_JERK default
+# A site without uav limits gets ArduCopter's defaults, read from its one parameter table.
+_ACCEL, _JERK = ARDUPILOT_PARAMS["WPNAV_ACCEL"], ARDUPILOT_PARAMS["WPNAV_JERK"]
+DEFAULT_MAX_ACCEL_MPS2 = _ACCEL.default * _ACCEL.to_si  # 2.5
+DEFAULT_MAX_JERK_MPS3 = _JERK.default * _JERK.to_si  # 1.0
 # Size limits, far above any site the planner can solve, so a typo cannot exhaust memory:
 MAX_SLOTS = 10_000  # a mission holds at most 65535 items (MAVLink's uint16 count)
 MAX_NODES = 1_000  # ground nodes, and no-fly zones
@@ -360,7 +363,7 @@ def _overlap(a: _Zone, b: _Zone) -> bool:
         < circle.radius_m
 
 
-def parse_site(data: Any, source: str = "site", *, base_file: str | Path | None = None,
+def parse_site(data: object, source: str = "site", *, base_file: str | Path | None = None,
                airspace: AirspaceOptions | None = None) -> Site:
     """Validate a site given as a parsed YAML mapping and resolve it into a :class:`Site`.
 
@@ -434,7 +437,7 @@ def loads_site(text: str, source: str = "site", *, base_file: str | Path | None 
     return parse_site(parse_yaml(text, source), source, base_file=base_file, airspace=airspace)
 
 
-def site_to_dict(site: Site) -> dict[str, Any]:
+def site_to_dict(site: Site) -> dict[str, object]:
     """A site file mapping (local x/y points) that :func:`parse_site` reads back to ``site``."""
 
     def dbm(w: float) -> float:

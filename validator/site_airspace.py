@@ -12,7 +12,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import shapely
@@ -49,7 +48,7 @@ class SiteAirspace:
     uas: bool = False  # whether any file holds UAS zones (ED-269 / ED-318)
     reach_m: shapely.Polygon | None = None  # where UAS zones were looked for (local metres)
 
-    def report(self) -> dict[str, Any]:
+    def report(self) -> dict[str, object]:
         """The report's ``"airspace"`` section."""
         window = self.options.window
         return {

@@ -19,6 +19,7 @@ from validator.audit import CLEARANCE_TOLERANCE_M, AuditReport, audit
 from validator.errors import InputError
 from validator.failsafe import FailsafeReport, audit_failsafes
 from validator.flight import Finding, Flight, Severity, resolve_flight
+from validator.motion.fly import REPLAY_STEP_S
 from validator.motion.limits import site_limits
 from validator.motion.profile import Profile, flown_params, make_profile
 from validator.motion.px4_swing import swing_findings
@@ -47,7 +48,7 @@ class Validation:
     flight: Flight
     audit: AuditReport
     profile: Profile | None = None
-    dt_s: float = 0.05
+    dt_s: float = REPLAY_STEP_S
     replay: TrackReport | None = None
     replay_track: Track | None = None  # the modelled flight itself, for a view
     sitl: TrackReport | None = None
@@ -88,8 +89,8 @@ class Validation:
     def exit_status(self) -> int:
         return 1 if self.violations else 0
 
-    def as_dict(self) -> dict[str, Any]:
-        def track(rep: TrackReport | None) -> dict[str, Any] | None:
+    def as_dict(self) -> dict[str, object]:
+        def track(rep: TrackReport | None) -> dict[str, object] | None:
             if rep is None:
                 return None
             d = rep.as_dict()
@@ -157,7 +158,7 @@ def validate_mission(
     replay_flight: bool = False,
     profile: str | None = None,
     params: dict[str, float] | None = None,
-    dt_s: float = 0.05,
+    dt_s: float = REPLAY_STEP_S,
     vehicle_params: dict[str, float] | None = None,
     flown_track: str | Path | None = None,
     airspace: AirspaceOptions | None = None,
@@ -183,8 +184,9 @@ def validate_mission(
     (:attr:`Validation.wind_as_planned`). Raises :class:`InputError` for bad input, and for a
     wind the vehicle cannot fly against (naming the leg).
     """
-    if not (dt_s > 0 and dt_s <= 0.05):
-        raise InputError(f"--dt: must be > 0 and <= 0.05 s (at least 20 Hz), got {dt_s}")
+    if not (dt_s > 0 and dt_s <= REPLAY_STEP_S):
+        raise InputError(f"--dt: must be > 0 and <= {REPLAY_STEP_S:g} s (at least 20 Hz), "
+                         f"got {dt_s}")
     site = load_site(site_path, airspace)
     plan = read_plan(plan_path)
     flight = resolve_flight(plan, site, str(plan_path))

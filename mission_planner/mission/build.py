@@ -26,12 +26,12 @@ from mission_planner.mission.steps import (
     place_on_legs,
     scurve_legs,
     service_steps,
-    timing_of,
     waypoint_steps,
 )
-from mission_planner.optimize.retime import cruise_speed_mps
 from mission_planner.optimize.solution import Solution
 from validator.autopilot.rules import programmed_holds_s
+from validator.errors import InputError
+from validator.motion.speed_model import cruise_speed_mps
 from validator.plan_format import Cmd, Frame, MissionItem, Plan
 
 _NAN = math.nan
@@ -101,6 +101,21 @@ class _Cycle:
     problems: list[str]
 
 
+def timed_for(solution: Solution, opt: MissionOptions) -> tuple[str, dict[str, float]]:
+    """The autopilot and timing parameters the service cycle is laid out with: the options'
+    autopilot, which must be the one a dynamics-aware plan was timed for (its
+    :class:`~mission_planner.optimize.solution.VehicleTiming`), else :class:`InputError`: a
+    cycle timed by one autopilot's motion model is late on the other."""
+    timing = solution.timing
+    if timing is None:
+        return opt.autopilot, {}
+    if timing.autopilot != opt.autopilot:
+        raise InputError(
+            f"autopilot: the plan was timed for {timing.autopilot!r} but the mission is built "
+            f"for {opt.autopilot!r}; plan it again with autopilot {opt.autopilot!r}")
+    return timing.autopilot, dict(timing.timing_params)
+
+
 def _service_cycle(solution: Solution, opt: MissionOptions) -> _Cycle:
     """Slots grouped and merged into waypoints (:mod:`.steps`), nudged clear (:mod:`.clearance`),
     with speeds and holds the autopilot takes (:mod:`.speeds`)."""
@@ -114,20 +129,22 @@ def _service_cycle(solution: Solution, opt: MissionOptions) -> _Cycle:
     q[-1] = q[0]
 
     steps = service_steps(q, delta, opt.stationary_tol_m)
-    timed_speed = cruise_speed_mps(site, timing_of(solution.notes)[0])
+    autopilot, timing_params = timed_for(solution, opt)
+    timed_speed = cruise_speed_mps(site, autopilot)
     radii = site.planning_radius_m
     target_m = leg_margin_m(site, opt)
     per_slot = len(steps)
-    waypoint_slots = solution.notes.get("waypoint_slots")
-    if isinstance(waypoint_slots, list):
-        steps = waypoint_steps(steps, waypoint_slots, timed_speed)
+    timing = solution.timing
+    if timing is not None:
+        steps = waypoint_steps(steps, timing.waypoint_slots, timed_speed)
     elif opt.merge_legs:
         steps = merge_straight_steps(
             steps, q, angle_deg=opt.merge_angle_deg, speed_rel=opt.merge_speed_rel,
             offset_m=opt.merge_offset_m, min_speed_mps=opt.min_speed_mps,
             nfz_xy_m=site.nfz_xy_m, nfz_radius_m=radii, clearance_target_m=target_m,
             zones=site.polygon_zones, zone_clearance_m=site.buffer_m,
-            scurve=lambda lengths: scurve_legs(site, lengths, timed_speed, solution.notes),
+            scurve=lambda lengths: scurve_legs(site, lengths, timed_speed, autopilot,
+                                                     timing_params),
             scurve_speed_mps=timed_speed)
     cyc_idx = [0] + [s.index for s in steps if s.index not in (0, len(q) - 1)]
     pts, moved = nudge_clear(q[cyc_idx], site.nfz_xy_m, radii, target_margin_m=target_m,
@@ -139,10 +156,10 @@ def _service_cycle(solution: Solution, opt: MissionOptions) -> _Cycle:
     q = place_on_legs(q, delta, steps)
     inner = [n for s in steps for n in s.slots[:s.moving_slots - 1]]
     merge_offset = (float(np.max(np.hypot(*(q[inner] - planned_q[inner]).T))) if inner else 0.0)
-    if isinstance(waypoint_slots, list) and site.flight_wind is not None:
-        steps = wind_speeds(steps, q, site, solution.notes, timed_speed)
+    if timing is not None and site.flight_wind is not None:
+        steps = wind_speeds(steps, q, site, autopilot, timing_params, timed_speed)
     steps, problems = assign_speeds(steps, q, site.max_speed_mps, opt.min_speed_mps)
-    if opt.autopilot == "ardupilot" and solution.notes.get("dynamics") == "vehicle":
+    if autopilot == "ardupilot" and timing is not None:
         steps = stop_lags(steps)
     holds = programmed_holds_s([s.hold_s - s.stop_lag_s for s in steps], opt.autopilot)
     return _Cycle(q, steps, holds, moved, merge_offset, per_slot - len(steps), problems)

@@ -2,9 +2,11 @@
 out, transits planned around the zones with the export margin.
 
 The optimiser keeps legs R + buffer away only up to solver tolerance, and MAVLink's int32
-1e-7° coordinates move each point by up to ~0.8 cm. Each service leg closer than R + buffer +
-``export_margin_m`` (1 cm) to a centre is pushed out by translating its two waypoints away
-from that centre by the shortfall, repeated until every leg clears (:func:`nudge_clear`);
+1e-7° coordinates move each point by up to :data:`validator.geodesy.E7_ROUNDING_MAX_M` (0.8 cm).
+Each service leg closer than R + buffer + ``export_margin_m``
+(:data:`validator.geodesy.E7_ROUNDING_MARGIN_M`, 1 cm) to a centre is pushed out by
+translating its two waypoints away from that centre by the shortfall, repeated until every
+leg clears (:func:`nudge_clear`);
 shortfalls above ``max_nudge_m`` (5 cm) are not solver noise and are left for the safety gate
 to refuse. Transits are planned around R + buffer + the same margin (:func:`safe_transits`).
 """

@@ -3,9 +3,10 @@ polygon per polygon zone (its outline grown by the fence margin) and an optional
 around everything flown.
 
 A polygon fence's vertices are written as the vehicle will hold them, on MAVLink's int32 1e-7°
-grid: rounding moves each vertex by up to ~0.8 cm, which could cut an edge into the zone plus
-margin, so the outline is grown by :data:`ROUNDING_ALLOWANCE_M` more and its containment checked
-after rounding (:func:`exclusion_outline`).
+grid: rounding moves each vertex by up to :data:`validator.geodesy.E7_ROUNDING_MAX_M` (0.8 cm),
+which could cut an edge into the zone plus margin, so the outline is grown by
+:data:`ROUNDING_ALLOWANCE_M` more and its containment checked after rounding
+(:func:`exclusion_outline`).
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from shapely.geometry.polygon import orient
 
 from validator.autopilot.fence_storage import fits_ardupilot
-from validator.geodesy import LocalFrame, round_e7
+from validator.geodesy import E7_ROUNDING_MARGIN_M, LocalFrame, round_e7
 from validator.plan_format import FenceCircle, FencePolygon
 from validator.site import Site
 from validator.zones import (
@@ -29,7 +30,7 @@ from validator.zones import (
     outward_simplified,
 )
 
-ROUNDING_ALLOWANCE_M = 0.01  # > the ~0.8 cm an int32 1e-7° vertex moves at mid latitudes
+ROUNDING_ALLOWANCE_M = E7_ROUNDING_MARGIN_M  # the fence grown for MAVLink's 1e-7° rounding
 
 
 def operating_area(points_m: ArrayLike, kind: str, margin_m: float) -> NDArray[np.float64]:

@@ -5,9 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from mission_planner.transit import DEFAULT_ARC_STEP_DEG
-from mission_planner.waypoint_radius import fence_margin_m, waypoint_radius_m
 from validator.autopilot.rules import ARDUPILOT_MIN_SPEED_MPS, STATIONARY_M
+from validator.autopilot.waypoint_radius import fence_margin_m, waypoint_radius_m
 from validator.errors import InputError
+from validator.geodesy import E7_ROUNDING_MARGIN_M
 from validator.plan_format import Autopilot
 from validator.site import Site
 
@@ -35,7 +36,7 @@ class MissionOptions:
     operating_area: str | None = None
     operating_area_margin_m: float = 20.0
     transit_speed_mps: float | None = None
-    export_margin_m: float = 0.01
+    export_margin_m: float = E7_ROUNDING_MARGIN_M
     max_nudge_m: float = 0.05
     stationary_tol_m: float = STATIONARY_M
     min_speed_mps: float = ARDUPILOT_MIN_SPEED_MPS
@@ -85,7 +86,7 @@ def check_options(site: Site, options: MissionOptions) -> None:
 
 def fence_margin_for(site: Site, options: MissionOptions) -> float:
     """The fence margin (m) outside each NFZ radius: the option, else half the buffer
-    (:func:`mission_planner.waypoint_radius.fence_margin_m`)."""
+    (:func:`validator.autopilot.waypoint_radius.fence_margin_m`)."""
     return fence_margin_m(site, options.fence_margin_m)
 
 

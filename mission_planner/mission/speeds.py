@@ -3,13 +3,13 @@
 - **Speed limit.** A leg speed never exceeds the site's V: float excess is clipped (the leg
   then takes a hair longer than δ); an excess above 1 % is reported as a problem. S-curve legs
   and transits fly at V or the vehicle's real top speed, whichever is lower
-  (:func:`mission_planner.optimize.retime.cruise_speed_mps`).
+  (:func:`validator.motion.speed_model.cruise_speed_mps`).
 - **Slow legs.** ArduCopter ignores a DO_CHANGE_SPEED below 0.2 m/s (WPNAV_WP_SPEED_MIN), so
   a leg that would need less is flown at ``min_speed_mps`` and the waypoint holds for the
   rest of its slot: the slot keeps its length and the UAV ends it at the same place.
 - **Stop lag.** ArduCopter reaches a waypoint it stops at
   :data:`validator.motion.arducopter.STOP_LAG_S` after the S-curve ends. A dynamics-aware plan
-  (``solution.notes["dynamics"] == "vehicle"``) counts that lag as the start of the waypoint's
+  (one with a ``solution.timing``) counts that lag as the start of the waypoint's
   hover (:mod:`mission_planner.optimize.retime`), so on ArduPilot each stop's hold is written
   net of it (``CycleStep.stop_lag_s``) and the cycle still lasts T.
 - **Wind.** A dynamics-aware plan made for a wind commands each leg the ground speed it was
@@ -30,11 +30,11 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
-from mission_planner.mission.steps import CycleStep, timing_of
-from mission_planner.optimize.retime import motion_profile
+from mission_planner.mission.steps import CycleStep
 from validator.motion.arducopter import STOP_LAG_S, leg_speeds_mps
 from validator.motion.profile import profile_wind
 from validator.motion.px4_mission import px4_top_speed_mps
+from validator.motion.speed_model import motion_profile
 from validator.site import Site
 from validator.wind import ground_speed_mps
 
@@ -76,13 +76,13 @@ def assign_speeds(steps: list[CycleStep], trajectory_m: NDArray[np.float64], max
 
 
 def wind_speeds(steps: list[CycleStep], trajectory_m: NDArray[np.float64], site: Site,
-                notes: Mapping[str, object], speed_mps: float) -> list[CycleStep]:
+                autopilot: str, timing_params: Mapping[str, float],
+                speed_mps: float) -> list[CycleStep]:
     """The steps of a dynamics-aware plan with each S-curve leg's speed set to the ground
     speed it was timed with in the site's wind: ``speed_mps`` (the cruise speed), or less
     where the leg's course leaves less of the vehicle's top airspeed (the planner's own rule,
     :func:`validator.motion.arducopter.leg_speeds_mps`; PX4's likewise)."""
-    autopilot, params = timing_of(notes)
-    profile = motion_profile(site, autopilot, params)
+    profile = motion_profile(site, autopilot, dict(timing_params))
     out: list[CycleStep] = []
     prev = trajectory_m[0]
     for s in steps:

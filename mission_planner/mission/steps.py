@@ -23,8 +23,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mission_planner.optimize.retime import LegMotion, leg_profiles
 from validator.geometry import segment_point_closest_fraction, segment_point_distance
+from validator.motion.speed_model import LegMotion, leg_profiles
 from validator.site import Site
 from validator.zones import PolygonZone, path_clearances_m
 
@@ -86,22 +86,12 @@ def service_steps(trajectory_m: ArrayLike, delta_s: ArrayLike,
     return steps
 
 
-def scurve_legs(site: Site, lengths_m: ArrayLike, speed_mps: float,
-                notes: Mapping[str, object] | None = None) -> LegMotion:
+def scurve_legs(site: Site, lengths_m: ArrayLike, speed_mps: float, autopilot: str,
+                timing_params: Mapping[str, float]) -> LegMotion:
     """Rest-to-rest motion of straight legs flown at ``speed_mps`` within the site's limits,
-    by the autopilot model and parameters a dynamics-aware plan was timed with (its solution's
-    ``notes``: "autopilot", "timing_params"; default ArduCopter's S-curves)."""
-    autopilot, params = timing_of(notes)
-    return leg_profiles(site, lengths_m, speed_mps, autopilot, params)
-
-
-def timing_of(notes: Mapping[str, object] | None) -> tuple[str, dict[str, float]]:
-    """The autopilot and timing parameters a solution was re-timed with (its notes)."""
-    notes = notes or {}
-    autopilot = str(notes.get("autopilot", "ardupilot"))
-    raw = notes.get("timing_params")
-    params = {str(k): float(v) for k, v in raw.items()} if isinstance(raw, Mapping) else {}
-    return autopilot, params
+    by ``autopilot``'s motion model with the parameters a dynamics-aware plan was timed with
+    (:class:`~mission_planner.optimize.solution.VehicleTiming`; none: the model's defaults)."""
+    return leg_profiles(site, lengths_m, speed_mps, autopilot, dict(timing_params))
 
 
 @dataclass(frozen=True)
@@ -270,7 +260,7 @@ def waypoint_steps(steps: list[CycleStep], waypoint_slots: Sequence[int],
     """The steps merged into the waypoints a dynamics-aware plan was timed with.
 
     ``waypoint_slots`` are the trajectory indices at which the planner's cycle reaches each of
-    its waypoints (``solution.notes["waypoint_slots"]``); the moving slots up to one of them
+    its waypoints (``solution.timing.waypoint_slots``); the moving slots up to one of them
     become one leg flown at ``speed_mps`` (the autopilot's own motion, which the planner laid
     the slots along: ``scurve``). A waypoint the plan passes through has no hold, so the
     autopilot blends it as the planner timed it (:mod:`mission_planner.optimize.corners`).

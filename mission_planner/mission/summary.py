@@ -3,8 +3,6 @@ radii and clearance."""
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 import shapely
 
@@ -35,7 +33,7 @@ def cycle_duration_s(mission: Mission) -> float:
     return total
 
 
-def mission_summary(mission: Mission) -> dict[str, Any]:
+def mission_summary(mission: Mission) -> dict[str, object]:
     """The mission part of the report: items, cycle duration, transits, fence, expanded radii."""
     plan = mission.plan
     site = mission.solution.site
@@ -102,7 +100,7 @@ def mission_summary(mission: Mission) -> dict[str, Any]:
     return out
 
 
-def _polygon_summary(mission: Mission, clearance: np.ndarray) -> dict[str, Any]:
+def _polygon_summary(mission: Mission, clearance: np.ndarray) -> dict[str, object]:
     """Per polygon zone: its exclusion fence (vertices, area against the zone plus fence
     margin) and, for every zone, the least clearance of the flown legs (m)."""
     site = mission.solution.site

@@ -34,7 +34,7 @@ from mission_planner.optimize.scaled import (
     slot_rates,
 )
 from mission_planner.optimize.scheduling import scheduling_problem
-from mission_planner.optimize.solution import Solution
+from mission_planner.optimize.solution import Solution, VehicleTiming
 from mission_planner.optimize.trajectory import RELAXED_TERMS, trajectory_problem
 from validator.site import Site
 
@@ -149,7 +149,7 @@ def plan_paper(
 ) -> Solution:
     """Algorithm 1 on the paper's kinematic model (``dynamics="none"``), from each start."""
     sc = scale_site(site, opt.nfz_margin_m, opt.gamma)
-    return _solution(site, scheme, sc, _best_start(sc, scheme, opt, progress), started, {})
+    return _solution(site, scheme, sc, _best_start(sc, scheme, opt, progress), started)
 
 
 def _best_start(
@@ -275,7 +275,8 @@ def _finish(sc: Scaled, state: _State) -> _State:
 
 
 def _solution(
-    site: Site, scheme: str, sc: Scaled, state: _State, started: float, notes: dict[str, object]
+    site: Site, scheme: str, sc: Scaled, state: _State, started: float,
+    timing: VehicleTiming | None = None,
 ) -> Solution:
     trajectory = np.vstack([state.q[-1], state.q]) * LENGTH_UNIT_M
     return Solution(
@@ -288,7 +289,7 @@ def _solution(
         iterations=state.iterations,
         solve_seconds=time.perf_counter() - started,
         history=state.history,
-        notes=notes,
+        timing=timing,
     )
 
 

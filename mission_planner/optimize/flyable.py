@@ -45,8 +45,9 @@ from mission_planner.optimize.bcd import (
     _State,
 )
 from mission_planner.optimize.scaled import LENGTH_UNIT_M, Scaled, min_rate, scale_site
-from mission_planner.optimize.solution import Solution
+from mission_planner.optimize.solution import Solution, VehicleTiming
 from validator.errors import InputError
+from validator.motion.speed_model import cruise_speed_mps
 from validator.site import Site
 
 SEARCH_ITERATIONS = 15  # Algorithm 1 iterations per candidate top speed
@@ -107,7 +108,7 @@ def _retimed(
         # The planning speed scales the vehicle's whole ground-speed envelope in the wind,
         # so the wind scales with it: slowing the air speed alone would leave upwind legs a
         # sliver of their real speed (V − w at V = 8.1 m/s in 6 m/s of wind: 2.1, flown 4).
-        cruise = retime.cruise_speed_mps(site, opt.autopilot)
+        cruise = cruise_speed_mps(site, opt.autopilot)
         planning_site = planning_site.with_limits(wind=site.wind.scaled(speed / cruise))
     psc = scale_site(planning_site, opt.nfz_margin_m, opt.gamma)
     # The re-timing, not Algorithm 1's slow tail, decides these candidates: fewer iterations,
@@ -130,7 +131,7 @@ def _retimed_path(
     psc: Scaled, state: _State,
 ) -> tuple[_Flyable | None, float]:
     """:func:`_retimed` for one finished paper-model state planned on ``planning_site``."""
-    paper = _solution(planning_site, scheme, psc, state, 0.0, {})
+    paper = _solution(planning_site, scheme, psc, state, 0.0)
     # Simplified legs keep the planner's margin too, so the exporter need not nudge them (a
     # nudged waypoint no longer lies on the S-curve it was timed with).
     sk = retime.skeleton(
@@ -318,7 +319,7 @@ def plan_flyable(
     (re-timed in the wind all the same) and the better plan is kept: the air-frame cone
     shapes the paper model's path for flight without acceleration limits, which is not always
     the best flown one. Without it, ``opt.still_path_check`` does the same for one or two
-    still-air candidates (:func:`_still_check`); the notes' ``wind_path`` says which won."""
+    still-air candidates (:func:`_still_check`); the timing's ``wind_path`` says which won."""
     search, tries = _searches(site, scheme, opt, progress)
     best = search.best
     if (site.wind is not None and not site.wind.calm and not opt.wind_blind_paths
@@ -334,18 +335,17 @@ def plan_flyable(
             f"(tried top speeds down to {min(search.tried):.2f} m/s)"
         )
     sc = scale_site(site, opt.nfz_margin_m, opt.gamma)
-    notes: dict[str, object] = {
-        "dynamics": "vehicle",
-        "autopilot": opt.autopilot,
-        "timing_params": dict(opt.timing_params),
-        "planning_speed_mps": best.speed_mps,
-        "speeds_tried": tries,
-        "waypoint_slots": best.waypoint_slots,
-        "move_s": best.move_s,
-    }
-    if site.wind is not None and not site.wind.calm:
-        notes["wind_path"] = "still-air" if best.still_path else "air-frame"
-    return _solution(site, scheme, sc, best.state, started, notes)
+    timing = VehicleTiming(
+        autopilot=opt.autopilot,
+        timing_params=dict(opt.timing_params),
+        planning_speed_mps=best.speed_mps,
+        speeds_tried=tries,
+        waypoint_slots=tuple(best.waypoint_slots),
+        move_s=best.move_s,
+        wind_path=(None if site.wind is None or site.wind.calm
+                   else "still-air" if best.still_path else "air-frame"),
+    )
+    return _solution(site, scheme, sc, best.state, started, timing)
 
 
 def _searches(site: Site, scheme: str, opt: PlannerOptions, progress: Progress | None
@@ -375,7 +375,7 @@ def _still_check(site: Site, scheme: str, opt: PlannerOptions) -> tuple[_Flyable
     0.6-1.3x of the speed the whole search found on three sites and three winds); only if
     that overruns T, the second corrects it by the overrun, aiming 2 % short. (Raising a
     first speed that fits too took planning in wind to a median 1.29x of still air.)"""
-    cruise = retime.cruise_speed_mps(site, opt.autopilot)
+    cruise = cruise_speed_mps(site, opt.autopilot)
     wind = site.wind.speed_mps if site.wind is not None else 0.0
     speed = max(cruise * 0.2, (cruise ** 2 - wind ** 2) / cruise)
     best: _Flyable | None = None
@@ -396,7 +396,7 @@ def _still_check(site: Site, scheme: str, opt: PlannerOptions) -> tuple[_Flyable
 def _search(site: Site, scheme: str, opt: PlannerOptions, progress: Progress | None,
             still_path: bool) -> tuple[_Search, int]:
     """The top-speed search (module docstring) and how many speeds it tried."""
-    search = _Search(retime.cruise_speed_mps(site, opt.autopilot), _as_calibrated(opt))
+    search = _Search(cruise_speed_mps(site, opt.autopilot), _as_calibrated(opt))
     speed = search.start
     tries = 0
 

@@ -46,7 +46,7 @@ def plan(
                          f"got {opt.start_schedules!r}")
     wind = site.flight_wind
     if wind is not None:  # a wind the vehicle cannot fly against has no plan
-        from mission_planner.optimize.retime import cruise_speed_mps
+        from validator.motion.speed_model import cruise_speed_mps
 
         air = site.max_speed_mps if opt.dynamics == "none" else cruise_speed_mps(
             site, opt.autopilot)

@@ -4,12 +4,14 @@ The paper's model lets the UAV jump between hovering and top speed. An autopilot
 leg between waypoints from rest to rest under its own rules, so a dash that the paper times at
 V takes far longer, and the period T is overrun several times. This module keeps the optimised
 path but flies it honestly, with the validator's own model of the autopilot
-(:func:`motion_profile`), so that the plan and its replay agree by construction:
+(:func:`validator.motion.speed_model.motion_profile`), so that the plan and its replay agree by
+construction:
 
 1. :func:`skeleton`: the path's corners and hover points become waypoints; straight stretches
    between them (Douglas-Peucker within ``tolerance_m``, chord by chord never closer to an
    NFZ than before) become single legs;
-2. :func:`leg_profiles`: each leg is timed at :func:`cruise_speed_mps`, never above the
+2. :func:`~validator.motion.speed_model.leg_profiles`: each leg is timed at the cruise speed
+   (:func:`~validator.motion.speed_model.cruise_speed_mps`), never above the
    vehicle's real top speed: ArduCopter's jerk-limited S-curve (WPNAV_ACCEL capped by the lean
    angle, WPNAV_JERK with its jerk ramp), or PX4's braking rule and velocity smoothing, a leg
    ending when the vehicle is within NAV_ACC_RAD of the waypoint (PX4 starts the hold there);
@@ -32,10 +34,9 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
-from typing import Protocol
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from mission_planner.optimize.corners import (
     CycleMotion,
@@ -45,21 +46,20 @@ from mission_planner.optimize.corners import (
     stop_everywhere,
 )
 from mission_planner.optimize.simplify import douglas_peucker
-from mission_planner.waypoint_radius import radius_params
 from validator.autopilot.rules import STATIONARY_M, stored_hold_s
 from validator.motion.arducopter import (
     STOP_LAG_S,
-    ScurveLimits,
-    arducopter_top_speed_mps,
-    jerk_ramp_s,
-    leg_speeds_mps,
     scurve_limits,
 )
-from validator.motion.limits import site_limits
-from validator.motion.profile import Profile, flown_params, make_profile
+from validator.motion.profile import Profile
 from validator.motion.px4 import SampledLegs
-from validator.motion.px4_mission import departure_lock_s, px4_rest_to_rest, px4_top_speed_mps
-from validator.motion.scurve import scurve_rest_to_rest
+from validator.motion.px4_mission import departure_lock_s, px4_top_speed_mps
+from validator.motion.speed_model import (
+    LegMotion,
+    leg_profiles,
+    motion_profile,
+    scurve_speed_mps,
+)
 from validator.site import Site
 from validator.zones import PolygonZone
 
@@ -72,21 +72,6 @@ WHOLE_STRETCH_STEPS_M = (50.0, 25.0, 10.0, 5.0, 2.0, 1.0, 0.5, 0.2, 0.0)  # chor
 # 1.85 m): plans time the crawl for the long end (the replay keeps the model's, so may be early).
 PX4_ARRIVAL_SPREAD = 1.2
 PX4_CRAWL_ROUNDS = 8  # time_cycle's rounds to settle PX4's departure crawls with the holds
-
-
-class LegMotion(Protocol):
-    """Straight legs flown from rest, as a model times them: each leg's length (m), the time
-    (s) its waypoint counts as reached, and the motion along it
-    (:class:`validator.motion.scurve.Profiles1D`, :class:`validator.motion.px4.SampledLegs`)."""
-
-    @property
-    def length_m(self) -> NDArray[np.float64]: ...
-
-    @property
-    def total_s(self) -> NDArray[np.float64]: ...
-
-    def state(self, leg: NDArray[np.int64], t: NDArray[np.float64]
-              ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]: ...
 
 
 @dataclass(frozen=True)
@@ -205,72 +190,6 @@ def _simplify(
     return keep
 
 
-def motion_profile(site: Site, autopilot: str = "ardupilot",
-                   params: Mapping[str, float] | None = None) -> Profile:
-    """The validator's model of ``autopilot`` ("ardupilot": ``arducopter``, "px4": ``px4``)
-    at the site's defaults and the parameters ``params`` (autopilot units) the plan will set
-    (the waypoint radius, when not among them, as the exporter sets it by default:
-    :func:`mission_planner.waypoint_radius.radius_params`): the one model legs are timed with."""
-    name = "px4" if autopilot == "px4" else "arducopter"
-    chosen = {**radius_params(site, "px4" if autopilot == "px4" else "ardupilot"),
-              **(params or {})}
-    return make_profile(name, site_limits(site), flown_params(name, chosen))
-
-
-def top_speed_mps(site: Site, autopilot: str = "ardupilot") -> float:
-    """The fastest the site's vehicle really flies (m/s): the replay's own cap, for ArduCopter
-    lean-limited against quadratic drag, for PX4 tilt-limited against linear drag."""
-    profile = motion_profile(site, autopilot)
-    if profile.name == "px4":
-        return px4_top_speed_mps(profile)
-    return arducopter_top_speed_mps(profile)
-
-
-def cruise_speed_mps(site: Site, autopilot: str = "ardupilot") -> float:
-    """The top speed (m/s) flyable plans are made and timed at: the site's V, or the vehicle's
-    real top speed (:func:`top_speed_mps`) when that is lower."""
-    return min(site.max_speed_mps, top_speed_mps(site, autopilot))
-
-
-def leg_profiles(site: Site, lengths_m: ArrayLike, speed_mps: float | None = None,
-                 autopilot: str = "ardupilot",
-                 params: Mapping[str, float] | None = None,
-                 unit_xy: ArrayLike | None = None) -> LegMotion:
-    """Straight legs flown from rest to rest as the autopilot flies them (the validator's
-    model, :func:`motion_profile`) at ``speed_mps`` (default: :func:`cruise_speed_mps`), never
-    above the vehicle's top speed. ArduCopter: S-curves with acceleration ``uav.max_accel``
-    capped by the lean angle and jerk ``uav.max_jerk`` with ArduCopter's jerk ramp. PX4: its
-    own braking rule and velocity smoothing, a leg ending when the vehicle is within
-    NAV_ACC_RAD of its waypoint (:func:`validator.motion.px4.rest_to_rest`). In the site's
-    wind each leg, along its direction ``unit_xy`` (n, 2), is timed at most at the ground
-    speed its course leaves (:func:`leg_speeds_mps`)."""
-    profile = motion_profile(site, autopilot, params)
-    lengths = np.atleast_1d(np.asarray(lengths_m, dtype=float))
-    if profile.name == "px4":
-        top = px4_top_speed_mps(profile)
-        speed = top if speed_mps is None else min(speed_mps, top)
-        return px4_rest_to_rest(profile, lengths, speed, unit_xy)
-    lim = scurve_limits(profile)
-    jerk = np.full(lengths.shape, lim.jerk_mps3)
-    speed = _scurve_speed_mps(lim, speed_mps)
-    speeds = (np.full(lengths.shape, float(speed)) if unit_xy is None
-              else leg_speeds_mps(profile, speed, unit_xy))
-    return scurve_rest_to_rest(
-        lengths,
-        speeds,
-        np.full(lengths.shape, lim.accel_mps2),
-        jerk,
-        jerk_ramp_s(profile, jerk),
-    )
-
-
-def _scurve_speed_mps(lim: ScurveLimits, speed_mps: float | None = None) -> float:
-    """The speed (m/s) ArduCopter's S-curve legs are timed at: ``speed_mps`` (default
-    WPNAV_SPEED), never above WPNAV_SPEED or the vehicle's top speed."""
-    top = min(lim.default_speed_mps, lim.top_speed_mps)
-    return top if speed_mps is None else min(speed_mps, top)
-
-
 def arrival_lag_s(profiles: LegMotion, autopilot: str = "ardupilot") -> NDArray[np.float64]:
     """(W,) time (s) the vehicle reaches each waypoint after the leg's timing ends (waypoint w
     is reached by leg w − 1): ArduCopter's stop lag after each S-curve; none for PX4, whose
@@ -291,14 +210,14 @@ def time_cycle(
     where its turn (PX4: its swing region) keeps the buffer (:mod:`.corners`); it stops at
     the rest. On
     the timeline each stop's hover begins with the stop lag (:func:`arrival_lag_s`) and then
-    holds as :func:`fit_holds` says (whole seconds but one, at least a second). A PX4 leg
-    begins with its departure crawl (:func:`px4_departures_s`), settled with the holds."""
+    holds as :func:`fit_holds` says (as the autopilot stores them, at least a second). A PX4
+    leg begins with its departure crawl (:func:`px4_departures_s`), settled with the holds."""
     profiles = leg_profiles(site, sk.leg_lengths_m, autopilot=autopilot, params=params,
                             unit_xy=sk.leg_units if site.flight_wind is not None else None)
     motion = cycle_motion(site, sk, profiles, autopilot, params, pass_through)
     lag = motion.arrival_lag_s
     holds = fit_holds(sk.hold_s, motion.move_s + float(np.sum(lag)), period_s,
-                      stops=motion.stops)
+                      stops=motion.stops, autopilot=autopilot)
     if autopilot == "px4" and isinstance(profiles, SampledLegs):
         # PX4's departure crawls shorten as the holds before them lengthen, and the holds
         # shorten as the crawls take up the period: from the longest holds, each round
@@ -313,7 +232,7 @@ def time_cycle(
             motion = replace(base, offset_s=base.offset_s - crawl,
                              duration_s=base.duration_s + crawl)
             holds = fit_holds(sk.hold_s, motion.move_s + float(np.sum(lag)), period_s,
-                              stops=motion.stops)
+                              stops=motion.stops, autopilot=autopilot)
             if float(np.max(np.abs(crawl - before))) < 0.01:
                 break
     if holds is None:
@@ -364,7 +283,7 @@ def cycle_motion(site: Site, sk: Skeleton, profiles: LegMotion, autopilot: str =
         return px4_motion(sk.points_m, profiles.total_s, sk.hold_s > 0,
                           px4_top_speed_mps(profile), profile, site.nfz_xy_m,
                           site.planning_radius_m, site.polygon_zones, site.buffer_m)
-    speed = _scurve_speed_mps(scurve_limits(profile))
+    speed = scurve_speed_mps(scurve_limits(profile))
     return blended_motion(sk.points_m, profiles.total_s, sk.hold_s > 0, speed, profile,
                           site.nfz_xy_m, site.planning_radius_m, site.polygon_zones,
                           site.buffer_m)
@@ -372,7 +291,7 @@ def cycle_motion(site: Site, sk: Skeleton, profiles: LegMotion, autopilot: str =
 
 def fit_holds(
     hold_s: NDArray[np.float64], move_s: float, period_s: float, min_hold_s: float = MIN_HOLD_S,
-    stops: NDArray[np.bool_] | None = None,
+    stops: NDArray[np.bool_] | None = None, autopilot: str = "ardupilot",
 ) -> NDArray[np.float64] | None:
     """Holds so that moves plus holds last exactly the period; None if they cannot.
 
@@ -381,8 +300,9 @@ def fit_holds(
     the rest-to-rest S-curves this module times (with no hold it blends the corner, as the
     others do, see :mod:`.corners`). The spare time goes to the optimiser's hover points in
     proportion to their holds (to the stops alike when there are none). All holds but the
-    longest are whole seconds, as ArduCopter stores them, so that exporting the plan does not
-    shift its timing.
+    longest are as ``autopilot`` stores them (:func:`validator.autopilot.rules.stored_hold_s`:
+    ArduCopter whole seconds, PX4 as planned), so that exporting the plan does not shift its
+    timing.
     """
     hold = np.asarray(hold_s, dtype=float)
     stop = np.ones(len(hold), dtype=bool) if stops is None else np.asarray(stops, dtype=bool)
@@ -398,7 +318,7 @@ def fit_holds(
              else np.where(stop, spare / max(int(np.count_nonzero(stop)), 1), 0.0))
     out = least + share
     longest = int(np.argmax(out))
-    whole = np.array([stored_hold_s(h) for h in out])
+    whole = np.array([stored_hold_s(h, autopilot) for h in out])
     whole[longest] = out[longest]
     whole[longest] += float(np.sum(out - whole))
     return np.asarray(whole, dtype=float)

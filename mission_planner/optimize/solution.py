@@ -8,9 +8,9 @@ position ``trajectory_m[n]`` at power ``power_w[n-1]`` to GN ``schedule[n-1]``.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -50,6 +50,41 @@ def average_rates(
 
 
 @dataclass(frozen=True)
+class VehicleTiming:
+    """How a dynamics-aware plan was timed: the hand-off from the optimiser
+    (:mod:`mission_planner.optimize.flyable`) to the exporter (:mod:`mission_planner.mission`),
+    which must lay the mission out for the same autopilot and parameters.
+
+    ``timing_params`` are the autopilot parameters the motion model was given, in the
+    autopilot's own units (ArduPilot's cm and cm/s, PX4's m and m/s: see
+    :mod:`validator.autopilot.tables`). ``waypoint_slots`` are the trajectory indices at which
+    the cycle reaches each waypoint; ``move_s`` is the time the cycle spends moving."""
+
+    autopilot: str  # the --autopilot word ("ardupilot", "px4")
+    timing_params: Mapping[str, float]
+    planning_speed_mps: float
+    speeds_tried: int
+    waypoint_slots: tuple[int, ...]
+    move_s: float
+    # in wind, which path won: "air-frame" (the cone's) or "still-air" (re-timed in the wind)
+    wind_path: str | None = None
+
+    def as_dict(self) -> dict[str, object]:
+        """The report's ``notes`` object (its keys predate this record)."""
+        wind = {"wind_path": self.wind_path} if self.wind_path is not None else {}
+        return {
+            "dynamics": "vehicle",
+            "autopilot": self.autopilot,
+            "timing_params": dict(self.timing_params),
+            "planning_speed_mps": self.planning_speed_mps,
+            "speeds_tried": self.speeds_tried,
+            "waypoint_slots": list(self.waypoint_slots),
+            "move_s": self.move_s,
+            **wind,
+        }
+
+
+@dataclass(frozen=True)
 class Solution:
     """A planned service cycle: trajectory, slot lengths, power and schedule (see module doc)."""
 
@@ -62,7 +97,7 @@ class Solution:
     iterations: int = 0
     solve_seconds: float = 0.0
     history: list[float] = field(default_factory=list)
-    notes: dict[str, Any] = field(default_factory=dict)
+    timing: VehicleTiming | None = None  # None: timed by the paper's model (no dynamics)
 
     @property
     def rates_bps_hz(self) -> NDArray[np.float64]:
@@ -108,7 +143,7 @@ class Solution:
         c = self.zone_clearance_m
         return {n: float(v) for n, v in zip(self.site.zone_names, np.min(c, axis=0), strict=True)}
 
-    def report(self) -> dict[str, Any]:
+    def report(self) -> dict[str, object]:
         """The JSON-ready report of this solution."""
         site = self.site
         rates = self.rates_bps_hz
@@ -140,12 +175,12 @@ class Solution:
             "history": [float(h) for h in self.history],
             **({"zone_clearance_min_m": self._zone_clearance_min_m()}
                if site.polygon_zones else {}),
-            **({"notes": self.notes} if self.notes else {}),
+            **({"notes": self.timing.as_dict()} if self.timing is not None else {}),
             **({"wind": wind_report(site)} if site.wind is not None else {}),
         }
 
 
-def wind_report(site: Site) -> dict[str, Any]:
+def wind_report(site: Site) -> dict[str, object]:
     """What wind a plan was made for: the site's forecast, its layer at the flight altitude
     (:mod:`validator.wind`) and what it eats of the buffer the plan keeps
     (:func:`validator.wind_track.buffer_share`)."""

@@ -22,11 +22,16 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Protocol, TypeVar
 
 from mission_planner.study.store import TrialLog, check_manifest, read_log
-from mission_planner.study.trials import is_failed, run_trial
+from mission_planner.study.trials import Row, is_failed, run_trial
 from validator.errors import InputError
+
+if TYPE_CHECKING:
+    from distributed import Client
+
+    from mission_planner.optimize import PlannerOptions
 
 CONNECT_TIMEOUT_S = 10
 SCHEDULER_RE = re.compile(r"^tcp://[^\s:/]+:\d{1,5}$")
@@ -43,10 +48,10 @@ class ExecutorError(RuntimeError):
 class StudyRun:
     """What :func:`run_trials` did: all rows in spec order, and how many trials ran now."""
 
-    rows: list[dict[str, Any]]
+    rows: list[Row]
     executed: int
     skipped: int
-    failed: list[dict[str, Any]] = field(default_factory=list)
+    failed: list[Row] = field(default_factory=list)
 
 
 def default_workers() -> int:
@@ -64,8 +69,20 @@ def check_scheduler(address: str) -> str:
     return address
 
 
-def _map_inline(fn: Callable[[Any], dict[str, Any]], specs: Sequence[Any]
-                ) -> Iterator[dict[str, Any]]:
+class Spec(Protocol):
+    """What :func:`run_trials` runs: a trial's parameters, hashable, known by its ``key``."""
+
+    @property
+    def key(self) -> str: ...
+
+    def __hash__(self) -> int: ...
+
+
+S = TypeVar("S", bound=Spec)
+
+
+def _map_inline(fn: Callable[[S], Row], specs: Sequence[S]
+                ) -> Iterator[Row]:
     for spec in specs:
         yield fn(spec)
 
@@ -78,12 +95,12 @@ def _process_context() -> multiprocessing.context.BaseContext:
     return multiprocessing.get_context("spawn")
 
 
-def _map_processes(fn: Callable[[Any], dict[str, Any]], specs: Sequence[Any],
-                   workers: int) -> Iterator[dict[str, Any]]:
+def _map_processes(fn: Callable[[S], Row], specs: Sequence[S],
+                   workers: int) -> Iterator[Row]:
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=_process_context())
     finished = False
     try:
-        pending: set[Future[dict[str, Any]]] = {pool.submit(fn, s) for s in specs}
+        pending: set[Future[Row]] = {pool.submit(fn, s) for s in specs}
         while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
             for fut in done:
@@ -109,7 +126,7 @@ def _terminate(pool: ProcessPoolExecutor) -> None:
         process.terminate()
 
 
-def _connect(address: str) -> Any:
+def _connect(address: str) -> Client:
     """A ``distributed.Client`` for the scheduler at ``address``, or an :class:`InputError`."""
     try:
         from distributed import Client
@@ -125,8 +142,8 @@ def _connect(address: str) -> Any:
         raise InputError(f"--scheduler: cannot reach {address} ({err})") from None
 
 
-def _map_dask(fn: Callable[[Any], dict[str, Any]], specs: Sequence[Any],
-              client: Any) -> Iterator[dict[str, Any]]:
+def _map_dask(fn: Callable[[S], Row], specs: Sequence[S],
+              client: Client) -> Iterator[Row]:
     from distributed import as_completed
 
     try:
@@ -144,17 +161,17 @@ def _map_dask(fn: Callable[[Any], dict[str, Any]], specs: Sequence[Any],
 
 
 def run_trials(
-    specs: Sequence[Any],
+    specs: Sequence[Spec],
     directory: str | Path,
     *,
-    options: Any = None,
+    options: PlannerOptions | None = None,
     workers: int | None = None,
     scheduler: str | None = None,
     progress: bool | None = None,
     retry_errors: bool = False,
-    on_row: Callable[[dict[str, Any]], None] | None = None,
-    manifest: dict[str, Any] | None = None,
-    trial: Callable[..., dict[str, Any]] = run_trial,
+    on_row: Callable[[Row], None] | None = None,
+    manifest: dict[str, object] | None = None,
+    trial: Callable[..., Row] = run_trial,
 ) -> StudyRun:
     """Run the ``specs`` not yet logged in ``directory``; return every spec's row, in order.
 
@@ -187,7 +204,7 @@ def run_trials(
     fn = functools.partial(trial, options=options)
     if manifest is not None:
         check_manifest(directory, manifest)
-    rows: Iterator[dict[str, Any]]
+    rows: Iterator[Row]
     if not todo:
         rows = iter(())
     elif scheduler is not None:
@@ -206,7 +223,7 @@ def run_trials(
         with TrialLog(directory, manifest) as log:
             for row in rows:
                 log.append(row)
-                done[row["key"]] = row
+                done[str(row["key"])] = row
                 executed += 1
                 bar.update(1)
                 if is_failed(row):

@@ -11,15 +11,19 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from mission_planner.optimize.solution import Solution
 from mission_planner.study.store import table_csv
+from mission_planner.study.trials import Row
 from validator.errors import InputError
 from validator.fileio import write_atomic
 from validator.site import Site
+
+if TYPE_CHECKING:
+    from mission_planner.optimize import PlannerOptions
 
 SCHEMES = ("proposed", "conventional")
 SLOT_COLUMNS = (
@@ -32,13 +36,13 @@ SUMMARY_COLUMNS = (
 )
 
 
-def slot_rows(sol: Solution) -> list[dict[str, Any]]:
+def slot_rows(sol: Solution) -> list[Row]:
     """One row per slot n = 1..N: q[n] (m), δ[n] (s), p[n] (W), the GN served, and the leg
     q[n-1]→q[n]: length (m), smallest clearance from any NFZ (m) and the zones it enters."""
     site = sol.site
     clearance = sol.nfz_clearance_m
     legs = sol.leg_length_m
-    rows = []
+    rows: list[Row] = []
     for n in range(len(sol.delta_s)):
         entered = [site.nfz_names[m] for m in np.flatnonzero(clearance[n] < 0.0)] \
             if site.num_nfzs else []
@@ -59,7 +63,7 @@ def slot_rows(sol: Solution) -> list[dict[str, Any]]:
     return rows
 
 
-def summary_row(sol: Solution) -> dict[str, Any]:
+def summary_row(sol: Solution) -> Row:
     """Min rate (bps/Hz), smallest leg clearance (m), outage and effort of one solution."""
     clearance = sol.nfz_clearance_min_m
     legs_in = int(np.sum(np.any(sol.nfz_clearance_m < 0.0, axis=1))) if sol.site.num_nfzs else 0
@@ -82,7 +86,7 @@ class Fig3Result:
     files: list[Path]
 
 
-def plan_both(site: Site, options: Any = None, schemes: Sequence[str] = SCHEMES
+def plan_both(site: Site, options: PlannerOptions | None = None, schemes: Sequence[str] = SCHEMES
               ) -> list[Solution]:
     """Plan ``site`` with each scheme (proposed first); ``options`` None: the paper's model
     (:data:`~mission_planner.optimize.PAPER_OPTIONS`)."""
@@ -96,7 +100,7 @@ def run_fig3(
     site: Site,
     out_dir: str | Path,
     *,
-    options: Any = None,
+    options: PlannerOptions | None = None,
     buffer_m: float | None = None,
 ) -> Fig3Result:
     """Plan ``site`` with both schemes and write Fig. 3's plots and tables into ``out_dir``.

@@ -16,7 +16,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -24,9 +24,12 @@ from mission_planner.study.config import Fig4Config
 from mission_planner.study.executors import StudyRun, check_scheduler, run_trials
 from mission_planner.study.stats import mean_interval, proportion_interval
 from mission_planner.study.store import check_table_format, write_table
-from mission_planner.study.trials import is_failed
+from mission_planner.study.trials import Row, cell_float, is_failed
 from validator.errors import InputError
 from validator.fileio import write_atomic
+
+if TYPE_CHECKING:
+    from mission_planner.optimize import PlannerOptions
 
 SWEEPS = ("radius", "count")
 SUMMARY_COLUMNS = (
@@ -37,7 +40,7 @@ SUMMARY_COLUMNS = (
 )
 
 
-def summarize(rows: Sequence[dict[str, Any]], config: Fig4Config) -> list[dict[str, Any]]:
+def summarize(rows: Sequence[Row], config: Fig4Config) -> list[Row]:
     """One summary row per (sweep point, scheme) from the trial rows.
 
     Failed trials are counted in ``failed`` and left out of the estimates. Spectral efficiency
@@ -45,15 +48,15 @@ def summarize(rows: Sequence[dict[str, Any]], config: Fig4Config) -> list[dict[s
     the plain mean of the min rate (what the scheme achieves ignoring its violations).
     """
     by_key = {r["key"]: r for r in rows}
-    out = []
+    out: list[Row] = []
     for sweep, radius, count in config.points():
         for scheme in config.schemes:
             keys = (config.spec(i, radius, count, scheme).key for i in range(config.trials))
             group = [by_key[k] for k in keys if k in by_key]
             ok = [r for r in group if not is_failed(r)]
             outages = sum(bool(r["outage"]) for r in ok)
-            se = [float(r["spectral_efficiency_bps_hz"]) for r in ok]
-            rate = [float(r["min_rate_bps_hz"]) for r in ok]
+            se = [cell_float(r["spectral_efficiency_bps_hz"]) for r in ok]
+            rate = [cell_float(r["min_rate_bps_hz"]) for r in ok]
             p_low, p_high = proportion_interval(outages, len(ok))
             se_low, se_high = mean_interval(se)
             out.append({
@@ -64,7 +67,8 @@ def summarize(rows: Sequence[dict[str, Any]], config: Fig4Config) -> list[dict[s
                 "spectral_efficiency_bps_hz": float(np.mean(se)) if se else math.nan,
                 "spectral_efficiency_ci_low": se_low, "spectral_efficiency_ci_high": se_high,
                 "min_rate_bps_hz": float(np.mean(rate)) if rate else math.nan,
-                "solve_seconds_mean": float(np.mean([r["solve_seconds"] for r in group]))
+                "solve_seconds_mean": float(np.mean([cell_float(r["solve_seconds"])
+                                                     for r in group]))
                 if group else math.nan,
             })
     return out
@@ -75,7 +79,7 @@ class Fig4Result:
     """A finished Fig. 4 study: trial rows, summary rows and the files written."""
 
     run: StudyRun
-    summary: list[dict[str, Any]]
+    summary: list[Row]
     files: list[Path]
 
 
@@ -83,7 +87,7 @@ def run_fig4(
     out_dir: str | Path,
     config: Fig4Config | None = None,
     *,
-    options: Any = None,
+    options: PlannerOptions | None = None,
     workers: int | None = None,
     scheduler: str | None = None,
     progress: bool | None = None,
@@ -123,7 +127,7 @@ def run_fig4(
     return Fig4Result(run=run, summary=summary, files=[table, summary_path, path_a, path_b])
 
 
-def _options_record(options: Any) -> Any:
+def _options_record(options: PlannerOptions) -> dict[str, object] | str:
     """Planner options (a dataclass) as JSON-ready data."""
     try:
         return asdict(options)

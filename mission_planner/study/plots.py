@@ -11,7 +11,7 @@ import io
 import math
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, TypedDict
 
 import numpy as np
 import shapely
@@ -20,8 +20,10 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Polygon
+from matplotlib.typing import ColorType, LineStyleType, MarkerType
 from numpy.typing import NDArray
 
+from mission_planner.study.trials import Row, cell_float
 from validator.fileio import write_atomic
 from validator.geometry import segment_point_closest_fraction
 from validator.zones import leg_closest_m
@@ -30,7 +32,13 @@ if TYPE_CHECKING:
     from mission_planner.optimize.solution import Solution
     from mission_planner.study.config import Fig4Config
 
-SCHEME_STYLE: dict[str, dict[str, Any]] = {
+class _Style(TypedDict):
+    linestyle: LineStyleType
+    marker: MarkerType
+    color: ColorType
+
+
+SCHEME_STYLE: dict[str, _Style] = {
     "proposed": {"linestyle": "-", "marker": "o", "color": "tab:blue"},
     "conventional": {"linestyle": "--", "marker": "s", "color": "tab:orange"},
 }
@@ -47,16 +55,16 @@ def save_png(fig: Figure, path: str | Path, dpi: int = 150) -> Path:
     return path
 
 
-def _gn_colors(num_gns: int) -> list[Any]:
+def _gn_colors(num_gns: int) -> list[ColorType]:
     """A colour per GN; never red, which marks violations."""
     tab10 = colormaps["tab10"]
-    base = [tab10(i) for i in (0, 1, 2, 4, 5, 6, 7, 8, 9)]
+    base: list[ColorType] = [tab10(i) for i in (0, 1, 2, 4, 5, 6, 7, 8, 9)]
     if num_gns <= len(base):
         return base[:num_gns]
     return [colormaps["viridis"](k / (num_gns - 1)) for k in range(num_gns)]
 
 
-def _draw_site(ax: Axes, sol: Solution, gn_colors: Sequence[Any], labels: bool) -> None:
+def _draw_site(ax: Axes, sol: Solution, gn_colors: Sequence[ColorType], labels: bool) -> None:
     site = sol.site
     for name, c, r in zip(site.nfz_names, site.nfz_xy_m, site.nfz_radius_m, strict=True):
         ax.add_patch(Circle(tuple(c), r, facecolor="0.85", edgecolor="0.3", lw=1.0, zorder=1))
@@ -82,7 +90,7 @@ def _draw_site(ax: Axes, sol: Solution, gn_colors: Sequence[Any], labels: bool) 
             ax.annotate(name, tuple(g), textcoords="offset points", xytext=(6, 6), fontsize=9)
 
 
-def _draw_trajectory(ax: Axes, sol: Solution, gn_colors: Sequence[Any], marker_size: float
+def _draw_trajectory(ax: Axes, sol: Solution, gn_colors: Sequence[ColorType], marker_size: float
                      ) -> None:
     style = SCHEME_STYLE.get(sol.scheme, SCHEME_STYLE["proposed"])
     q = sol.trajectory_m
@@ -205,7 +213,7 @@ def plot_fig3_slots(solutions: Sequence[Solution]) -> Figure:
     return fig
 
 
-def _plot_sweeps(summary: Sequence[dict[str, Any]], config: Fig4Config, column: str,
+def _plot_sweeps(summary: Sequence[Row], config: Fig4Config, column: str,
                  low: str, high: str, ylabel: str) -> Figure:
     fig = Figure(figsize=(9.0, 4.0))
     ax_r, ax_m = fig.subplots(1, 2, sharey=True)
@@ -215,11 +223,11 @@ def _plot_sweeps(summary: Sequence[dict[str, Any]], config: Fig4Config, column: 
     ):
         for scheme in config.schemes:
             pts = sorted((r for r in summary if r["sweep"] == sweep and r["scheme"] == scheme),
-                         key=lambda r: r[xcol])
-            x = np.array([r[xcol] for r in pts], dtype=float)
-            y = np.array([r[column] for r in pts], dtype=float)
-            lo = np.array([r[low] for r in pts], dtype=float)
-            hi = np.array([r[high] for r in pts], dtype=float)
+                         key=lambda r: cell_float(r[xcol]))
+            x = np.array([cell_float(r[xcol]) for r in pts])
+            y = np.array([cell_float(r[column]) for r in pts])
+            lo = np.array([cell_float(r[low]) for r in pts])
+            hi = np.array([cell_float(r[high]) for r in pts])
             yerr = np.vstack([np.nan_to_num(y - lo), np.nan_to_num(hi - y)])
             style = SCHEME_STYLE.get(scheme, SCHEME_STYLE["proposed"])
             ax.errorbar(x, y, yerr=yerr, capsize=3, label=scheme, **style)
@@ -227,12 +235,12 @@ def _plot_sweeps(summary: Sequence[dict[str, Any]], config: Fig4Config, column: 
         ax.grid(True, lw=0.3)
     ax_r.set_ylabel(ylabel)
     ax_m.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0))  # off the data
-    trials = max((r["trials"] for r in summary), default=0)
+    trials = max((int(cell_float(r["trials"])) for r in summary), default=0)
     fig.suptitle(f"{trials} random sites per point, error bars: 95 % confidence", fontsize=9)
     return fig
 
 
-def plot_fig4(summary: Sequence[dict[str, Any]], config: Fig4Config) -> tuple[Figure, Figure]:
+def plot_fig4(summary: Sequence[Row], config: Fig4Config) -> tuple[Figure, Figure]:
     """Fig. 4a (average spectral efficiency, zero on outage) and 4b (outage probability)."""
     fig_a = _plot_sweeps(summary, config, "spectral_efficiency_bps_hz",
                          "spectral_efficiency_ci_low", "spectral_efficiency_ci_high",
@@ -242,7 +250,7 @@ def plot_fig4(summary: Sequence[dict[str, Any]], config: Fig4Config) -> tuple[Fi
     return fig_a, fig_b
 
 
-def plot_wind(rows: Sequence[dict[str, Any]], site_name: str,
+def plot_wind(rows: Sequence[Row], site_name: str,
               directions_deg: Sequence[float], buffer_m: float | None = None) -> Figure:
     """The wind study (:mod:`mission_planner.study.wind`): against wind speed, one colour per
     direction, the min rate per flown second, the flown cycle over T and the least flown
@@ -255,19 +263,19 @@ def plot_wind(rows: Sequence[dict[str, Any]], site_name: str,
               ("cycle_ratio", "blind_cycle_ratio", "flown cycle / T"),
               ("clearance_min_m", "blind_clearance_min_m", "least flown clearance (m)"))
     ok = [r for r in rows if not r.get("error")]
-    still = [r for r in ok if float(r["speed_mps"]) == 0.0]
+    still = [r for r in ok if cell_float(r["speed_mps"]) == 0.0]
     tab10 = colormaps["tab10"]
     for i, d in enumerate(directions_deg):
-        pts = sorted([r for r in ok if float(r["speed_mps"]) > 0
-                      and math.isclose(float(r["from_deg"]), float(d) % 360.0)] + still,
-                     key=lambda r: float(r["speed_mps"]))
+        pts = sorted([r for r in ok if cell_float(r["speed_mps"]) > 0
+                      and math.isclose(cell_float(r["from_deg"]), float(d) % 360.0)] + still,
+                     key=lambda r: cell_float(r["speed_mps"]))
         if not pts:
             continue
-        speed = [float(r["speed_mps"]) for r in pts]
+        speed = [cell_float(r["speed_mps"]) for r in pts]
         for ax, (aware, blind, _) in zip(axes, panels, strict=True):
-            ax.plot(speed, [_value(r[aware]) for r in pts], "-o", color=tab10(i % 10),
+            ax.plot(speed, [cell_float(r[aware]) for r in pts], "-o", color=tab10(i % 10),
                     markersize=4, label=f"from {float(d):g}°")
-            ax.plot(speed, [_value(r[blind]) for r in pts], "--", color=tab10(i % 10),
+            ax.plot(speed, [cell_float(r[blind]) for r in pts], "--", color=tab10(i % 10),
                     alpha=0.7)
     for ax, (_, _, label) in zip(axes, panels, strict=True):
         ax.set_xlabel("wind speed (m/s)")
@@ -284,6 +292,3 @@ def plot_wind(rows: Sequence[dict[str, Any]], site_name: str,
     fig.suptitle(f"{site_name}: planned for and flown in wind (validator model)")
     return fig
 
-
-def _value(x: Any) -> float:
-    return math.nan if x is None or x == "" else float(x)

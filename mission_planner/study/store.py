@@ -27,9 +27,8 @@ import os
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from types import TracebackType
-from typing import Any
 
-from mission_planner.study.trials import TABLE_COLUMNS
+from mission_planner.study.trials import TABLE_COLUMNS, Cell, Row
 from validator.errors import InputError
 from validator.fileio import write_atomic
 
@@ -39,12 +38,12 @@ MANIFEST_NAME = "study.json"
 TABLE_FORMATS = ("csv", "parquet")
 
 
-def read_log(directory: str | Path) -> dict[str, dict[str, Any]]:
+def read_log(directory: str | Path) -> dict[str, Row]:
     """Finished trials logged in ``directory``, by key (the last row of a key wins)."""
     path = Path(directory) / LOG_NAME
     if not path.exists():
         return {}
-    rows: dict[str, dict[str, Any]] = {}
+    rows: dict[str, Row] = {}
     with path.open(encoding="utf-8") as f:
         for line in f:
             if not line.endswith("\n"):
@@ -67,7 +66,7 @@ class TrialLog:
     :func:`check_manifest`) if the directory has none.
     """
 
-    def __init__(self, directory: str | Path, manifest: dict[str, Any] | None = None) -> None:
+    def __init__(self, directory: str | Path, manifest: dict[str, object] | None = None) -> None:
         self.directory = Path(directory)
         self.path = self.directory / LOG_NAME
         self.manifest = manifest
@@ -112,7 +111,7 @@ class TrialLog:
             f.seek(-1, os.SEEK_END)
             return f.read(1) == b"\n"
 
-    def append(self, row: dict[str, Any]) -> None:
+    def append(self, row: Row) -> None:
         """Log one finished trial and force it to disk."""
         if self._file is None:
             self._file = self._open()
@@ -137,11 +136,12 @@ class TrialLog:
             self._lock = None
 
 
-def _normalised(manifest: dict[str, Any]) -> Any:
-    return json.loads(json.dumps(manifest))  # tuples as lists, as read back from the file
+def _normalised(manifest: dict[str, object]) -> dict[str, object]:
+    out: dict[str, object] = json.loads(json.dumps(manifest))  # tuples as lists, as read back
+    return out
 
 
-def check_manifest(directory: str | Path, manifest: dict[str, Any]) -> None:
+def check_manifest(directory: str | Path, manifest: dict[str, object]) -> None:
     """Refuse to add trials to ``directory`` if it logged trials run with another manifest."""
     path = Path(directory) / MANIFEST_NAME
     if not path.exists():
@@ -159,7 +159,7 @@ def check_manifest(directory: str | Path, manifest: dict[str, Any]) -> None:
         )
 
 
-def _cell(value: Any) -> Any:
+def _cell(value: Cell) -> Cell:
     if value is None:
         return ""
     if isinstance(value, float):
@@ -167,7 +167,7 @@ def _cell(value: Any) -> Any:
     return value
 
 
-def table_csv(rows: Iterable[dict[str, Any]], columns: Sequence[str] = TABLE_COLUMNS) -> str:
+def table_csv(rows: Iterable[Row], columns: Sequence[str] = TABLE_COLUMNS) -> str:
     """Rows as CSV text with a header; empty cells for None, floats written exactly."""
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
@@ -191,7 +191,7 @@ def check_table_format(table_format: str) -> None:
 
 
 def write_table(
-    rows: Sequence[dict[str, Any]],
+    rows: Sequence[Row],
     path: str | Path,
     table_format: str = "csv",
     columns: Sequence[str] = TABLE_COLUMNS,

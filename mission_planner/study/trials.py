@@ -11,11 +11,15 @@ minimum average rate over the GNs, set to zero on outage.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 from mission_planner.study.sites import PAPER_AREA_M, random_site
+
+if TYPE_CHECKING:
+    from mission_planner.optimize import PlannerOptions
 
 # Columns of the trial table, in order. Every column but ``solve_seconds`` (wall time) is a
 # function of the spec and the planner options alone.
@@ -30,6 +34,18 @@ RESULT_COLUMNS = (
     "error",
 )
 TABLE_COLUMNS = ("key", *SPEC_COLUMNS, *RESULT_COLUMNS)
+# A study record: one flat row of a trial log (a JSON line) and of its table, by column.
+Cell = str | int | float | bool | None
+Row = dict[str, Cell]
+
+
+def cell_float(value: Cell) -> float:
+    """A numeric cell as a float; an empty one (None, "": a failed trial's result) as NaN."""
+    if value is None or value == "":
+        return math.nan
+    if isinstance(value, str):
+        raise ValueError(f"expected a number, got {value!r}")
+    return float(value)
 WALL_TIME_COLUMNS = ("solve_seconds",)
 
 
@@ -68,7 +84,7 @@ def _one_line(err: BaseException) -> str:
     return f"{type(err).__name__}: {text}" if text else type(err).__name__
 
 
-def run_trial(spec: TrialSpec, options: Any = None) -> dict[str, Any]:
+def run_trial(spec: TrialSpec, options: PlannerOptions | None = None) -> Row:
     """Run one trial and return its table row (keys :data:`TABLE_COLUMNS`).
 
     ``options`` is a :class:`mission_planner.optimize.PlannerOptions` (None: the paper's
@@ -80,7 +96,7 @@ def run_trial(spec: TrialSpec, options: Any = None) -> dict[str, Any]:
     from mission_planner.optimize import PAPER_OPTIONS, plan
 
     options = options if options is not None else PAPER_OPTIONS
-    row: dict[str, Any] = {"key": spec.key, **asdict(spec)}
+    row: Row = {"key": spec.key, **asdict(spec)}
     row.update(dict.fromkeys(RESULT_COLUMNS))
     row["error"] = ""
     start = time.perf_counter()
@@ -111,6 +127,6 @@ def run_trial(spec: TrialSpec, options: Any = None) -> dict[str, Any]:
     return row
 
 
-def is_failed(row: dict[str, Any]) -> bool:
+def is_failed(row: Row) -> bool:
     """True when the trial ended in an error (its result columns are empty)."""
     return bool(row.get("error"))

@@ -18,15 +18,21 @@ import time
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import yaml
 
 from mission_planner.study.executors import StudyRun, check_scheduler, run_trials
 from mission_planner.study.store import check_table_format, write_table
+from mission_planner.study.trials import Row
 from validator.errors import InputError
 from validator.site import Site, loads_site, site_to_dict
 from validator.wind import MAX_WIND_MPS, Wind
+
+if TYPE_CHECKING:
+    from mission_planner.flight_report import FlightCheck
+    from mission_planner.mission import Mission
+    from mission_planner.optimize import PlannerOptions
 
 WIND_COLUMNS = (
     "key", "site", "autopilot", "speed_mps", "from_deg", "turbulence_mps",
@@ -79,7 +85,7 @@ def wind_specs(site: Site, speeds_mps: Sequence[float], directions_deg: Sequence
     return list(dict.fromkeys(out))
 
 
-def _flown(mission: Any, wind: Wind | None) -> Any:
+def _flown(mission: Mission, wind: Wind | None) -> FlightCheck:
     """``mission`` replayed by its autopilot's model, at its own parameter file, in ``wind``."""
     from mission_planner.autopilot_params import recommended_params
     from mission_planner.flight_report import replay_mission
@@ -90,7 +96,7 @@ def _flown(mission: Any, wind: Wind | None) -> Any:
 
 
 @functools.lru_cache(maxsize=4)
-def _still_plan(site_yaml: str, autopilot: str) -> Any:
+def _still_plan(site_yaml: str, autopilot: str) -> Mission:
     """The site's still-air plan (one per worker process and site)."""
     from mission_planner.cli import plan_and_build
     from mission_planner.mission import MissionOptions
@@ -98,19 +104,19 @@ def _still_plan(site_yaml: str, autopilot: str) -> Any:
     return plan_and_build(loads_site(site_yaml), options=MissionOptions(autopilot=autopilot))
 
 
-def _clearance(flight: Any) -> float | None:
+def _clearance(flight: FlightCheck) -> float | None:
     values = list(flight.clearance_by_nfz_m.values())
     return min(values) if values else None
 
 
-def run_wind_trial(spec: WindTrialSpec, options: Any = None) -> dict[str, Any]:
+def run_wind_trial(spec: WindTrialSpec, options: PlannerOptions | None = None) -> Row:
     """Run one wind trial and return its row (keys :data:`WIND_COLUMNS`); a failure (a wind
     the vehicle cannot fly against, no flyable cycle) is a row with a one-line ``error``.
     ``options``: unused (the vehicle planner's defaults, as plan-mission's)."""
     from mission_planner.cli import plan_and_build
     from mission_planner.mission import MissionOptions
 
-    row: dict[str, Any] = dict.fromkeys(WIND_COLUMNS)
+    row: Row = dict.fromkeys(WIND_COLUMNS)
     row.update(key=spec.key, autopilot=spec.autopilot, speed_mps=spec.speed_mps,
                from_deg=spec.from_deg, turbulence_mps=spec.turbulence_mps, error="")
     start = time.perf_counter()

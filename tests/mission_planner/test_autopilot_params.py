@@ -14,7 +14,6 @@ from mission_planner.autopilot_params import (
     waypoint_radius_m,
 )
 from mission_planner.mission import MissionOptions, build_mission
-from mission_planner.optimize.retime import top_speed_mps
 from mission_planner.study.sites import random_site
 from tests.mission_planner.solutions import make_site, solution_for, subdivided
 from validator.autopilot.failsafe import FAILSAFES
@@ -22,6 +21,7 @@ from validator.autopilot.fence import FENCE_RULES
 from validator.autopilot.param_file import parse_params
 from validator.failsafe import effective_params, smartrtl_points_needed
 from validator.flight import resolve_flight
+from validator.motion.speed_model import top_speed_mps
 
 # SmartRTL or Land on RC, GCS and low-battery loss; Land on a critical battery, EKF and dead
 # reckoning; FS_OPTIONS 8 + 16 (finish a landing, a pilot keeps GCS loss)

@@ -16,7 +16,6 @@ import yaml
 import mission_planner.optimize
 from mission_planner.cli import plan_mission_main
 from mission_planner.mission import flown_legs, planned_cycle_s
-from mission_planner.optimize.retime import top_speed_mps
 from mission_planner.progress import PlanProgress
 from tests.mission_planner.mavsdk_peer import mavsdk_import
 from tests.mission_planner.solutions import (
@@ -32,6 +31,7 @@ from validator.autopilot.failsafe import FAILSAFE_PARAMS, recommended_failsafes
 from validator.autopilot.param_file import parse_params
 from validator.flight import resolve_flight
 from validator.geometry import segment_point_distance
+from validator.motion.speed_model import top_speed_mps
 from validator.plan_format import Autopilot, Cmd, read_plan
 from validator.site import load_site
 from validator.waypoints_format import read_waypoints
@@ -379,7 +379,8 @@ def test_the_vehicle_search_reports_each_candidate():
     sol = plan(load_site(SAMPLES / "realistic.yaml"), options=PlannerOptions(
         max_iterations=2, search_ahead=False), progress=Recorder())
     candidates = [n for what, n in seen if what == "candidate"]
-    assert candidates == list(range(1, sol.notes["speeds_tried"] + 1))
+    assert sol.timing is not None
+    assert candidates == list(range(1, sol.timing.speeds_tried + 1))
     assert seen[0] == ("candidate", 1) and ("iteration", 1) in seen
 
 

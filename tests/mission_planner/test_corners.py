@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 
 from mission_planner.optimize.corners import PX4_MAX_TURN_DEG, blended_motion, px4_motion
-from mission_planner.optimize.retime import Skeleton, leg_profiles, motion_profile
+from mission_planner.optimize.retime import Skeleton
 from mission_planner.study.sites import random_site
 from validator.motion.arducopter import STOP_LAG_S, scurve_limits
 from validator.motion.px4_mission import px4_top_speed_mps
+from validator.motion.speed_model import leg_profiles, motion_profile
 from validator.site import Site
 from validator.zones import PolygonZone, polygon_zone
 

@@ -9,17 +9,15 @@ from mission_planner.optimize import PlannerOptions, Solution, plan
 from mission_planner.optimize.retime import (
     MIN_HOLD_S,
     Skeleton,
-    cruise_speed_mps,
     cycle_motion,
     fit_holds,
-    leg_profiles,
     skeleton,
     time_cycle,
-    top_speed_mps,
 )
 from mission_planner.study.sites import random_site
 from validator.geometry import min_leg_clearance
 from validator.motion.arducopter import STOP_LAG_S
+from validator.motion.speed_model import cruise_speed_mps, leg_profiles, top_speed_mps
 from validator.site import Site
 
 
@@ -159,9 +157,9 @@ def test_flyable_plan_fills_the_period_and_respects_the_top_speed(
     # never faster than the vehicle really flies (a 30 m/s site, a quad topping out near 10)
     top = top_speed_mps(site)
     assert np.all(flyable.leg_length_m <= top * flyable.delta_s * (1 + 1e-9))
-    assert flyable.notes["dynamics"] == "vehicle"
-    assert isinstance(flyable.notes["planning_speed_mps"], float)
-    assert flyable.notes["planning_speed_mps"] <= top
+    assert flyable.timing is not None
+    assert isinstance(flyable.timing.planning_speed_mps, float)
+    assert flyable.timing.planning_speed_mps <= top
 
 
 def test_flyable_moves_take_as_long_as_the_vehicle_flies_them(
@@ -169,7 +167,8 @@ def test_flyable_moves_take_as_long_as_the_vehicle_flies_them(
 ) -> None:
     """The moving slots last exactly what the ArduCopter model takes to fly the waypoints,
     stopping where the plan hovers and passing through the other corners."""
-    idx = flyable.notes["waypoint_slots"]
+    assert flyable.timing is not None
+    idx = list(flyable.timing.waypoint_slots)
     pts = flyable.trajectory_m[idx]
     still = flyable.leg_length_m <= 1e-6
     hover = np.array([still[i % len(still)] for i in idx])  # a hover starts on arrival
@@ -184,7 +183,8 @@ def test_pass_through_corners_can_be_turned_off(site: Site) -> None:
     """Without pass-through every corner stops, and the moves are the rest-to-rest S-curves."""
     sol = plan(site, "proposed", options=PlannerOptions(
         dynamics="vehicle", max_iterations=10, pass_through_corners=False))
-    pts = sol.trajectory_m[sol.notes["waypoint_slots"]]
+    assert sol.timing is not None
+    pts = sol.trajectory_m[list(sol.timing.waypoint_slots)]
     lengths = np.linalg.norm(np.roll(pts, -1, axis=0) - pts, axis=1)
     move = float(leg_profiles(site, lengths[lengths > 1e-6]).total_s.sum())
     moving = sol.leg_length_m > 1e-6
@@ -219,7 +219,9 @@ def test_flyable_plan_is_flown_on_time_by_the_arducopter_replay(flyable: Solutio
     assert report.throughput.flown_min == pytest.approx(report.throughput.planned_min, rel=0.08)
 
 
-def test_arducopter_holds_are_written_net_of_the_stop_lag(flyable: Solution) -> None:
+def test_arducopter_holds_are_written_net_of_the_stop_lag(
+    flyable: Solution, flyable_px4: Solution
+) -> None:
     """The plan's hover at a stop begins with the autopilot's lag; the written holds leave it
     out, and the cycle as laid out (legs, holds, lags) still lasts T."""
     from mission_planner.mission import (
@@ -242,7 +244,7 @@ def test_arducopter_holds_are_written_net_of_the_stop_lag(flyable: Solution) -> 
         summary["hold_planned_s"], abs=0.5)
     assert cycle_duration_s(mission) == pytest.approx(flyable.site.period_s, abs=0.5)
     # PX4 is not modelled with the lag: its holds are the plan's
-    px4 = build_mission(flyable, MissionOptions(autopilot="px4"))
+    px4 = build_mission(flyable_px4, MissionOptions(autopilot="px4"))
     assert all(s.stop_lag_s == 0.0 for s in px4.steps)
 
 
@@ -274,7 +276,7 @@ def test_px4_plans_are_timed_with_px4s_own_rules(site: Site, flyable_px4: Soluti
     from mission_planner.flight_report import replay_mission
     from mission_planner.mission import MissionOptions, build_mission
 
-    assert flyable_px4.notes["autopilot"] == "px4"
+    assert flyable_px4.timing is not None and flyable_px4.timing.autopilot == "px4"
     assert leg_profiles(site, [50.0], autopilot="px4").total_s[0] > leg_profiles(
         site, [50.0]).total_s[0]
     mission = build_mission(flyable_px4, MissionOptions(autopilot="px4"))
@@ -295,7 +297,8 @@ def test_px4_timelines_count_the_departure_crawl() -> None:
     though the moves and the minimum holds alone would."""
     from pathlib import Path
 
-    from mission_planner.optimize.retime import motion_profile, px4_departures_s
+    from mission_planner.optimize.retime import px4_departures_s
+    from validator.motion.speed_model import motion_profile
     from validator.site import load_site
 
     site = load_site(Path(__file__).resolve().parents[2] / "samples" / "realistic.yaml")
@@ -316,3 +319,17 @@ def test_px4_timelines_count_the_departure_crawl() -> None:
     move_s, timed = time_cycle(site, sk, tight + 20.0, 40, autopilot="px4")
     assert timed is not None and timed[1].sum() == pytest.approx(tight + 20.0)
     assert move_s == pytest.approx(float(legs.total_s.sum()))
+
+
+def test_a_plan_timed_for_one_autopilot_is_not_built_for_the_other(
+    flyable: Solution, flyable_px4: Solution
+) -> None:
+    """The timing record and the mission options must name the same autopilot: a cycle timed
+    by ArduCopter's S-curves would be late on PX4 (and the reverse)."""
+    from mission_planner.mission import MissionOptions, build_mission
+    from validator.errors import InputError
+
+    with pytest.raises(InputError, match="timed for 'ardupilot'.*built for 'px4'"):
+        build_mission(flyable, MissionOptions(autopilot="px4"))
+    with pytest.raises(InputError, match="timed for 'px4'.*built for 'ardupilot'"):
+        build_mission(flyable_px4, MissionOptions(autopilot="ardupilot"))

@@ -208,13 +208,13 @@ def test_a_wind_plan_is_not_worse_than_the_still_air_path_retimed_in_the_wind() 
     from dataclasses import replace
 
     from mission_planner.optimize import PlannerOptions
-    from mission_planner.waypoint_radius import radius_params
+    from validator.autopilot.waypoint_radius import radius_params
 
     site = load_site(SAMPLE).with_limits(wind=Wind(6.0, 270.0, 1.5))
     opt = PlannerOptions(timing_params=radius_params(site, "ardupilot"), search_ahead=False)
     checked = plan(site, options=opt)
     cone_only = plan(site, options=replace(opt, still_path_check=False))
-    assert checked.notes["wind_path"] == "still-air"
-    assert cone_only.notes["wind_path"] == "air-frame"
+    assert checked.timing.wind_path == "still-air"
+    assert cone_only.timing.wind_path == "air-frame"
     assert checked.min_rate_bps_hz > 1.05 * cone_only.min_rate_bps_hz
     assert float(np.sum(checked.delta_s)) == pytest.approx(site.period_s)  # within T

@@ -7,7 +7,6 @@ site.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -53,7 +52,7 @@ _SERVICE_KEYS = {
 }
 
 
-def _float_array(value: Any, where: str, shape_hint: str) -> NDArray[np.float64]:
+def _float_array(value: object, where: str, shape_hint: str) -> NDArray[np.float64]:
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
@@ -63,7 +62,7 @@ def _float_array(value: Any, where: str, shape_hint: str) -> NDArray[np.float64]
     return arr
 
 
-def parse_service(extra: Any, site: Site, source: str = "plan") -> ServicePlan | None:
+def parse_service(extra: object, site: Site, source: str = "plan") -> ServicePlan | None:
     """Validate the planner metadata of a plan (``Plan.extra``); None when absent.
 
     Raises :class:`InputError` naming the field when it is present but malformed, or names
@@ -130,7 +129,7 @@ def parse_service(extra: Any, site: Site, source: str = "plan") -> ServicePlan |
     )
 
 
-def _wind(value: Any, where: str) -> Wind | None:
+def _wind(value: object, where: str) -> Wind | None:
     """The ``wind`` a plan was made for (:class:`validator.wind.WindModel`), None if absent."""
     if value is None:
         return None

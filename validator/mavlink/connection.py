@@ -26,7 +26,7 @@ from validator.mavlink.wire import mavlink, mavutil
 
 GCS_SYSTEM_ID = 255
 GCS_COMPONENT_ID = 190  # MAV_COMP_ID_MISSIONPLANNER, as ground stations use
-DEFAULT_TIMEOUT_S = 10.0
+DEFAULT_TIMEOUT_S = 10.0  # how long a link waits for a vehicle's answer (s), by default
 DEFAULT_RETRY_S = 0.5
 
 

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from validator.flight import Finding, Flight
-from validator.mavlink.connection import LinkError, command_name
+from validator.mavlink.connection import DEFAULT_TIMEOUT_S, LinkError, command_name
 from validator.mavlink.link import Link, fence_problems, upload_to
 from validator.mavlink.link_loss import after_link_loss, gcs_failsafe
 from validator.mavlink.modes import (
@@ -345,7 +345,7 @@ def fly_and_score(
     url: str,
     *,
     time_limit_s: float,
-    timeout_s: float = 10.0,
+    timeout_s: float = DEFAULT_TIMEOUT_S,
     sysid: int | None = None,
     params: Mapping[str, float] | None = None,
     progress: Callable[[str], None] | None = None,

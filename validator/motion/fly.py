@@ -17,10 +17,15 @@ from validator.motion import arducopter, ideal, px4_mission
 from validator.motion.path import FlownPath
 from validator.motion.profile import Profile
 
-__all__ = ["fly"]
+__all__ = ["REPLAY_STEP_S", "fly"]
+
+# The replay's sample interval (s), and its coarsest: 20 Hz keeps a sample within
+# 0.05 s x top speed (under 1 m at 20 m/s) of any point the flight passes, finer than the
+# buffers audited; also the rate a recorded track is read at (validate-mission --dt).
+REPLAY_STEP_S = 0.05
 
 
-def fly(flight: Flight, profile: Profile, *, dt_s: float = 0.05) -> FlownPath:
+def fly(flight: Flight, profile: Profile, *, dt_s: float = REPLAY_STEP_S) -> FlownPath:
     """Fly ``flight`` with ``profile``, sampled every ``dt_s`` seconds (and at the very end)."""
     if not flight.legs:
         raise InputError("plan: nothing to replay (no navigation items)")

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TypedDict
 
 import numpy as np
 import shapely
@@ -34,6 +34,16 @@ from validator.site import Site
 from validator.zones import PolygonZone, polyline_clearance_m
 
 
+class WaypointLag(TypedDict):
+    """When the track reached a waypoint against the plan (s from the cycle start)."""
+
+    leg: int
+    item: int
+    planned_s: float
+    flown_s: float | None  # None: never reached
+    lag_s: float | None
+
+
 @dataclass(frozen=True)
 class NfzPass:
     """Closest approach of a track to one NFZ: clearance (m, negative = inside), when, where."""
@@ -44,7 +54,7 @@ class NfzPass:
     item: int
     xy_m: tuple[float, float]
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> dict[str, object]:
         return {"nfz": self.name, "clearance_m": self.clearance_m, "t_s": self.t_s,
                 "item": self.item, "xy_m": list(self.xy_m)}
 
@@ -66,7 +76,7 @@ class CycleTiming:
     def ratio(self) -> float:
         return self.flown_cycle_s / self.planned_period_s if self.planned_period_s > 0 else math.nan
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> dict[str, object]:
         return {
             "source": self.source, "cycles": self.cycles,
             "planned_period_s": self.planned_period_s, "ideal_cycle_s": self.ideal_cycle_s,
@@ -85,7 +95,7 @@ class TrackReport:
     nfz: tuple[NfzPass, ...]
     fence_entries: tuple[Finding, ...]
     cycle: CycleTiming | None
-    waypoint_lag: tuple[dict[str, Any], ...]
+    waypoint_lag: tuple[WaypointLag, ...]
     cross_track_max_m: float
     cross_track_rms_m: float
     speed_max_mps: float
@@ -98,10 +108,10 @@ class TrackReport:
 
     @property
     def max_lag_s(self) -> float:
-        lags = [w["lag_s"] for w in self.waypoint_lag if w["lag_s"] is not None]
-        return max(lags, default=math.nan)
+        lags_s = [w["lag_s"] for w in self.waypoint_lag if w["lag_s"] is not None]
+        return max(lags_s, default=math.nan)
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> dict[str, object]:
         return {
             "source": self.source,
             "samples": self.samples,
@@ -256,7 +266,7 @@ def score_track(
     # Inside the service cycle the planner's own slot times are the plan's timing when the
     # plan carries them; the ideal replay knows only commanded speeds, not S-curve timing.
     slot_times = planned_leg_times(flight, flight.service) if flight.service else None
-    lags = []
+    lags: list[WaypointLag] = []
     for li, leg in enumerate(flight.legs):
         flown_t = track.leg_reached_s[li] - t0
         if slot_times is not None and li in slot_times:

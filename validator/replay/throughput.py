@@ -4,7 +4,6 @@ next to the planned one (rates are spectral efficiencies in bps/Hz averaged over
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -35,7 +34,7 @@ class Throughput:
     def flown_min(self) -> float:
         return float(np.min(self.flown_bps_hz))
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> dict[str, object]:
         return {
             "per_gn": [
                 {"gn": g, "planned_bps_hz": float(p), "flown_bps_hz": float(f),

@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 from validator.autopilot.rules import stored_hold_s
 from validator.errors import InputError
 from validator.flight import Flight
-from validator.motion.fly import fly
+from validator.motion.fly import REPLAY_STEP_S, fly
 from validator.motion.profile import Profile
 from validator.site import Site
 
@@ -49,7 +49,7 @@ class Track:
         return np.asarray(self.leg_reached_s[idx], dtype=float)
 
 
-def replay(flight: Flight, profile: Profile, *, dt_s: float = 0.05) -> Track:
+def replay(flight: Flight, profile: Profile, *, dt_s: float = REPLAY_STEP_S) -> Track:
     """Fly ``flight`` with ``profile`` in time; samples every ``dt_s`` seconds (default 20 Hz).
 
     The same model drives the SITL vehicle (``validator.mavlink``), so a mission flown there

@@ -11,8 +11,6 @@ zone only grows). A value that could mean two things is refused (:mod:`.fields`)
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from validator.errors import InputError
@@ -22,7 +20,7 @@ from validator.uas_zones.model import Period, UasZone, Volume
 MAX_ZONES = 100_000  # per file: a national file holds ~1,200 (Switzerland)
 
 
-def is_ed269(data: Any) -> bool:
+def is_ed269(data: object) -> bool:
     """Whether a parsed document is ED-269 (not GeoJSON): a zone list without a "type", or a
     bare list of zones (as some national feeds serve it)."""
     if isinstance(data, list):
@@ -33,7 +31,7 @@ def is_ed269(data: Any) -> bool:
         or (isinstance(data.get("features"), list) and data.get("type") != "FeatureCollection"))
 
 
-def parse_ed269(data: Any, source: str) -> list[UasZone]:
+def parse_ed269(data: object, source: str) -> list[UasZone]:
     """The zones of a parsed ED-269 document; ``source`` names it in errors."""
     if isinstance(data, list):
         data = {"features": data}
@@ -51,7 +49,7 @@ def parse_ed269(data: Any, source: str) -> list[UasZone]:
     return zones
 
 
-def _zone(z: Any, where: str) -> UasZone:
+def _zone(z: object, where: str) -> UasZone:
     if not isinstance(z, dict):
         raise InputError(f"{where}: expected a zone (an object)")
     ident = fd.text(z, "identifier", where, required=True)
@@ -75,7 +73,7 @@ def _zone(z: Any, where: str) -> UasZone:
     )
 
 
-def _applicability(value: Any, field: str, notes: list[str]) -> tuple[Period, ...]:
+def _applicability(value: object, field: str, notes: list[str]) -> tuple[Period, ...]:
     """The zone's periods; () when permanent (also when none is given: the safe reading)."""
     if value is None:
         return ()
@@ -108,7 +106,7 @@ def _applicability(value: Any, field: str, notes: list[str]) -> tuple[Period, ..
     return tuple(periods)
 
 
-def _volume(v: Any, field: str, notes: list[str]) -> Volume:
+def _volume(v: object, field: str, notes: list[str]) -> Volume:
     if not isinstance(v, dict):
         raise InputError(f"{field}: expected an airspace volume (an object)")
     factor = (fd.uom_factor(v["uomDimensions"], f"{field}.uomDimensions")

@@ -10,17 +10,18 @@ read as REQ_AUTHORISATION (a flight there needs a U-space service's authorisatio
 
 from __future__ import annotations
 
-from typing import Any
+import numpy as np
+from numpy.typing import NDArray
 
 from validator.errors import InputError
 from validator.uas_zones import fields as fd
 from validator.uas_zones.ed269 import MAX_ZONES
-from validator.uas_zones.model import Period, UasZone, Volume
+from validator.uas_zones.model import Limit, Period, UasZone, Volume
 
 ED318_KEYS = ("zoneAuthority", "UASZone", "verticalLayer", "limitedApplicability")
 
 
-def is_ed318(data: Any) -> bool:
+def is_ed318(data: object) -> bool:
     """Whether a GeoJSON FeatureCollection holds ED-318 zones (not plain airspace)."""
     if not isinstance(data, dict) or data.get("type") != "FeatureCollection":
         return False
@@ -32,7 +33,7 @@ def is_ed318(data: Any) -> bool:
         for f in features)
 
 
-def parse_ed318(data: Any, source: str) -> list[UasZone]:
+def parse_ed318(data: object, source: str) -> list[UasZone]:
     """The zones of a parsed ED-318 FeatureCollection; ``source`` names it in errors."""
     features = data.get("features") if isinstance(data, dict) else None
     if not isinstance(features, list):
@@ -43,7 +44,7 @@ def parse_ed318(data: Any, source: str) -> list[UasZone]:
     return [_feature(f, f"{source}: features[{i}]") for i, f in enumerate(features)]
 
 
-def _feature(f: Any, where: str) -> UasZone:
+def _feature(f: object, where: str) -> UasZone:
     if not isinstance(f, dict) or f.get("type") != "Feature":
         raise InputError(f"{where}: expected a GeoJSON Feature")
     props = f.get("properties")
@@ -73,7 +74,7 @@ def _feature(f: Any, where: str) -> UasZone:
     )
 
 
-def _name(value: Any, field: str) -> str | None:
+def _name(value: object, field: str) -> str | None:
     """A TextShort list ([{text, lang}]): the English text, else the first; or a string."""
     if value is None or isinstance(value, str):
         return value
@@ -85,7 +86,7 @@ def _name(value: Any, field: str) -> str | None:
     return next((s for lang, s in texts if lang == "en"), texts[0][1] if texts else None)
 
 
-def _periods(value: Any, field: str, notes: list[str]) -> tuple[Period, ...]:
+def _periods(value: object, field: str, notes: list[str]) -> tuple[Period, ...]:
     if value is None:
         return ()
     items = value if isinstance(value, list) else [value]
@@ -102,7 +103,7 @@ def _periods(value: Any, field: str, notes: list[str]) -> tuple[Period, ...]:
     return tuple(out)
 
 
-def _volumes(geom: Any, layer: Any, field: str) -> tuple[Volume, ...]:
+def _volumes(geom: object, layer: object, field: str) -> tuple[Volume, ...]:
     if not isinstance(geom, dict):
         raise InputError(f"{field}: expected a geometry")
     layer = geom.get("layer", layer)
@@ -131,7 +132,7 @@ def _volumes(geom: Any, layer: Any, field: str) -> tuple[Volume, ...]:
                      "Point with a Circle extent, GeometryCollection)")
 
 
-def _ring(rings: Any, field: str) -> Any:
+def _ring(rings: object, field: str) -> NDArray[np.float64]:
     if not isinstance(rings, list) or not rings:
         raise InputError(f"{field}: expected a list of linear rings")
     ring = fd.positions(rings[0], f"{field}[0]")  # holes dropped: the zone only grows
@@ -140,7 +141,7 @@ def _ring(rings: Any, field: str) -> Any:
     return ring
 
 
-def _layer(layer: Any, field: str) -> tuple[Any, Any]:
+def _layer(layer: object, field: str) -> tuple[Limit, Limit]:
     if not isinstance(layer, dict):
         raise InputError(f"{field}: expected a vertical layer (upper, lower, their "
                          "references, uom)")

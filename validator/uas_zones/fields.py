@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from datetime import UTC, datetime, time, tzinfo
-from typing import Any
+from typing import TypeGuard
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,18 +29,18 @@ GROUND = ("SFC", "GND")  # a lower limit written as the surface
 UNLIMITED = ("UNL", "UNLIMITED")  # an upper limit written as none
 
 
-def is_number(v: Any) -> bool:
+def is_number(v: object) -> TypeGuard[int | float]:
     return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
-def positive(value: Any, field: str) -> float:
+def positive(value: object, field: str) -> float:
     """A finite number > 0 (a radius)."""
-    if not is_number(value) or not math.isfinite(value) or value <= 0:
-        raise InputError(f"{field}: expected a number > 0")
-    return float(value)
+    if is_number(value) and math.isfinite(value) and value > 0:
+        return float(value)
+    raise InputError(f"{field}: expected a number > 0")
 
 
-def text(d: dict[str, Any], key: str, where: str, *, required: bool = False) -> str | None:
+def text(d: dict[str, object], key: str, where: str, *, required: bool = False) -> str | None:
     """A string field (None when absent or null, unless ``required``)."""
     v = d.get(key)
     if v is None:
@@ -52,7 +52,7 @@ def text(d: dict[str, Any], key: str, where: str, *, required: bool = False) -> 
     return v
 
 
-def restriction(value: Any, field: str) -> str:
+def restriction(value: object, field: str) -> str:
     """ED-269's spelling; ED-318's REQ_AUTHORIZATION (with a Z) is the same restriction."""
     if isinstance(value, str):
         v = value.strip().upper().replace("REQ_AUTHORIZATION", "REQ_AUTHORISATION")
@@ -61,24 +61,25 @@ def restriction(value: Any, field: str) -> str:
     raise InputError(f"{field}: {value!r} is not a restriction ({', '.join(RESTRICTIONS)})")
 
 
-def conditions(value: Any, field: str) -> tuple[str, ...]:
+def conditions(value: object, field: str) -> tuple[str, ...]:
     """restrictionConditions: a string or a list of strings, quoted as published."""
     if value is None:
         return ()
-    items = value if isinstance(value, list) else [value]
-    if not all(isinstance(c, str) for c in items):
+    raw = value if isinstance(value, list) else [value]
+    items = [c for c in raw if isinstance(c, str)]
+    if len(items) != len(raw):
         raise InputError(f"{field}: expected a string or a list of strings")
     return tuple(c.strip() for c in items if c.strip())
 
 
-def uom_factor(value: Any, field: str) -> float:
+def uom_factor(value: object, field: str) -> float:
     """Metres per unit: M / m or FT / ft."""
     if isinstance(value, str) and value.strip().upper() in ("M", "FT"):
         return FEET_M if value.strip().upper() == "FT" else 1.0
     raise InputError(f"{field}: {value!r} is not a unit of length (M or FT)")
 
 
-def limit(value: Any, reference: Any, factor: float | None, field: str, ref_field: str,
+def limit(value: object, reference: object, factor: float | None, field: str, ref_field: str,
           *, lower: bool) -> Limit:
     """A lower or upper limit. Null is the surface (lower) or no ceiling (upper); a number
     written as a string is read as that number; 99999 or more is no ceiling. A reference
@@ -104,17 +105,18 @@ def limit(value: Any, reference: Any, factor: float | None, field: str, ref_fiel
         return Limit(0.0, "AGL") if lower else Limit(math.inf, "AGL")
     if not is_number(value):
         raise InputError(f"{field}: {value!r} is not a height (a number, or null)")
+    height = float(value)
     if not isinstance(reference, str) or reference.strip().upper() not in REFERENCES:
         raise InputError(f"{ref_field}: {reference!r} is not a vertical reference "
                          f"({', '.join(REFERENCES)})")
-    if float(value) >= OPEN_LIMIT:
+    if height >= OPEN_LIMIT:
         return Limit(math.inf, reference.strip().upper())
     if factor is None:
         raise InputError(f"{field}: a height needs its unit (uom M or FT)")
-    return Limit(float(value) * factor, reference.strip().upper())
+    return Limit(height * factor, reference.strip().upper())
 
 
-def positions(ring: Any, field: str) -> NDArray[np.float64]:
+def positions(ring: object, field: str) -> NDArray[np.float64]:
     """[lon, lat(, alt)] positions, as GeoJSON and the published files write them, as (P, 2)
     [lat, lon] degrees."""
     if not isinstance(ring, list) or not ring:
@@ -131,7 +133,7 @@ def positions(ring: Any, field: str) -> NDArray[np.float64]:
     return np.ascontiguousarray(xy[:, ::-1])
 
 
-def instant(value: Any, field: str) -> datetime | None:
+def instant(value: object, field: str) -> datetime | None:
     """An ISO-8601 date and time with its time zone (None when null)."""
     if value is None:
         return None
@@ -146,7 +148,7 @@ def instant(value: Any, field: str) -> datetime | None:
     return t
 
 
-def clock(value: Any, field: str, *, end: bool) -> tuple[time, tzinfo]:
+def clock(value: object, field: str, *, end: bool) -> tuple[time, tzinfo]:
     """A time of day with its zone ("08:00Z", "08:00:00.00+01:00"); 24:00 ends the day."""
     if isinstance(value, str) and value.strip().startswith("24:00") and end:
         return clock("23:59:59.999999" + value.strip()[5:].lstrip(":0."), field, end=False)
@@ -161,7 +163,7 @@ def clock(value: Any, field: str, *, end: bool) -> tuple[time, tzinfo]:
     return t.replace(tzinfo=None), t.tzinfo
 
 
-def days(value: Any, field: str) -> frozenset[int]:
+def days(value: object, field: str) -> frozenset[int]:
     items = value if isinstance(value, list) else [value]
     out: set[int] = set()
     for d in items:
@@ -175,7 +177,7 @@ def days(value: Any, field: str) -> frozenset[int]:
     return frozenset(out)
 
 
-def schedule(value: Any, field: str, notes: list[str]) -> tuple[DailyPeriod, ...]:
+def schedule(value: object, field: str, notes: list[str]) -> tuple[DailyPeriod, ...]:
     """A schedule: daily periods. ED-318's sunrise and sunset events (startEvent, endEvent)
     are taken as the day's start and end: the zone is then active for longer, never less."""
     if value is None or value == []:
