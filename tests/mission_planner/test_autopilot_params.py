@@ -27,7 +27,9 @@ from validator.motion.speed_model import top_speed_mps
 # reckoning; FS_OPTIONS 8 + 16 (finish a landing, a pilot keeps GCS loss)
 SAFE_ARDUPILOT_FAILSAFES = {"FS_THR_ENABLE": 5.0, "FS_GCS_ENABLE": 4.0, "BATT_FS_LOW_ACT": 4.0,
                             "BATT_FS_CRT_ACT": 1.0, "FS_EKF_ACTION": 1.0, "FS_DR_ENABLE": 1.0,
-                            "FS_OPTIONS": 24.0}
+                            "FS_OPTIONS": 24.0,
+                            # SmartRTL's path within 0.5 m of the flown one, not 1 m (issue 27)
+                            "SRTL_ACCURACY": 1.0}
 # Hold on RC loss, Land on link loss, low battery and navigation loss, warn on flight time
 SAFE_PX4_FAILSAFES = {"NAV_RCL_ACT": 1.0, "NAV_DLL_ACT": 3.0, "COM_LOW_BAT_ACT": 2.0,
                       "COM_FLTT_LOW_ACT": 1.0, "COM_POSCTL_NAVL": 1.0}
