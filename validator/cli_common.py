@@ -17,6 +17,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from validator.errors import CommandParser, InputError, UserError, report_error
+from validator.mavlink import DEFAULT_TIMEOUT_S
 from validator.plan_format import Autopilot
 
 __all__ = ["EXIT_INTERRUPTED", "EXIT_INPUT", "EXIT_OK", "EXIT_STATUS", "EXIT_VERDICT",
@@ -42,9 +43,7 @@ exit status (the same for every nfz-mission command):
        is stopped"""
 
 # how long a vehicle may stay silent before a command gives up: the link's own default
-# (validator.mavlink.connection.DEFAULT_TIMEOUT_S, not imported here: it loads pymavlink;
-# tests/test_commands.py checks they agree)
-LINK_TIMEOUT_S = 10.0
+LINK_TIMEOUT_S = DEFAULT_TIMEOUT_S
 
 SIGNING_KEY_HELP = (
     "sign every packet (MAVLink 2 signing) and refuse every packet from the vehicle that is "

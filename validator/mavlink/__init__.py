@@ -14,6 +14,10 @@ binaries (:mod:`~validator.mavlink.sitl_process`) and the commands (:mod:`~valid
 
 import re
 
+# how long a link waits for a vehicle's answer (s) by default; here, not in .connection, so
+# that the commands' parsers name it without loading pymavlink
+DEFAULT_TIMEOUT_S = 10.0
+
 # pymavlink connection strings of a network link (anything else it opens as a serial port or,
 # for an existing file, as a log to replay)
 NETWORK_URL = re.compile(r"^(udp|udpin|udpout|udpbcast|tcp|tcpin|mcast|ws|wss|wsserver):")

@@ -20,13 +20,12 @@ from pathlib import Path
 from typing import Any, Self
 
 from validator.errors import InputError, UserError
-from validator.mavlink import NETWORK_URL
+from validator.mavlink import DEFAULT_TIMEOUT_S, NETWORK_URL
 from validator.mavlink.signing import RefusedTraffic, carries_signature, sign_and_verify
 from validator.mavlink.wire import mavlink, mavutil
 
 GCS_SYSTEM_ID = 255
 GCS_COMPONENT_ID = 190  # MAV_COMP_ID_MISSIONPLANNER, as ground stations use
-DEFAULT_TIMEOUT_S = 10.0  # how long a link waits for a vehicle's answer (s), by default
 DEFAULT_RETRY_S = 0.5
 
 
