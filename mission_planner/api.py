@@ -82,6 +82,7 @@ def plan_mission(
     second_start: bool = False,
     progress: Progress | None = None,
     wind_buffer: bool = True,
+    position_loss_berth: bool = True,
 ) -> Mission:
     """Optimise ``site``'s service cycle and lay out its mission, as ``plan-mission`` does.
 
@@ -94,13 +95,15 @@ def plan_mission(
     ``progress(iteration, objective)`` is called after each iteration. In wind (``site.wind``,
     or ``site.with_limits(wind=Wind(...))`` for a forecast; :mod:`validator.wind`) the plan
     keeps the top speed in the air, and with ``wind_buffer`` its buffer grows by how much
-    closer the flown track comes in that wind. Deterministic; the
+    closer the flown track comes in that wind. With ``position_loss_berth`` an ArduCopter
+    plan from which a GPS loss could coast into a zone is planned again with a buffer wide
+    enough (``Mission.position_loss_berth`` says so). Deterministic; the
     safety verdict is ``Mission.problems`` (empty: safe). Same as :func:`plan_solution`
     followed by :func:`build_mission`.
     """
     return plan_and_build(site, scheme, options, dynamics=dynamics, progress=progress,
                           pass_through_corners=pass_through_corners, second_start=second_start,
-                          wind_buffer=wind_buffer)
+                          wind_buffer=wind_buffer, position_loss_berth=position_loss_berth)
 
 
 @dataclass(frozen=True)

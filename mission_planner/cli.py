@@ -113,7 +113,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="write the solution, mission, autopilot-parameter and replayed-flight "
                    "report (JSON)")
     p.add_argument("--buffer-m", type=float,
-                   help="safety buffer added to every NFZ radius (m; default: the site's)")
+                   help="safety buffer added to every NFZ radius (m), kept as given; default: "
+                   "the site's, widened for the wind and for an ArduCopter GPS loss's coast "
+                   "where the plan needs it")
     p.add_argument("--wind", metavar="SPEED@FROM",
                    help="the day's wind forecast at the flight altitude, overriding the "
                    "site's wind: m/s and the direction it blows from in degrees true, "
@@ -210,7 +212,8 @@ def _plan(args: argparse.Namespace) -> int:
                                  progress=progress if progress.shown else None,
                                  pass_through_corners=not args.stop_at_every_waypoint,
                                  second_start=args.second_start,
-                                 wind_buffer=args.buffer_m is None)
+                                 wind_buffer=args.buffer_m is None,
+                                 position_loss_berth=args.buffer_m is None)
         params = recommended_params(mission)
         return mission, params, replay_mission(mission, params)
 
@@ -239,6 +242,10 @@ def _plan(args: argparse.Namespace) -> int:
                             html=args.html, html_map=args.html_map, force=True)
     for note in () if args.quiet else autopilot_params.notes:
         print(f"plan-mission: note: {note}", file=sys.stderr)
+    berth = mission.position_loss_berth
+    if berth is not None:
+        print(f"plan-mission: {'warning' if berth.left else 'note'}: {berth.message}",
+              file=sys.stderr)
     too_fast = speed_warning(site, args.dynamics, autopilot.key)
     if too_fast:
         print(f"plan-mission: warning: {too_fast}", file=sys.stderr)

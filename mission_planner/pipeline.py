@@ -10,6 +10,7 @@ door, :mod:`mission_planner.api`.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from collections.abc import Callable, Sequence
@@ -35,18 +36,20 @@ from validator.fileio import write_all_atomic
 from validator.geojson_format import dumps_geojson, plan_geojson
 from validator.motion.speed_model import top_speed_mps
 from validator.plan_format import dumps_plan
+from validator.position_loss import Berth, PositionLossFinding, berth_buffer_m
 from validator.site import Site
 from validator.waypoints_format import waypoint_files
 from validator.wind_track import wind_buffer_m
 
 __all__ = ["DYNAMICS", "FORMATS", "Progress", "check_output_paths", "mission_report",
            "mission_view", "output_files", "params_path", "plan_and_build", "plan_solution",
-           "speed_warning",
+           "position_loss_findings", "speed_warning",
            "write_outputs"]
 
 FORMATS = ("plan", "waypoints")
 DYNAMICS = ("vehicle", "none")  # PlannerOptions.dynamics; kept here so --help needs no cvxpy
 Progress = Callable[[int, float], None]
+BERTH_TRIES = 3  # plans with a wider buffer for position loss, at most
 
 
 def mission_report(mission: Mission, flight: FlightCheck | None = None,
@@ -61,6 +64,8 @@ def mission_report(mission: Mission, flight: FlightCheck | None = None,
         out["autopilot_params"] = params.as_dict()
     if flight is not None:
         out["flight"] = flight.as_dict()
+    if mission.position_loss_berth is not None:
+        out["position_loss_berth"] = mission.position_loss_berth.as_dict()
     return out
 
 
@@ -217,6 +222,7 @@ def plan_and_build(
     pass_through_corners: bool = True,
     second_start: bool = False,
     wind_buffer: bool = True,
+    position_loss_berth: bool = True,
 ) -> Mission:
     """:func:`plan_solution`, then lay out its mission
     (:func:`~mission_planner.mission.build_mission`). The safety verdict is in
@@ -226,20 +232,67 @@ def plan_and_build(
     where it beats the plan stopping at every waypoint on the min rate along the ``px4``
     replay (:func:`~mission_planner.flight_report.replay_mission`; a tie, or a plan the gate
     refuses, stops): PX4's speed search ends at the first planning speed whose moves fit T,
-    and the faster moves of a path flown through may fit first with a worse path."""
+    and the faster moves of a path flown through may fit first with a worse path.
+
+    With ``position_loss_berth`` an ArduCopter vehicle plan (the paper's kinematic model,
+    ``dynamics`` "none", stays the paper's) from which a GPS loss could coast into a
+    zone (:func:`position_loss_findings`) is planned again with the wider buffer
+    :func:`validator.position_loss.berth_buffer_m` asks for (up to :data:`BERTH_TRIES`
+    plans; kept while the gate accepts it and home stays outside the wider buffer), and says
+    so in ``Mission.position_loss_berth`` (also when no wider plan could be made and the
+    findings stay warnings); plan-mission does so unless ``--buffer-m`` is
+    given."""
     opt = options or MissionOptions()
 
-    def made(through: bool, report: Progress | None) -> Mission:
+    def planned(at: Site, widened: bool, through: bool, report: Progress | None) -> Mission:
         return build_mission(plan_solution(
-            site, scheme, opt, dynamics=dynamics, progress=report,
+            at, scheme, opt, dynamics=dynamics, progress=report,
             pass_through_corners=through, second_start=second_start,
-            wind_buffer=wind_buffer), opt)
+            wind_buffer=wind_buffer and not widened), opt)
 
-    mission = made(pass_through_corners, progress)
-    if opt.autopilot != "px4" or dynamics != "vehicle" or not pass_through_corners:
+    def made(at: Site, widened: bool) -> Mission:
+        mission = planned(at, widened, pass_through_corners, progress)
+        if opt.autopilot != "px4" or dynamics != "vehicle" or not pass_through_corners:
+            return mission
+        stopping = planned(at, widened, False, None)
+        return (mission if _replayed_min_rate(mission) > _replayed_min_rate(stopping)
+                else stopping)
+
+    mission = made(site, False)
+    if not position_loss_berth or dynamics != "vehicle":
         return mission
-    stopping = made(False, None)
-    return mission if _replayed_min_rate(mission) > _replayed_min_rate(stopping) else stopping
+    lost = position_loss_findings(mission)
+    if not lost:
+        return mission
+    asked, deepest = mission.solution.site.buffer_m, max(-f.clearance_m for f in lost)
+    for _ in range(BERTH_TRIES):
+        need = berth_buffer_m(mission.solution.site.buffer_m, lost)
+        try:
+            wider = made(site.with_buffer(need), True) if need is not None else None
+        except InputError:  # home inside the wider buffer: the findings stay warnings
+            break
+        if wider is None or wider.problems:
+            break
+        mission, lost = wider, position_loss_findings(wider)
+        if not lost:
+            break
+    berth = Berth(asked, mission.solution.site.buffer_m, deepest, len(lost))
+    return dataclasses.replace(mission, position_loss_berth=berth)
+
+
+def position_loss_findings(mission: Mission) -> tuple[PositionLossFinding, ...]:
+    """The legs of an ArduCopter ``mission`` from which a GPS loss may coast into a zone, at
+    its recommended parameters (:func:`validator.failsafe.audit_failsafes`); () for PX4,
+    whose position loss is not modelled."""
+    if mission.options.autopilot != "ardupilot":
+        return ()
+    from validator.failsafe import audit_failsafes
+    from validator.flight import resolve_flight
+
+    site = mission.solution.site
+    flight = resolve_flight(mission.plan, site, "mission")
+    return audit_failsafes(mission.plan, site, flight,
+                           recommended_params(mission).values).position_loss
 
 
 def _replayed_min_rate(mission: Mission) -> float:

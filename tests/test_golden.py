@@ -38,6 +38,7 @@ speed (README, *The optimiser*): regenerate then, and say so.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -130,7 +131,8 @@ PLANS = {
 def _write_outputs(case: Case, mission: Mission, folder: Path, fmt: str = "plan") -> None:
     """Write what plan-mission writes for ``case`` (mission, parameter file, report) into
     ``folder``, through the front door."""
-    mission = build_mission(mission.solution, VARIANTS[case.variant])
+    mission = dataclasses.replace(build_mission(mission.solution, VARIANTS[case.variant]),
+                                  position_loss_berth=mission.position_loss_berth)
     params = recommended_params(mission)
     write_mission(mission, folder / f"mission.{fmt}", fmt=fmt, report=folder / "report.json",
                   params=folder / "mission.param", autopilot_params=params,

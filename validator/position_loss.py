@@ -32,7 +32,9 @@ margin of the planned path, and the coast is what the vehicle does when that pat
 (the model already holds the measured worst case). The speed of a leg is one rule
 (:func:`position_loss_speed_cap_mps`): the fastest speed whose coast region stays out of every
 zone; the wander alone (a vehicle losing its position while hovering) is no speed's doing,
-and a leg whose wander reaches a zone is reported as needing a wider berth.
+and a leg whose wander reaches a zone is reported as needing a wider berth. The berth is one
+rule too (:func:`berth_buffer_m`): the buffer a plan must keep for the deepest coast to stay
+out; the planner plans again with it.
 """
 
 from __future__ import annotations
@@ -54,6 +56,7 @@ COAST_S = 2.6  # the coast reaches this many seconds of the speed ahead (fitted,
 WANDER_M = 12.0  # ... give or take this much in any direction (measured up to 11.3 m)
 CORNER_STEPS = 8  # directions sampled between two legs' at a corner
 MIN_SPEED_MPS = 1.0  # a cap below this is no cap: the leg needs a wider berth instead
+BERTH_MARGIN_M = 0.5  # a wider berth clears the deepest coast by this much (m)
 
 
 @dataclass(frozen=True)
@@ -180,3 +183,44 @@ def audit_position_loss(flight: Flight, site: Site, default_speed_mps: float
             out.append(PositionLossFinding(site.zone_names[m], k, leg.item, v, float(clr[m]),
                                            site.buffer_m, cap))
     return out
+
+
+def berth_buffer_m(buffer_m: float, findings: list[PositionLossFinding] |
+                   tuple[PositionLossFinding, ...]) -> float | None:
+    """The safety buffer (m) a plan keeping ``buffer_m`` needs for every finding's coast to
+    stay out of its zone: ``buffer_m`` plus the deepest reach and :data:`BERTH_MARGIN_M`
+    (a leg pushed out by the difference carries its coast region with it); None without
+    findings. The one berth rule of position loss: the planner plans with it."""
+    if not findings:
+        return None
+    return float(buffer_m) + max(-f.clearance_m for f in findings) + BERTH_MARGIN_M
+
+
+@dataclass(frozen=True)
+class Berth:
+    """A plan's buffer widened for position loss: ``site_buffer_m`` the buffer asked for,
+    ``buffer_m`` the one planned with, ``deepest_m`` how deep the coast reached a zone at the
+    buffer asked for, ``left`` the findings the widest plan still has (0: every coast clear)."""
+
+    site_buffer_m: float
+    buffer_m: float
+    deepest_m: float
+    left: int
+
+    @property
+    def message(self) -> str:
+        coast = (f"a GPS loss at {self.site_buffer_m:g} m could coast {self.deepest_m:.2f} m into "
+                 f"a zone after ArduCopter's EKF failsafe")
+        if self.buffer_m <= self.site_buffer_m:
+            return (f"{coast}, and no wider buffer could be planned (home inside it, or the "
+                    f"safety gate refused the plan): {self.left} leg finding(s), see "
+                    f"validate-mission --params")
+        then = ("every coast now stays clear" if not self.left else
+                f"{self.left} leg finding(s) remain, see validate-mission --params")
+        return (f"buffer widened from {self.site_buffer_m:g} m to {self.buffer_m:.1f} m: "
+                f"{coast}; {then}")
+
+    def as_dict(self) -> dict[str, object]:
+        return {"site_buffer_m": self.site_buffer_m, "buffer_m": self.buffer_m,
+                "deepest_m": self.deepest_m, "findings_left": self.left,
+                "message": self.message}

@@ -33,6 +33,7 @@ from validator.autopilot.rules import programmed_holds_s
 from validator.errors import InputError
 from validator.motion.speed_model import cruise_speed_mps
 from validator.plan_format import Cmd, Frame, MissionItem, Plan
+from validator.position_loss import Berth
 
 _NAN = math.nan
 
@@ -47,6 +48,8 @@ class Mission:
     ``problems`` lists every reason the safety gate refuses the mission (empty: safe).
     ``merged_waypoints`` is how many per-slot waypoints long straight legs replaced, and
     ``merge_offset_m`` the largest distance (m) a merged slot's end point moved onto its leg.
+    ``position_loss_berth`` says how far the planner widened the site's buffer so that a GPS
+    loss coasts clear of every zone (None: not widened).
     """
 
     plan: Plan
@@ -63,6 +66,8 @@ class Mission:
     problems: tuple[str, ...] = field(default_factory=tuple)
     merged_waypoints: int = 0
     merge_offset_m: float = 0.0
+    # set when the planner widened the buffer for a GPS loss's coast (mission_planner.pipeline)
+    position_loss_berth: Berth | None = None
 
     @property
     def safe(self) -> bool:

@@ -10,10 +10,12 @@ from tests.validator.builders import make_site, waypoint_plan
 from validator.flight import resolve_flight
 from validator.mavlink.faults import measure_coast
 from validator.position_loss import (
+    BERTH_MARGIN_M,
     COAST_S,
     WANDER_M,
     _leg_region,
     audit_position_loss,
+    berth_buffer_m,
     coast_region,
     position_loss_speed_cap_mps,
     region_clearances,
@@ -83,3 +85,27 @@ def test_the_coast_is_measured_from_the_failsafes_mode_change():
     assert coast.along_m == pytest.approx(x[-1] - 80.0)
     assert coast.across_m == pytest.approx(3.0)
     assert measure_coast(t, np.stack([x, y], axis=1), 0.5, []) is None
+
+
+def test_the_berth_adds_the_deepest_coast_and_its_margin_to_the_buffer():
+    site = make_site(nfz=((100.0, 0.0, 20.0),), gns=((0.0, 28.0), (200.0, 28.0)),
+                     buffer_m=3.0)
+    found = audit_position_loss(_flight(site, [(0.0, 28.0), (200.0, 28.0)], 5.0), site, 5.0)
+    deepest = max(-f.clearance_m for f in found)
+    assert berth_buffer_m(3.0, found) == pytest.approx(3.0 + deepest + BERTH_MARGIN_M)
+    assert berth_buffer_m(3.0, []) is None
+
+
+def test_a_leg_moved_out_by_the_berth_leaves_the_zone_out_of_reach():
+    site = make_site(nfz=((100.0, 0.0, 20.0),), gns=((0.0, 28.0), (200.0, 28.0)),
+                     buffer_m=3.0)
+    found = audit_position_loss(_flight(site, [(0.0, 28.0), (200.0, 28.0)], 5.0), site, 5.0)
+    need = berth_buffer_m(3.0, found)
+    assert need is not None
+    y = 20.0 + need  # the leg as a plan with the wider buffer keeps it
+    moved = _flight(site, [(0.0, y), (200.0, y)], 5.0)
+    k = next(i for i, leg in enumerate(moved.legs)
+             if abs(leg.end_xy_m[0] - 200.0) < 1e-3 and abs(leg.start_xy_m[0]) < 1e-3)
+    before = [f for f in found if f.leg == k]
+    assert before, "the leg at the narrow buffer must be a finding for this test to mean anything"
+    assert [f for f in audit_position_loss(moved, site, 5.0) if f.leg == k] == []

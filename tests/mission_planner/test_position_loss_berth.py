@@ -1,0 +1,75 @@
+"""The planner's berth for a GPS loss: an ArduCopter plan from which the coast after the EKF
+failsafe could reach a zone is planned again with a buffer wide enough (validator.position_loss
+measures the coast; mission_planner.pipeline plans with it)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mission_planner.mission import MissionOptions
+from mission_planner.pipeline import mission_report, plan_and_build, position_loss_findings
+from validator.site import load_site
+
+REALISTIC = Path(__file__).resolve().parents[2] / "samples" / "realistic.yaml"
+
+
+@pytest.fixture(scope="module")
+def site():
+    return load_site(REALISTIC)
+
+
+@pytest.fixture(scope="module")
+def narrow(site):
+    return plan_and_build(site, position_loss_berth=False)
+
+
+def test_the_sample_at_its_own_buffer_could_coast_into_a_zone(narrow):
+    lost = position_loss_findings(narrow)
+    assert lost and min(f.clearance_m for f in lost) < 0.0
+    assert narrow.position_loss_berth is None
+
+
+def test_the_berth_plans_again_until_every_coast_stays_clear(site, narrow):
+    mission = plan_and_build(site)
+    berth = mission.position_loss_berth
+    assert berth is not None and berth.left == 0
+    assert position_loss_findings(mission) == ()
+    deepest = max(-f.clearance_m for f in position_loss_findings(narrow))
+    assert berth.deepest_m == pytest.approx(deepest)
+    assert berth.site_buffer_m == site.buffer_m < berth.buffer_m == mission.solution.site.buffer_m
+    assert berth.buffer_m >= site.buffer_m + deepest
+    assert not mission.problems
+    assert mission_report(mission)["position_loss_berth"]["findings_left"] == 0
+
+
+def test_the_wider_berth_costs_rate(site, narrow):
+    # not free: the report is where an operator sees the price of the wider berth
+    mission = plan_and_build(site)
+    assert mission.solution.min_rate_bps_hz < narrow.solution.min_rate_bps_hz
+
+
+def test_the_papers_kinematic_model_stays_the_papers(site):
+    mission = plan_and_build(site, dynamics="none")
+    assert mission.position_loss_berth is None
+    assert mission.solution.site.buffer_m == site.buffer_m
+
+
+def test_px4_has_no_modelled_position_loss_and_keeps_its_buffer(site):
+    mission = plan_and_build(site, options=MissionOptions(autopilot="px4"),
+                             pass_through_corners=False)
+    assert position_loss_findings(mission) == ()
+    assert mission.position_loss_berth is None
+
+
+def test_home_inside_the_wider_buffer_leaves_the_findings_as_warnings(site):
+    # home 5 m outside NFZ1's 3 m buffer: no plan can keep the 12 m the coast needs there
+    c, r = site.nfz_xy_m[0], float(site.nfz_radius_m[0])
+    home = site.with_limits(home_xy_m=c + np.array([0.0, -(r + site.buffer_m + 5.0)]))
+    mission = plan_and_build(home)
+    berth = mission.position_loss_berth
+    assert berth is not None and berth.left > 0
+    assert berth.buffer_m == berth.site_buffer_m == site.buffer_m
+    assert "no wider buffer could be planned" in berth.message
