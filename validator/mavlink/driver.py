@@ -127,8 +127,15 @@ def _until_accepted(link: Link, rec: Recorder, command: int, *params: float,
         if time.monotonic() - start > patience:
             name = mavlink.enums["MAV_RESULT"][result].name
             raise LinkError(f"command {command_name(command)}: vehicle answered {name} for "
-                            f"{patience:g} s")
+                            f"{patience:g} s{_last_said(link)}")
         rec.pump(time.monotonic() + 1.0, lambda: False)
+
+
+def _last_said(link: Link, count: int = 3) -> str:
+    """The vehicle's last ``count`` STATUSTEXTs as " (last: a; b; c)", or "": a refusal's
+    reason is there (a pre-arm check, the EKF, a mode the vehicle will not take)."""
+    said = list(link.statustexts)[-count:]
+    return f" (last: {'; '.join(said)})" if said else ""
 
 
 def _set_mode(link: Link, rec: Recorder, modes: ModeNumbers, custom_mode: int,
@@ -222,9 +229,7 @@ def _record_mission(link: Link, rec: Recorder, plan: Plan, modes: ModeNumbers,
         return str(flown["watched"])
     if modes.px4 and not rec.armed and not rec.airborne:
         # PX4 disarms COM_DISARM_PRFLT seconds after arming when it never takes off
-        said = [t for t in link.statustexts][-3:]
-        raise LinkError("the vehicle disarmed without taking off"
-                        + (f" (last: {'; '.join(said)})" if said else ""))
+        raise LinkError(f"the vehicle disarmed without taking off{_last_said(link)}")
     if rec.armed and plan.items[nav[-1] if nav else -1].command in LANDING_COMMANDS:
         # the last item lands: ArduCopter reports its completion just before the disarm,
         # PX4 when the descent starts (then MPC_LAND_SPEED, ~0.7 m/s, near the ground)
@@ -277,7 +282,7 @@ def _arm_and_take_off(link: Link, rec: Recorder, alt: float) -> float:
         if time.monotonic() - start > ARM_PATIENCE_S:
             name = mavlink.enums["MAV_RESULT"][result].name
             raise LinkError(f"command {command_name(mavlink.MAV_CMD_NAV_TAKEOFF)}: vehicle "
-                            f"answered {name} for {ARM_PATIENCE_S:g} s")
+                            f"answered {name} for {ARM_PATIENCE_S:g} s{_last_said(link)}")
         rec.pump(time.monotonic() + 1.0, lambda: not rec.armed)  # a HEARTBEAT updates it
 
 
