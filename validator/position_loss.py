@@ -185,6 +185,63 @@ def audit_position_loss(flight: Flight, site: Site, default_speed_mps: float
     return out
 
 
+def _sampled_leg_clearance_m(site: Site, start: NDArray[np.float64], end: NDArray[np.float64],
+                             speed_mps: float, step_m: float) -> tuple[NDArray[np.float64],
+                                                                       NDArray[np.float64]]:
+    """Points every ``step_m`` along a leg and, for each, the least clearance (m) from any zone
+    of the coast's wander disc ahead of it (negative: how deep)."""
+    u = _unit(end - start)
+    n = max(2, int(math.ceil(float(np.hypot(*(end - start))) / step_m)) + 1)
+    pts = start + np.linspace(0.0, 1.0, n)[:, None] * (end - start)
+    centres = pts + (COAST_S * speed_mps * u if u is not None else 0.0)
+    clr = np.full(n, np.inf)
+    for c, r in zip(site.nfz_xy_m, site.nfz_radius_m, strict=True):
+        clr = np.minimum(clr, np.hypot(*(centres - c).T) - float(r) - WANDER_M)
+    for z in site.polygon_zones:
+        d = shapely.distance(shapely.boundary(z.shape), shapely.points(centres))
+        inside = shapely.contains_xy(z.shape, centres[:, 0], centres[:, 1])
+        clr = np.minimum(clr, np.where(inside, -d, d) - WANDER_M)
+    return pts, clr
+
+
+def worst_position_loss_point(flight: Flight, site: Site, default_speed_mps: float,
+                              step_m: float = 1.0) -> tuple[NDArray[np.float64], float] | None:
+    """Where to lose the position for the coast to come closest to a zone, and that least
+    clearance (m) of the wander disc: the failsafe fires :data:`DETECTION_DELAY_S` after the
+    loss, so the point is that much flying (and holding) before the worst place for the coast
+    to start, along the mission's legs. None without a zone or a horizontal leg."""
+    if not site.zone_names:
+        return None
+    best: tuple[float, int, NDArray[np.float64]] | None = None
+    for k, leg in enumerate(flight.legs):
+        if leg.length_m < 1e-6:
+            continue
+        v = leg.speed_mps if leg.speed_mps is not None else default_speed_mps
+        pts, clr = _sampled_leg_clearance_m(site, leg.start_xy_m, leg.end_xy_m, v, step_m)
+        i = int(np.argmin(clr))
+        if best is None or clr[i] < best[0]:
+            best = (float(clr[i]), k, pts[i])
+    if best is None:
+        return None
+    clearance, k, p = best
+    left_s = DETECTION_DELAY_S
+    while True:
+        leg = flight.legs[k]
+        v = leg.speed_mps if leg.speed_mps is not None else default_speed_mps
+        back = leg.start_xy_m - p
+        flown_s = float(np.hypot(*back)) / max(v, 1e-9)
+        if flown_s >= left_s:
+            return p + back * (left_s / flown_s), clearance
+        left_s -= flown_s
+        if k == 0:
+            return np.asarray(leg.start_xy_m, dtype=float), clearance
+        k -= 1
+        left_s -= flight.legs[k].hold_s
+        p = np.asarray(flight.legs[k].end_xy_m, dtype=float)
+        if left_s <= 0.0:
+            return p, clearance
+
+
 def berth_buffer_m(buffer_m: float, findings: list[PositionLossFinding] |
                    tuple[PositionLossFinding, ...]) -> float | None:
     """The safety buffer (m) a plan keeping ``buffer_m`` needs for every finding's coast to

@@ -11,6 +11,7 @@ from validator.flight import resolve_flight
 from validator.mavlink.faults import measure_coast
 from validator.position_loss import (
     BERTH_MARGIN_M,
+    DETECTION_DELAY_S,
     COAST_S,
     WANDER_M,
     _leg_region,
@@ -19,6 +20,7 @@ from validator.position_loss import (
     coast_region,
     position_loss_speed_cap_mps,
     region_clearances,
+    worst_position_loss_point,
 )
 
 
@@ -109,3 +111,23 @@ def test_a_leg_moved_out_by_the_berth_leaves_the_zone_out_of_reach():
     before = [f for f in found if f.leg == k]
     assert before, "the leg at the narrow buffer must be a finding for this test to mean anything"
     assert [f for f in audit_position_loss(moved, site, 5.0) if f.leg == k] == []
+
+
+@pytest.mark.parametrize("points", [[(0.0, 50.0), (300.0, 50.0)],
+                                    [(0.0, 50.0), (250.0, 50.0), (300.0, 50.0)]])
+def test_a_gps_loss_is_aimed_the_failsafe_delay_before_the_worst_coast(points):
+    # the coast from the end of the leg at (300, 50) runs 26 m on toward the zone ahead; the
+    # loss must come 8.2 s of flight (82 m at 10 m/s) before, over a corner if need be
+    site = make_site(nfz=((360.0, 50.0, 20.0),), gns=((0.0, 50.0), (300.0, 50.0)),
+                     buffer_m=3.0)
+    found = worst_position_loss_point(_flight(site, points, 10.0), site, 10.0)
+    assert found is not None
+    xy, clearance = found
+    assert clearance == pytest.approx(360.0 - 300.0 - COAST_S * 10.0 - 20.0 - WANDER_M, abs=0.5)
+    assert xy == pytest.approx([300.0 - DETECTION_DELAY_S * 10.0, 50.0], abs=1.0)
+
+
+def test_no_zone_no_point_to_aim_a_gps_loss_at():
+    site = make_site(nfz=(), gns=((0.0, 50.0), (300.0, 50.0)), buffer_m=3.0)
+    assert worst_position_loss_point(_flight(site, [(0.0, 50.0), (300.0, 50.0)], 10.0),
+                                     site, 10.0) is None

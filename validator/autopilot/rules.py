@@ -25,6 +25,7 @@ drag-limited top speed, the jerk ramp) are derived from the parameters in one pl
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -37,6 +38,12 @@ STATIONARY_M = 0.05  # a planned slot that moves less than this (m) is a hover
 _WPNAV_SPEED = param_table("ardupilot")["WPNAV_SPEED"]
 ARDUPILOT_MIN_SPEED_MPS = _WPNAV_SPEED.minimum * _WPNAV_SPEED.to_si
 ACCEPTANCE_RADIUS_PARAM = {"ardupilot": "WPNAV_RADIUS", "px4": "NAV_ACC_RAD"}
+
+
+def default_speed_mps(params: Mapping[str, float] | None) -> float:
+    """The horizontal speed (m/s) ArduCopter flies a leg with no DO_CHANGE_SPEED in force:
+    WPNAV_SPEED from ``params`` (its units, cm/s), else its default."""
+    return _WPNAV_SPEED.to_si * float((params or {}).get("WPNAV_SPEED", _WPNAV_SPEED.default))
 
 
 def stored_hold_s(hold_s: float, autopilot: str = "ardupilot") -> float:

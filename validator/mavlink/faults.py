@@ -314,9 +314,17 @@ def fault_watch(v: Validation, kind: str, vehicle_params: Mapping[str, float] | 
     worst = fs.worst_return
     if worst is None:
         raise InputError(f"--fault: {v.site_path} has no zone: no worst point to inject at")
+    target = worst.xy_m
+    if kind == "gps-loss" and not px4:  # its failsafe path is the coast, not a return
+        from validator.autopilot.rules import default_speed_mps
+        from validator.position_loss import worst_position_loss_point
+
+        coast = worst_position_loss_point(v.flight, v.site, default_speed_mps(vehicle_params))
+        if coast is not None:
+            target = (float(coast[0][0]), float(coast[0][1]))
 
     def make(link: Link) -> Watch:
-        made.append(FaultInjector(link, kind, worst.xy_m, v.site.frame.to_local, px4))
+        made.append(FaultInjector(link, kind, target, v.site.frame.to_local, px4))
         return made[-1]
 
     return make
