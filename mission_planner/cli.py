@@ -243,7 +243,7 @@ def _plan(args: argparse.Namespace) -> int:
     for note in () if args.quiet else autopilot_params.notes:
         print(f"plan-mission: note: {note}", file=sys.stderr)
     berth = mission.position_loss_berth
-    if berth is not None:
+    if berth is not None and (berth.left or not args.quiet):
         print(f"plan-mission: {'warning' if berth.left else 'note'}: {berth.message}",
               file=sys.stderr)
     too_fast = speed_warning(site, args.dynamics, autopilot.key)

@@ -73,3 +73,29 @@ def test_home_inside_the_wider_buffer_leaves_the_findings_as_warnings(site):
     assert berth is not None and berth.left > 0
     assert berth.buffer_m == berth.site_buffer_m == site.buffer_m
     assert "no wider buffer could be planned" in berth.message
+
+
+def test_plan_mission_says_it_widened_the_buffer_and_buffer_m_keeps_the_given_one(tmp_path,
+                                                                                  capsys):
+    import json
+
+    from mission_planner.cli import plan_mission_main
+
+    assert plan_mission_main([str(REALISTIC), "-o", str(tmp_path / "a.plan"),
+                              "--report", str(tmp_path / "a.json")]) == 0
+    err = capsys.readouterr().err
+    assert "plan-mission: note: buffer widened from 3 m to " in err
+    report = json.loads((tmp_path / "a.json").read_text())
+    assert report["position_loss_berth"]["buffer_m"] == report["buffer_m"] > 3.0
+
+    assert plan_mission_main([str(REALISTIC), "-o", str(tmp_path / "b.plan"), "--quiet",
+                              "--buffer-m", "3", "--report", str(tmp_path / "b.json")]) == 0
+    assert "buffer widened" not in capsys.readouterr().err
+    report = json.loads((tmp_path / "b.json").read_text())
+    assert "position_loss_berth" not in report and report["buffer_m"] == 3.0
+
+    # a note, not a warning: --quiet leaves it out, the report still says it
+    assert plan_mission_main([str(REALISTIC), "-o", str(tmp_path / "c.plan"), "--quiet",
+                              "--report", str(tmp_path / "c.json")]) == 0
+    assert "buffer widened" not in capsys.readouterr().err
+    assert "position_loss_berth" in json.loads((tmp_path / "c.json").read_text())

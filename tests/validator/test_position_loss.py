@@ -11,8 +11,8 @@ from validator.flight import resolve_flight
 from validator.mavlink.faults import measure_coast
 from validator.position_loss import (
     BERTH_MARGIN_M,
-    DETECTION_DELAY_S,
     COAST_S,
+    DETECTION_DELAY_S,
     WANDER_M,
     _leg_region,
     audit_position_loss,
