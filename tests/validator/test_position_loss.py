@@ -92,10 +92,26 @@ def test_the_coast_is_measured_from_the_failsafes_mode_change():
 def test_the_berth_adds_the_deepest_coast_and_its_margin_to_the_buffer():
     site = make_site(nfz=((100.0, 0.0, 20.0),), gns=((0.0, 28.0), (200.0, 28.0)),
                      buffer_m=3.0)
-    found = audit_position_loss(_flight(site, [(0.0, 28.0), (200.0, 28.0)], 5.0), site, 5.0)
+    flight = _flight(site, [(0.0, 28.0), (200.0, 28.0)], 5.0)
+    found = [f for f in audit_position_loss(flight, site, 5.0)
+             if abs(flight.legs[f.leg].end_xy_m[0] - 200.0) < 1e-3]  # the leg beside it
     deepest = max(-f.clearance_m for f in found)
     assert berth_buffer_m(3.0, found) == pytest.approx(3.0 + deepest + BERTH_MARGIN_M)
     assert berth_buffer_m(3.0, []) is None
+
+
+def test_a_coast_deeper_than_the_wander_first_asks_for_the_wander_only():
+    # the leg ends 20 m short of a zone, straight at it: 10 m/s coasts 26 m on, deeper
+    # than any berth beside it would need; the first try is the wander's berth, and a
+    # plan already that far out is asked for the whole depth
+    site = make_site(nfz=((220.0, 50.0, 20.0),), gns=((0.0, 50.0), (180.0, 50.0)),
+                     buffer_m=3.0)
+    found = audit_position_loss(_flight(site, [(0.0, 50.0), (180.0, 50.0)], 10.0), site, 10.0)
+    deepest = max(-f.clearance_m for f in found)
+    assert 3.0 + deepest > WANDER_M
+    assert berth_buffer_m(3.0, found) == pytest.approx(WANDER_M + BERTH_MARGIN_M)
+    assert berth_buffer_m(WANDER_M + BERTH_MARGIN_M, found) == pytest.approx(
+        WANDER_M + 2 * BERTH_MARGIN_M + deepest)
 
 
 def test_a_leg_moved_out_by_the_berth_leaves_the_zone_out_of_reach():

@@ -2,8 +2,10 @@
 
 ``validate-mission --sitl-binary ... --fault KIND`` flies the mission and, as the vehicle passes
 the point whose straight return comes closest to a zone (the failsafe audit's
-:attr:`~validator.failsafe.FailsafeReport.worst_return`: where an RTL would do the most harm),
-injects the fault the way the simulator offers it:
+:attr:`~validator.failsafe.FailsafeReport.worst_return`: where an RTL would do the most harm;
+an ArduCopter GPS loss, whose failsafe path is the coast, where the coast comes closest:
+:func:`validator.position_loss.worst_position_loss_point`), injects the fault the way the
+simulator offers it:
 
 ========== ======================================== =========================================
 fault      ArduCopter 4.5.6 SITL                    PX4 v1.15 SIH
@@ -300,9 +302,9 @@ def score_fault(injector: FaultInjector, telemetry: Telemetry, site: Site,
 def fault_watch(v: Validation, kind: str, vehicle_params: Mapping[str, float] | None,
                 made: list[FaultInjector], *, autopilot: bool) -> Callable[[Link], Watch]:
     """The fault injector for ``fly_and_score``, aimed at the point of the mission whose
-    straight return comes closest to a zone (appended to ``made`` once the link is open);
-    ``autopilot`` says the flight is on an autopilot SITL (the built-in vehicle has no
-    failsafes)."""
+    straight return (an ArduCopter GPS loss: whose coast) comes closest to a zone (appended
+    to ``made`` once the link is open); ``autopilot`` says the flight is on an autopilot
+    SITL (the built-in vehicle has no failsafes)."""
     if not autopilot:
         raise InputError("--fault: needs an autopilot SITL (--sitl-binary, $ARDUPILOT_SITL or "
                          "--connect): the built-in vehicle has no failsafes")
