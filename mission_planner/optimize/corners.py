@@ -108,7 +108,8 @@ def blended_motion(
     if cut:  # a turn's overlap depends on its two legs alone: one more flight settles it
         stops[cut] = True
         path = _fly_cycle(points_m, stops, speed_mps, profile)
-    end = path.start_s + np.asarray(total_s, dtype=float)
+    end = (path.end_s if path.end_s is not None
+           else path.start_s + np.asarray(total_s, dtype=float))
     offset = np.zeros(w)
     duration = np.zeros(w)
     lag = np.zeros(w)

@@ -66,10 +66,20 @@ def test_the_moves_tile_the_flight(site: Site) -> None:
     """Offsets and durations come from one flight: the first leg leaves from rest, a blended
     leg starts where the previous corner counted as reached, and the moves plus the lags add
     up to the flight's length."""
+    from mission_planner.optimize.corners import _fly_cycle
+
     profiles, m = _motion(site)
     assert m.offset_s[0] == 0.0 and np.all(m.offset_s[1:] > 0)
-    assert np.all(m.duration_s <= profiles.total_s - m.offset_s + 1e-9)
-    assert m.duration_s[-1] == pytest.approx(profiles.total_s[-1] - m.offset_s[-1])
+    lim = scurve_limits(motion_profile(site))
+    path = _fly_cycle(SQUARE, m.stops, min(lim.default_speed_mps, lim.top_speed_mps),
+                      motion_profile(site))
+    assert path.end_s is not None
+    moving = path.end_s - path.start_s  # each leg's motion, its corners' lag in it
+    assert np.all(moving > profiles.total_s)  # 90° turns: past the lag-free 72°
+    assert np.all(m.duration_s <= moving - m.offset_s + 1e-9)
+    assert m.duration_s[-1] == pytest.approx(moving[-1] - m.offset_s[-1])
+    assert float(np.sum(m.duration_s) + np.sum(m.arrival_lag_s)) == pytest.approx(
+        float(path.reached_s[-1] - path.start_s[0]))
 
 
 def test_the_realistic_sample_gives_more_per_flown_second_than_the_paper_plan() -> None:

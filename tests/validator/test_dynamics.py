@@ -298,3 +298,41 @@ def test_the_waypoint_before_a_land_is_a_stop(open_site):
              nav(open_site, Cmd.NAV_LAND, (0, 0), alt=0)]
     flight = resolve_flight(plan_of(open_site, items, fence=False), open_site)
     assert [leg.pass_through for leg in flight.legs] == [False, True, True, False, False, False]
+
+
+def test_a_corner_lag_is_free_up_to_its_turn_and_grows_with_turn_and_speed():
+    from validator.motion.arducopter import CORNER_LAG_FREE_DEG, corner_lag_s
+
+    lag = corner_lag_s([30.0, CORNER_LAG_FREE_DEG, 120.0, 170.0, 170.0], [10, 10, 10, 10, 6])
+    assert lag[0] == lag[1] == 0.0
+    assert 0.0 < lag[2] < lag[3] and lag[4] < lag[3]
+    assert lag[3] == pytest.approx(1.05, abs=0.1)  # measured: 1.05 s at 165-178° and 10 m/s
+
+
+def _turn_mission(site, turn_deg: float):
+    """100 m east, then 100 m on at ``turn_deg`` to the left, through the corner."""
+    h = np.radians(turn_deg)
+    items = [nav(site, Cmd.NAV_TAKEOFF, (0, 0)), speed(10.0),
+             nav(site, Cmd.NAV_WAYPOINT, (0, 0)), nav(site, Cmd.NAV_WAYPOINT, (100, 0)),
+             nav(site, Cmd.NAV_WAYPOINT, (100 + 100 * np.cos(h), 100 * np.sin(h)))]
+    flight = resolve_flight(plan_of(site, items, fence=False), site)
+    prof = make_profile("arducopter", site_limits(site), {"WPNAV_SPEED": 1000})
+    return fly(flight, prof, dt_s=0.01)
+
+
+def test_a_sharp_corner_takes_its_lag_longer_on_the_same_path(open_site, monkeypatch):
+    # measured on ArduCopter 4.5.6 SITL: 0.85 s more than the blend at 150° and 10 m/s
+    from validator.motion import arducopter
+
+    sharp = _turn_mission(open_site, 150.0)
+    monkeypatch.setattr(arducopter, "CORNER_LAG_S_PER_MPS_DEG", 0.0)
+    blended = _turn_mission(open_site, 150.0)  # the two S-curves' blend alone
+    extra = (sharp.done_s[-1] - sharp.start_s[2]) - (blended.done_s[-1] - blended.start_s[2])
+    assert extra == pytest.approx(0.00108 * 10.0 * (150.0 - 72.0), abs=0.05)
+    assert np.allclose(blended.done_s[:2], sharp.done_s[:2])  # nothing before the corner
+    # the blend keeps its shape: the closest pass to the corner is still WPNAV_RADIUS
+    d = np.hypot(sharp.xyz_m[:, 0] - 100.0, sharp.xyz_m[:, 1])
+    assert float(d.min()) == pytest.approx(2.0, abs=0.05)
+    # and the clock slows smoothly: no jump in speed
+    v = np.hypot(sharp.vel_mps[:, 0], sharp.vel_mps[:, 1])
+    assert float(np.max(np.abs(np.diff(v)))) < 0.2  # per 10 ms sample

@@ -71,6 +71,9 @@ class FlownPath:
     start_s: NDArray[np.float64]
     reached_s: NDArray[np.float64]
     done_s: NDArray[np.float64]
+    # when each leg's own motion ends, where it is not start_s plus its profile's duration
+    # (ArduCopter: a sharp corner's lag slows the clock inside the legs; None elsewhere)
+    end_s: NDArray[np.float64] | None = None
 
 
 def superpose(
