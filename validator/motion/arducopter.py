@@ -15,7 +15,9 @@ ALT_AMSL). A takeoff from the
 ground climbs after the lift-off delay; a landing descends at WPNAV_SPEED_DN to LAND_ALT_LOW,
 then at LAND_SPEED, and ends when the land detector fires; every stop at a waypoint is counted
 STOP_LAG_S after the S-curve ends (all three fitted to ArduCopter 4.5.6 SITL flights,
-``../shared/data/arducopter-sitl-2``). In wind (WIND_SPEED, WIND_FROM) the top speed holds
+``../shared/data/arducopter-sitl-2``), and a corner flown through sharper than
+CORNER_LAG_FREE_DEG lags its blend by :func:`corner_lag_s` (the target's clock slows through
+it). In wind (WIND_SPEED, WIND_FROM) the top speed holds
 in the air: each leg is capped at the ground speed its course leaves
 (:func:`leg_speed_caps_mps`); gusts do not move the modelled track.
 """
