@@ -30,13 +30,19 @@ from mission_planner.mission import (
     mission_summary,
 )
 from mission_planner.optimize.solution import Solution
+from validator.autopilot.rules import default_speed_mps
 from validator.autopilot.waypoint_radius import radius_params
 from validator.errors import InputError
 from validator.fileio import write_all_atomic
 from validator.geojson_format import dumps_geojson, plan_geojson
 from validator.motion.speed_model import top_speed_mps
 from validator.plan_format import dumps_plan
-from validator.position_loss import Berth, PositionLossFinding, berth_buffer_m
+from validator.position_loss import (
+    Berth,
+    PositionLossFinding,
+    audit_position_loss,
+    berth_buffer_m,
+)
 from validator.site import Site
 from validator.waypoints_format import waypoint_files
 from validator.wind_track import wind_buffer_m
@@ -267,11 +273,13 @@ def plan_and_build(
     asked, deepest = mission.solution.site.buffer_m, max(-f.clearance_m for f in lost)
     for _ in range(BERTH_TRIES):
         need = berth_buffer_m(mission.solution.site.buffer_m, lost)
+        if need is None:  # (there are findings: never)
+            break
         try:
-            wider = made(site.with_buffer(need), True) if need is not None else None
+            wider = made(site.with_buffer(need), True)
         except InputError:  # home inside the wider buffer: the findings stay warnings
             break
-        if wider is None or wider.problems:
+        if wider.problems:
             break
         mission, lost = wider, position_loss_findings(wider)
         if not lost:
@@ -282,17 +290,17 @@ def plan_and_build(
 
 def position_loss_findings(mission: Mission) -> tuple[PositionLossFinding, ...]:
     """The legs of an ArduCopter ``mission`` from which a GPS loss may coast into a zone, at
-    its recommended parameters (:func:`validator.failsafe.audit_failsafes`); () for PX4,
-    whose position loss is not modelled."""
+    its recommended parameters (the failsafe audit's position-loss part,
+    :func:`validator.position_loss.audit_position_loss`); () for PX4, whose position loss is
+    not modelled."""
     if mission.options.autopilot != "ardupilot":
         return ()
-    from validator.failsafe import audit_failsafes
     from validator.flight import resolve_flight
 
     site = mission.solution.site
     flight = resolve_flight(mission.plan, site, "mission")
-    return audit_failsafes(mission.plan, site, flight,
-                           recommended_params(mission).values).position_loss
+    speed = default_speed_mps(recommended_params(mission).values)
+    return tuple(audit_position_loss(flight, site, speed))
 
 
 def _replayed_min_rate(mission: Mission) -> float:

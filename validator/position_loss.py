@@ -47,9 +47,9 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
-from validator.flight import Flight
+from validator.flight import Flight, Leg
 from validator.site import Site
-from validator.zones import polyline_clearance_m
+from validator.zones import point_clearance_m, polyline_clearance_m
 
 DETECTION_DELAY_S = 8.2  # from the GPS loss to the EKF failsafe's mode change (measured)
 COAST_S = 2.6  # the coast reaches this many seconds of the speed ahead (fitted, measured)
@@ -138,6 +138,11 @@ def region_clearances(site: Site, region: shapely.Geometry) -> NDArray[np.float6
     return np.array(out, dtype=float)
 
 
+def _leg_speed_mps(leg: Leg, default_speed_mps: float) -> float:
+    """The leg's commanded speed, else the autopilot's WPNAV_SPEED (``default_speed_mps``)."""
+    return leg.speed_mps if leg.speed_mps is not None else default_speed_mps
+
+
 def _leg_region(flight: Flight, k: int, speed_mps: float) -> shapely.Geometry:
     leg = flight.legs[k]
     nxt = flight.legs[k + 1].end_xy_m if k + 1 < len(flight.legs) and leg.pass_through else None
@@ -173,7 +178,7 @@ def audit_position_loss(flight: Flight, site: Site, default_speed_mps: float
     if not site.zone_names:
         return out
     for k, leg in enumerate(flight.legs):
-        v = leg.speed_mps if leg.speed_mps is not None else default_speed_mps
+        v = _leg_speed_mps(leg, default_speed_mps)
         clr = region_clearances(site, _leg_region(flight, k, v))
         bad = [m for m in range(len(clr)) if clr[m] < 0.0]
         if not bad:
@@ -198,9 +203,7 @@ def _sampled_leg_clearance_m(site: Site, start: NDArray[np.float64], end: NDArra
     for c, r in zip(site.nfz_xy_m, site.nfz_radius_m, strict=True):
         clr = np.minimum(clr, np.hypot(*(centres - c).T) - float(r) - WANDER_M)
     for z in site.polygon_zones:
-        d = shapely.distance(shapely.boundary(z.shape), shapely.points(centres))
-        inside = shapely.contains_xy(z.shape, centres[:, 0], centres[:, 1])
-        clr = np.minimum(clr, np.where(inside, -d, d) - WANDER_M)
+        clr = np.minimum(clr, point_clearance_m(z, centres) - WANDER_M)
     return pts, clr
 
 
@@ -216,7 +219,7 @@ def worst_position_loss_point(flight: Flight, site: Site, default_speed_mps: flo
     for k, leg in enumerate(flight.legs):
         if leg.length_m < 1e-6:
             continue
-        v = leg.speed_mps if leg.speed_mps is not None else default_speed_mps
+        v = _leg_speed_mps(leg, default_speed_mps)
         pts, clr = _sampled_leg_clearance_m(site, leg.start_xy_m, leg.end_xy_m, v, step_m)
         i = int(np.argmin(clr))
         if best is None or clr[i] < best[0]:
@@ -227,7 +230,7 @@ def worst_position_loss_point(flight: Flight, site: Site, default_speed_mps: flo
     left_s = DETECTION_DELAY_S
     while True:
         leg = flight.legs[k]
-        v = leg.speed_mps if leg.speed_mps is not None else default_speed_mps
+        v = _leg_speed_mps(leg, default_speed_mps)
         back = leg.start_xy_m - p
         flown_s = float(np.hypot(*back)) / max(v, 1e-9)
         if flown_s >= left_s:

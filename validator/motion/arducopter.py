@@ -341,10 +341,12 @@ class _SlowClock:
         lo = (a + b) / 2 - width / 2
         for k in range(1, lo.size):  # windows one after the other
             lo[k] = max(lo[k], lo[k - 1] + width[k - 1])
-        self.lo, self.width, self.lag = lo, width, e
+        self.lo, self.width = lo, width
         self.real_len = width + e
         self.depth = 2 * e / self.real_len  # the rate's dip, <= 1
-        self.real_lo = lo + np.concatenate([[0.0], np.cumsum(e)[:-1]])
+        # all the lag before window k (and, at k + 1, with its own)
+        self._lag_upto = np.concatenate([[0.0], np.cumsum(e)])
+        self.real_lo = lo + self._lag_upto[:-1]
 
     def _advance(self, k: NDArray[np.int64], s: NDArray[np.float64]) -> NDArray[np.float64]:
         """Target time advanced ``s`` real seconds into window ``k``."""
@@ -361,9 +363,7 @@ class _SlowClock:
         k = np.clip(np.searchsorted(self.real_lo, t, side="right") - 1, 0, self.lo.size - 1)
         s = t - self.real_lo[k]
         inside = (s >= 0) & (s <= self.real_len[k])
-        done = np.concatenate([[0.0], np.cumsum(self.lag)])
-        # before window k: all earlier lags; after it: its own too
-        outside = t - np.where(s < 0, done[k], done[k + 1])
+        outside = t - np.where(s < 0, self._lag_upto[k], self._lag_upto[k + 1])
         ss = np.clip(s, 0.0, self.real_len[k])
         target = np.where(inside, self.lo[k] + self._advance(k, ss), outside)
         rate = np.where(inside, 1 - self.depth[k] * (1 - np.cos(2 * np.pi * ss
@@ -378,8 +378,7 @@ class _SlowClock:
         k = np.clip(np.searchsorted(self.lo, tau, side="right") - 1, 0, self.lo.size - 1)
         into = tau - self.lo[k]
         inside = (into >= 0) & (into <= self.width[k])
-        done = np.concatenate([[0.0], np.cumsum(self.lag)])
-        out = tau + np.where(into < 0, done[k], done[k + 1])
+        out = tau + np.where(into < 0, self._lag_upto[k], self._lag_upto[k + 1])
         for i in np.flatnonzero(inside):  # invert the window's warp by its samples
             s = np.linspace(0.0, self.real_len[k[i]], self._SAMPLES)
             adv = self._advance(np.full(s.size, k[i]), s)
