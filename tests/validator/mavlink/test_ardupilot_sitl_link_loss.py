@@ -53,15 +53,23 @@ def sitl_url(realistic):
 
 
 def fly(realistic, relay: LossyRelay, *, cut_after_s: float, cut_for_s: float | None,
-        timeout_s: float):
+        timeout_s: float, back_once_landing: bool = False):
     """Fly the plan through ``relay``, cutting the link ``cut_after_s`` wall seconds after
-    AUTO for ``cut_for_s`` (None: for good)."""
+    AUTO for ``cut_for_s`` (None: for good), or, with ``back_once_landing``, until the tool
+    has declared the link lost and is commanding LAND into the silence."""
     v, params = realistic
+    landing = threading.Event()
 
     def cut() -> None:
         time.sleep(cut_after_s)
         relay.cut()
-        if cut_for_s is not None:
+        if back_once_landing:
+            # timed on the tool's own step, not on wall seconds: on a loaded machine a fixed
+            # gap can end before the tool gives up on the link, or after it stops asking
+            landing.wait(60.0)
+            time.sleep(0.5)
+            relay.restore()
+        elif cut_for_s is not None:
             time.sleep(cut_for_s)
             relay.restore()
 
@@ -70,6 +78,8 @@ def fly(realistic, relay: LossyRelay, *, cut_after_s: float, cut_for_s: float | 
     def progress(text: str) -> None:
         if text.startswith("AUTO"):
             cutter.start()
+        elif text.startswith("link lost: commanding"):
+            landing.set()
 
     profile = make_profile("arducopter", site_limits(v.site))
     # as validate-mission --sitl-binary does: our wall-clock heartbeats are sparse at x10
@@ -111,7 +121,8 @@ def test_a_link_down_for_good_names_arducopters_own_failsafe(realistic, sitl_url
 
 def test_a_link_back_too_late_lands_arducopter(realistic, sitl_url):
     with LossyRelay(sitl_url, LinkFaults.lossy(0.05), seed=3) as relay:
-        result = fly(realistic, relay, cut_after_s=3.0, cut_for_s=7.0, timeout_s=5.0)
+        result = fly(realistic, relay, cut_after_s=3.0, cut_for_s=None, timeout_s=5.0,
+                     back_once_landing=True)
     [lost] = [m for m in messages(result) if m.startswith("link lost")]
     assert "the link came back and the vehicle accepted LAND" in lost
     assert not result.telemetry.armed[-1]  # the descent was recorded down to the disarm
