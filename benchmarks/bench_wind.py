@@ -10,11 +10,13 @@ For each site (samples/realistic.yaml and the realistic SITL sites c, d, e of
 ``../shared/data/arducopter-sitl-2``) the still-air plan is made once and timed (CPU seconds of
 the planner, median of ``--repeat`` runs); then for each wind the wind-aware plan is made and
 timed, and both plans are replayed in that wind with the arducopter model at their own
-parameter files (in wind with the buffer plan-mission then uses,
-:func:`validator.wind_track.wind_buffer_m`). Printed per row: planning CPU and wall time and
-their ratio to still air, the wind-aware plan's replayed cycle / T and min rate (per flown
-second), the wind-blind plan's replayed cycle / T and min rate in the same wind, and the
-least replayed clearance of each.
+parameter files. Plans are made as plan-mission makes them
+(:func:`mission_planner.pipeline.plan_and_build`: in wind the wider buffer
+:func:`validator.wind_track.wind_buffer_m`, and the GPS-loss berth, which plans a site again
+where a coast could reach a zone, in still air as in wind). Printed per row: planning CPU
+and wall time and their ratio to still air, the wind-aware plan's replayed cycle / T and min
+rate (per flown second), the wind-blind plan's replayed cycle / T and min rate in the same
+wind, and the least replayed clearance of each.
 The target (issue 26): planning time in wind within 1.2x of still air.
 """
 
@@ -28,13 +30,11 @@ from pathlib import Path
 
 from mission_planner.autopilot_params import recommended_params
 from mission_planner.flight_report import FlightCheck, replay_mission
-from mission_planner.mission import Mission, MissionOptions, build_mission
-from mission_planner.optimize import PlannerOptions, plan
-from validator.autopilot.waypoint_radius import radius_params
+from mission_planner.mission import Mission
+from mission_planner.pipeline import plan_and_build
 from validator.motion.speed_model import cruise_speed_mps
 from validator.site import Site, load_site
 from validator.wind import Wind, parse_wind_arg
-from validator.wind_track import wind_buffer_m
 
 ROOT = Path(__file__).resolve().parents[1]
 SITL2 = ROOT.parent / "shared" / "data" / "arducopter-sitl-2"
@@ -47,18 +47,14 @@ SITES = {
 WINDS = ("3@270", "6@270", "6@135,1.5", "8@0,2", "4@90,1", "7@200")
 
 
-def _planned(site: Site, repeat: int, both: bool = False) -> tuple[Mission, float, float]:
-    """The plan (plan-mission's defaults; ``both``: PlannerOptions.wind_blind_paths) and the
-    median CPU and wall seconds of planning it."""
+def _planned(site: Site, repeat: int) -> tuple[Mission, float, float]:
+    """The plan as plan-mission makes it (:func:`mission_planner.pipeline.plan_and_build`:
+    the wind buffer, the GPS-loss berth) and the median CPU and wall seconds of making it."""
     cpu, wall = [], []
     mission = None
-    if site.flight_wind is not None:  # as plan-mission: the buffer grows with the wind
-        site = site.with_buffer(wind_buffer_m(site.buffer_m, site.flight_wind))
-    options = PlannerOptions(timing_params=radius_params(site, "ardupilot"),
-                             wind_blind_paths=both)
     for _ in range(repeat):
         t0, w0 = time.process_time(), time.perf_counter()
-        mission = build_mission(plan(site, options=options), MissionOptions())
+        mission = plan_and_build(site)
         cpu.append(time.process_time() - t0)
         wall.append(time.perf_counter() - w0)
     assert mission is not None
@@ -85,8 +81,6 @@ def main() -> None:
     ap.add_argument("--sites", nargs="*", default=list(SITES), choices=list(SITES))
     ap.add_argument("--winds", nargs="*", default=list(WINDS))
     ap.add_argument("--repeat", type=int, default=1, help="planning runs per timing (median)")
-    ap.add_argument("--wind-blind-paths", action="store_true",
-                    help="PlannerOptions.wind_blind_paths: a second search of still-air paths")
     args = ap.parse_args()
     print(f"{'site':<10} {'wind':<11} {'cpu s':>6} {'x still':>7} {'wall x':>6} | aware: "
           f"{'cyc/T':>6} {'rate':>7} {'clear':>6} | blind: {'cyc/T':>6} {'rate':>7} "
@@ -104,7 +98,7 @@ def main() -> None:
                 print(f"{name:<10} {text:<11} refused: at or above the top airspeed")
                 continue
             windy = site.with_limits(wind=wind)
-            aware, cpu, wall = _planned(windy, args.repeat, args.wind_blind_paths)
+            aware, cpu, wall = _planned(windy, args.repeat)
             a, b = _flown_in(aware, wind), _flown_in(blind, wind)
             ratios.append(cpu / cpu_still)
             walls.append(wall / wall_still)

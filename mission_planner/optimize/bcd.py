@@ -42,6 +42,8 @@ Progress = Callable[[int, float], None]
 DYNAMICS = ("none", "vehicle")
 # Algorithm 1's starting schedules: each slot to its nearest GN, or every GN a 1/K share.
 START_SCHEDULES = ("nearest", "shares")
+# The families of paths the "vehicle" search plans in wind (PlannerOptions.wind_paths).
+WIND_PATHS = ("air-frame", "still-air")
 
 
 @dataclass(frozen=True)
@@ -74,11 +76,12 @@ class PlannerOptions:
     ("none"); the "vehicle" search plans its candidates without it.
     ``search_ahead``: the "vehicle" search evaluates its likely next candidate in a spare
     thread while the current one runs (:mod:`.flyable`); the plan is the same either way.
-    ``wind_blind_paths``: in wind (the site's ``wind``), the "vehicle" search also re-times
-    each candidate speed's still-air path in the wind and keeps whichever flies better (about
-    1.7x the CPU; over four sites and three winds it changed one plan of twelve, +26 %).
-    ``still_path_check`` (without ``wind_blind_paths``): in wind, the still-air path is
-    re-timed at two planning speeds at most and kept when it flies better (:mod:`.flyable`).
+    ``wind_paths``: in wind (the site's ``wind``), the "vehicle" search plans these families
+    of paths (:data:`WIND_PATHS`), each with its own top-speed search, and keeps the one that
+    flies best: "air-frame" (Algorithm 1 with the air-frame cone) and "still-air" (the
+    still-air path re-timed in the wind). Neither wins everywhere: at the berth's 12.5 m
+    buffer the still-air paths planned up to 36 % more on realistic.yaml and site-d, the
+    air-frame ones up to 13 % more on site-c (:mod:`.flyable`).
     "none" is the paper's kinematic model (top speed only): the
     studies reproducing the paper's figures use it (:data:`PAPER_OPTIONS`).
     """
@@ -100,8 +103,7 @@ class PlannerOptions:
     start_schedules: tuple[str, ...] = ("nearest",)
     overrelax: bool = True
     search_ahead: bool = True
-    wind_blind_paths: bool = False
-    still_path_check: bool = True
+    wind_paths: tuple[str, ...] = ("air-frame", "still-air")
 
 
 PAPER_OPTIONS = PlannerOptions(dynamics="none")  # the paper's model, for its figures

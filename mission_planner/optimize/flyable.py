@@ -315,19 +315,14 @@ def plan_flyable(
     site: Site, scheme: str, opt: PlannerOptions, progress: Progress | None, started: float
 ) -> Solution:
     """Algorithm 1 at the highest top speed whose path the vehicle flies within T (module
-    docstring). In wind with ``opt.wind_blind_paths`` a second search plans still-air paths
-    (re-timed in the wind all the same) and the better plan is kept: the air-frame cone
-    shapes the paper model's path for flight without acceleration limits, which is not always
-    the best flown one. Without it, ``opt.still_path_check`` does the same for one or two
-    still-air candidates (:func:`_still_check`); the timing's ``wind_path`` says which won."""
-    search, tries = _searches(site, scheme, opt, progress)
+    docstring). In wind each family of ``opt.wind_paths`` has its own search and the better
+    plan is kept (:func:`_wind_searches`); the timing's ``wind_path`` says which won."""
+    windy = site.wind is not None and not site.wind.calm
+    if windy:
+        search, tries = _wind_searches(site, scheme, opt, progress)
+    else:
+        search, tries = _search(site, scheme, opt, progress, still_path=False)
     best = search.best
-    if (site.wind is not None and not site.wind.calm and not opt.wind_blind_paths
-            and opt.still_path_check):
-        cand, more = _still_check(site, scheme, opt)
-        tries += more
-        if cand is not None and (best is None or cand.min_rate > best.min_rate):
-            best = cand
     if best is None:
         raise InputError(
             f"uav: no flyable cycle of {site.period_s:g} s found within max_accel "
@@ -342,62 +337,54 @@ def plan_flyable(
         speeds_tried=tries,
         waypoint_slots=tuple(best.waypoint_slots),
         move_s=best.move_s,
-        wind_path=(None if site.wind is None or site.wind.calm
-                   else "still-air" if best.still_path else "air-frame"),
+        wind_path=None if not windy else "still-air" if best.still_path else "air-frame",
     )
     return _solution(site, scheme, sc, best.state, started, timing)
 
 
-def _searches(site: Site, scheme: str, opt: PlannerOptions, progress: Progress | None
-              ) -> tuple[_Search, int]:
-    """The top-speed search, and in wind with ``opt.wind_blind_paths`` the still-air paths'
-    one too, whichever found the better plan; and how many speeds they tried."""
-    search, tries = _search(site, scheme, opt, progress, still_path=False)
-    if site.wind is not None and opt.wind_blind_paths:
-        still, more = _search(site, scheme, opt, None, still_path=True)
-        tries += more
-        if still.best is not None and (search.best is None
-                                       or still.best.min_rate > search.best.min_rate):
-            still.best.still_path = True
-            search = still
-    return search, tries
-
-
-def _still_check(site: Site, scheme: str, opt: PlannerOptions) -> tuple[_Flyable | None, int]:
-    """The still-air path re-timed in the wind, at two planning speeds at most: the best of
-    those that fly within T (None if neither does) and how many were tried.
+def _wind_searches(site: Site, scheme: str, opt: PlannerOptions, progress: Progress | None
+                   ) -> tuple[_Search, int]:
+    """The search of each family of ``opt.wind_paths``, the one that found the better plan
+    (the first listed on a tie), and how many speeds they tried in all.
 
     The air-frame cone shapes the paper model's path for a vehicle without acceleration
-    limits; re-timed, the still-air path at a lower planning speed flies better on some sites
-    (realistic.yaml at 6 m/s from 270°: 1.63 against 1.23 bps/Hz). A whole second search
-    (``wind_blind_paths``) costs about 2x the CPU; here the first speed is the one whose
-    straight there-and-back along the wind takes as long as in still air, (V² − w²)/V (within
-    0.6-1.3x of the speed the whole search found on three sites and three winds); only if
-    that overruns T, the second corrects it by the overrun, aiming 2 % short. (Raising a
-    first speed that fits too took planning in wind to a median 1.29x of still air.)"""
+    limits, which is not always the best flown one: re-timed in the wind, the still-air path
+    at a lower planning speed flies better on some sites, and worse on others (module
+    docstring of :mod:`mission_planner.optimize.bcd`, ``wind_paths``). The still-air search
+    starts where a straight there-and-back along the wind takes as long as in still air,
+    (V² − w²)/V: the speed it ends at, not V. With a core spare the families run side by
+    side (Clarabel releases the GIL), each then without its guess ahead; the plan is the same
+    either way."""
+    families = [family == "still-air" for family in opt.wind_paths]
     cruise = cruise_speed_mps(site, opt.autopilot)
     wind = site.wind.speed_mps if site.wind is not None else 0.0
-    speed = max(cruise * 0.2, (cruise ** 2 - wind ** 2) / cruise)
-    best: _Flyable | None = None
-    for attempt in range(2):
-        cand, overrun = _retimed(site, scheme, speed, opt, None, still_path=True)
-        if cand is not None:
-            cand.still_path = True
-        if cand is not None and (best is None or cand.min_rate > best.min_rate):
-            best = cand
-        if attempt == 1 or not np.isfinite(overrun) or overrun <= 0:
-            return best, attempt + 1
-        if cand is not None:
-            return best, 1  # a second try only to find one that fits (CPU: see docstring)
-        speed *= float(np.clip(0.98 / overrun, 0.5, 1.0))
-    return best, 2
+    still_first = max(cruise * 0.2, (cruise ** 2 - wind ** 2) / cruise)
+
+    def run(i: int, still: bool, ahead: bool) -> tuple[_Search, int]:
+        return _search(site, scheme, replace(opt, search_ahead=ahead),
+                       progress if i == 0 else None, still_path=still,
+                       first_mps=still_first if still else None)
+
+    if len(families) > 1 and opt.search_ahead and _spare_core():
+        with ThreadPoolExecutor(max_workers=len(families)) as pool:
+            found = list(pool.map(lambda i: run(i, families[i], False), range(len(families))))
+    else:
+        found = [run(i, still, opt.search_ahead) for i, still in enumerate(families)]
+    best = found[0][0]
+    for still, (search, _) in zip(families, found, strict=True):
+        if search.best is not None:
+            search.best.still_path = still
+            if best.best is None or search.best.min_rate > best.best.min_rate:
+                best = search
+    return best, sum(n for _, n in found)
 
 
 def _search(site: Site, scheme: str, opt: PlannerOptions, progress: Progress | None,
-            still_path: bool) -> tuple[_Search, int]:
-    """The top-speed search (module docstring) and how many speeds it tried."""
+            still_path: bool, first_mps: float | None = None) -> tuple[_Search, int]:
+    """The top-speed search (module docstring), from ``first_mps`` if given (else the start),
+    and how many speeds it tried."""
     search = _Search(cruise_speed_mps(site, opt.autopilot), _as_calibrated(opt))
-    speed = search.start
+    speed = search.start if first_mps is None else first_mps
     tries = 0
 
     def evaluate(v: float, report: Progress | None) -> tuple[_Flyable | None, float]:

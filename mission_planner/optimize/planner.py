@@ -8,6 +8,7 @@ import time
 from mission_planner.optimize.bcd import (
     DYNAMICS,
     START_SCHEDULES,
+    WIND_PATHS,
     PlannerOptions,
     Progress,
     plan_paper,
@@ -44,6 +45,9 @@ def plan(
     if not opt.start_schedules or set(opt.start_schedules) - set(START_SCHEDULES):
         raise InputError(f"start_schedules: expected some of {', '.join(START_SCHEDULES)}, "
                          f"got {opt.start_schedules!r}")
+    if not opt.wind_paths or set(opt.wind_paths) - set(WIND_PATHS):
+        raise InputError(f"wind_paths: expected some of {', '.join(WIND_PATHS)}, "
+                         f"got {opt.wind_paths!r}")
     wind = site.flight_wind
     if wind is not None:  # a wind the vehicle cannot fly against has no plan
         from validator.motion.speed_model import cruise_speed_mps

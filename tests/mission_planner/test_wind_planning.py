@@ -204,7 +204,7 @@ def test_a_malformed_plan_wind_is_refused_naming_the_field(windy_plan, tmp_path,
 
 def test_a_wind_plan_is_not_worse_than_the_still_air_path_retimed_in_the_wind() -> None:
     """realistic.yaml at 6 m/s from 270°: the air-frame cone's path plans 1.23 bps/Hz, the
-    still-air path re-timed in the wind 1.6; the check keeps the better and says so."""
+    still-air path re-timed in the wind 1.6; searching both keeps the better and says so."""
     from dataclasses import replace
 
     from mission_planner.optimize import PlannerOptions
@@ -212,9 +212,17 @@ def test_a_wind_plan_is_not_worse_than_the_still_air_path_retimed_in_the_wind() 
 
     site = load_site(SAMPLE).with_limits(wind=Wind(6.0, 270.0, 1.5))
     opt = PlannerOptions(timing_params=radius_params(site, "ardupilot"), search_ahead=False)
-    checked = plan(site, options=opt)
-    cone_only = plan(site, options=replace(opt, still_path_check=False))
-    assert checked.timing.wind_path == "still-air"
+    both = plan(site, options=opt)
+    cone_only = plan(site, options=replace(opt, wind_paths=("air-frame",)))
+    assert both.timing.wind_path == "still-air"
     assert cone_only.timing.wind_path == "air-frame"
-    assert checked.min_rate_bps_hz > 1.05 * cone_only.min_rate_bps_hz
-    assert float(np.sum(checked.delta_s)) == pytest.approx(site.period_s)  # within T
+    assert both.min_rate_bps_hz > 1.05 * cone_only.min_rate_bps_hz
+    assert float(np.sum(both.delta_s)) == pytest.approx(site.period_s)  # within T
+
+
+def test_an_unknown_family_of_wind_paths_is_refused() -> None:
+    from mission_planner.optimize import PlannerOptions
+
+    site = load_site(SAMPLE).with_limits(wind=Wind(6.0, 270.0, 1.5))
+    with pytest.raises(InputError, match="wind_paths: expected some of air-frame, still-air"):
+        plan(site, options=PlannerOptions(wind_paths=("cone",)))
