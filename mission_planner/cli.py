@@ -64,6 +64,7 @@ from mission_planner.pipeline import (
     check_output_paths,
     params_path,
     plan_and_build,
+    position_loss_drift_warning,
     speed_warning,
 )
 from mission_planner.progress import PlanProgress
@@ -246,6 +247,9 @@ def _plan(args: argparse.Namespace) -> int:
     if berth is not None and (berth.left or not args.quiet):
         print(f"plan-mission: {'warning' if berth.left else 'note'}: {berth.message}",
               file=sys.stderr)
+    drifting = position_loss_drift_warning(mission)
+    if drifting:
+        print(f"plan-mission: warning: {drifting}", file=sys.stderr)
     too_fast = speed_warning(site, args.dynamics, autopilot.key)
     if too_fast:
         print(f"plan-mission: warning: {too_fast}", file=sys.stderr)

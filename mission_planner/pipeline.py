@@ -30,7 +30,6 @@ from mission_planner.mission import (
     mission_summary,
 )
 from mission_planner.optimize.solution import Solution
-from validator.autopilot.rules import default_speed_mps
 from validator.autopilot.waypoint_radius import radius_params
 from validator.errors import InputError
 from validator.fileio import write_all_atomic
@@ -49,7 +48,7 @@ from validator.wind_track import wind_buffer_m
 
 __all__ = ["DYNAMICS", "FORMATS", "Progress", "check_output_paths", "mission_report",
            "mission_view", "output_files", "params_path", "plan_and_build", "plan_solution",
-           "position_loss_findings", "speed_warning",
+           "position_loss_drift_warning", "position_loss_findings", "speed_warning",
            "write_outputs"]
 
 FORMATS = ("plan", "waypoints")
@@ -267,7 +266,7 @@ def plan_and_build(
     mission = made(site, False)
     if not position_loss_berth or dynamics != "vehicle":
         return mission
-    lost = position_loss_findings(mission)
+    lost = position_loss_findings(mission, drift=False)
     if not lost:
         return mission
     asked, deepest = mission.solution.site.buffer_m, max(-f.clearance_m for f in lost)
@@ -281,26 +280,49 @@ def plan_and_build(
             break
         if wider.problems:
             break
-        mission, lost = wider, position_loss_findings(wider)
+        mission, lost = wider, position_loss_findings(wider, drift=False)
         if not lost:
             break
-    berth = Berth(asked, mission.solution.site.buffer_m, deepest, len(lost))
+    berth = Berth(asked, mission.solution.site.buffer_m, deepest, len(lost),
+                  windy=mission.solution.site.flight_wind is not None)
     return dataclasses.replace(mission, position_loss_berth=berth)
 
 
-def position_loss_findings(mission: Mission) -> tuple[PositionLossFinding, ...]:
+def position_loss_findings(mission: Mission, *, drift: bool = True
+                           ) -> tuple[PositionLossFinding, ...]:
     """The legs of an ArduCopter ``mission`` from which a GPS loss may coast into a zone, at
     its recommended parameters (the failsafe audit's position-loss part,
     :func:`validator.position_loss.audit_position_loss`); () for PX4, whose position loss is
-    not modelled."""
+    not modelled. ``drift``: in the plan's wind the coast drifts downwind while the vehicle
+    lands; without it, the coast a wider buffer can keep clear (the berth's)."""
     if mission.options.autopilot != "ardupilot":
         return ()
     from validator.flight import resolve_flight
 
     site = mission.solution.site
     flight = resolve_flight(mission.plan, site, "mission")
-    speed = default_speed_mps(recommended_params(mission).values)
-    return tuple(audit_position_loss(flight, site, speed))
+    return tuple(audit_position_loss(flight, site, recommended_params(mission).values,
+                                     drift=drift))
+
+
+def position_loss_drift_warning(mission: Mission) -> str | None:
+    """One line when, in the plan's wind, a GPS loss on an ArduCopter ``mission`` may drift
+    into a zone while the EKF failsafe lands without a position
+    (:func:`validator.position_loss.drift_xy_m`), else None. No buffer keeps such a drift
+    clear: it is the whole landing's worth of wind (about 250 m in 6 m/s from 30 m)."""
+    wind = mission.solution.site.flight_wind
+    if wind is None:
+        return None
+    drifting = [f for f in position_loss_findings(mission) if f.drift_m > 0.0]
+    if not drifting:
+        return None
+    zones = ", ".join(sorted({f.zone for f in drifting}))
+    legs = len({f.leg for f in drifting})
+    return (f"a GPS loss in {wind.label()} drifts up to {max(f.drift_m for f in drifting):.0f} m "
+            f"with the wind while ArduCopter's EKF failsafe lands without a position: from "
+            f"{legs} leg(s) it may enter {zones} (up to "
+            f"{max(-f.clearance_m for f in drifting):.1f} m deep), and no buffer keeps that "
+            f"clear; validate-mission --params lists the legs")
 
 
 def _replayed_min_rate(mission: Mission) -> float:

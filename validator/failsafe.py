@@ -39,7 +39,6 @@ from numpy.typing import NDArray
 
 from validator.audit import zone_leg_clearances
 from validator.autopilot import failsafe as fs
-from validator.autopilot.rules import default_speed_mps
 from validator.autopilot.tables import param_table
 from validator.flight import Flight, Leg
 from validator.geodesy import E7_ROUNDING_MARGIN_M
@@ -405,7 +404,7 @@ def audit_failsafes(plan: Plan, site: Site, flight: Flight,
     flies_rtl = any("rtl" in c.paths for c in checks)
     lost: tuple[PositionLossFinding, ...] = ()
     if autopilot == "ardupilot" and flight.legs:
-        lost = tuple(audit_position_loss(flight, site, default_speed_mps(params)))
+        lost = tuple(audit_position_loss(flight, site, params))
     return FailsafeReport(autopilot, tuple(checks), tuple(findings), tuple(notes),
                           _worst_return(flight, site, exposures, dest), dict(values),
                           _outline(exposures) if flies_rtl else (), lost)

@@ -40,6 +40,7 @@ out; the planner plans again with it.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -47,7 +48,9 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
+from validator.autopilot.rules import default_speed_mps, failsafe_land_s
 from validator.flight import Flight, Leg
+from validator.geometry import segment_point_distance
 from validator.site import Site
 from validator.zones import point_clearance_m, polyline_clearance_m
 
@@ -62,8 +65,9 @@ BERTH_MARGIN_M = 0.5  # a wider berth clears the deepest coast by this much (m)
 @dataclass(frozen=True)
 class PositionLossFinding:
     """A leg from which a position loss may coast into a zone: the least clearance of its
-    region at the leg's speed (negative), the site's buffer, and the speed that would keep
-    the zone out of reach (None: none does, the wander alone reaches it)."""
+    region at the leg's speed (negative), the site's buffer, the speed that would keep the
+    zone out of reach (None: none does), and how far (m) the wind drifts the vehicle during
+    the failsafe's landing (0 in still air)."""
 
     zone: str
     leg: int
@@ -72,22 +76,29 @@ class PositionLossFinding:
     clearance_m: float
     buffer_m: float
     speed_cap_mps: float | None
+    drift_m: float = 0.0
 
     @property
     def message(self) -> str:
         where = f"may enter {self.zone} {-self.clearance_m:.2f} m deep"
-        fix = (f"at most {self.speed_cap_mps:.1f} m/s on this leg keeps it out"
-               if self.speed_cap_mps is not None else
-               f"no speed keeps it out (the {WANDER_M:g} m wander alone reaches it): the leg "
-               f"needs a wider berth (a site buffer over the {WANDER_M:g} m wander)")
+        if self.speed_cap_mps is not None:
+            fix = f"at most {self.speed_cap_mps:.1f} m/s on this leg keeps it out"
+        elif self.drift_m > WANDER_M:
+            fix = ("no speed keeps it out (the wind's drift alone reaches it): a lower "
+                   "altitude, or a faster descent (LAND_SPEED_HIGH), shortens the drift")
+        else:
+            fix = (f"no speed keeps it out (the {WANDER_M:g} m wander alone reaches it): the "
+                   f"leg needs a wider berth (a site buffer over the {WANDER_M:g} m wander)")
+        drift = (f", drifting {self.drift_m:.0f} m with the wind while it lands,"
+                 if self.drift_m > 0 else "")
         return (f"GPS loss: from the leg to item {self.item} at {self.speed_mps:.1f} m/s the "
-                f"coast after the EKF failsafe (Land without a position) {where}; {fix}")
+                f"coast after the EKF failsafe (Land without a position){drift} {where}; {fix}")
 
     def as_dict(self) -> dict[str, Any]:
         return {"zone": self.zone, "leg": self.leg, "item": self.item,
                 "speed_mps": self.speed_mps, "clearance_m": self.clearance_m,
                 "buffer_m": self.buffer_m, "speed_cap_mps": self.speed_cap_mps,
-                "message": self.message}
+                "drift_m": self.drift_m, "message": self.message}
 
 
 def _unit(v: NDArray[np.float64]) -> NDArray[np.float64] | None:
@@ -99,27 +110,49 @@ def _disc(p: NDArray[np.float64]) -> shapely.Geometry:
     return shapely.Point(p).buffer(WANDER_M, quad_segs=16)
 
 
+def drift_xy_m(site: Site, altitude_m: float, params: Mapping[str, float] | None
+               ) -> NDArray[np.float64]:
+    """How far (east, north m) the wind carries a vehicle without a position from the
+    failsafe, ``altitude_m`` above home, to touchdown: the site's flight wind (the layer at
+    the flight altitude) times :func:`~validator.autopilot.rules.failsafe_land_s` at the
+    parameters ``params``; zero in still air. Levelled without a position, the vehicle soon
+    moves with the air: measured 146 m in 4 m/s and 239 m in 6 m/s over a 41.8 s landing
+    (167 and 251 m here: it takes a few seconds to reach the wind's speed)."""
+    wind = site.flight_wind
+    if wind is None:
+        return np.zeros(2)
+    return np.asarray(wind.vector_mps * failsafe_land_s(altitude_m, params), dtype=float)
+
+
 def coast_region(start: NDArray[np.float64], end: NDArray[np.float64], speed_mps: float,
-                 next_end: NDArray[np.float64] | None = None) -> shapely.Geometry:
+                 next_end: NDArray[np.float64] | None = None,
+                 drift_m: NDArray[np.float64] | None = None) -> shapely.Geometry:
     """Where a position loss on the leg start→end, flown at ``speed_mps``, can take the
-    vehicle; with ``next_end``, the corner at ``end`` into the next leg too."""
+    vehicle; with ``next_end``, the corner at ``end`` into the next leg too; with
+    ``drift_m`` (east, north m, :func:`drift_xy_m`), swept that far downwind (each convex
+    part with its copy moved by the drift: their hull is the sum with the drift's segment)."""
     start, end = np.asarray(start, float), np.asarray(end, float)
     u = _unit(end - start)
     reach = COAST_S * speed_mps
     if u is None:  # a vertical leg: it hovers, the wander only
-        return shapely.convex_hull(shapely.union(_disc(end), shapely.Point(start)))
-    parts = [shapely.MultiPoint([start, end]), _disc(start + reach * u), _disc(end + reach * u)]
-    region = shapely.convex_hull(shapely.union_all(parts))
-    w = None if next_end is None else _unit(np.asarray(next_end, float) - end)
-    if w is not None:
-        a0, a1 = math.atan2(u[1], u[0]), math.atan2(w[1], w[0])
-        turn = (a1 - a0 + math.pi) % (2 * math.pi) - math.pi
-        fan = [shapely.Point(end)] + [
-            _disc(end + reach * np.array([math.cos(a0 + turn * k / CORNER_STEPS),
-                                          math.sin(a0 + turn * k / CORNER_STEPS)]))
-            for k in range(CORNER_STEPS + 1)]
-        region = shapely.union(region, shapely.convex_hull(shapely.union_all(fan)))
-    return region
+        parts = [shapely.convex_hull(shapely.union(_disc(end), shapely.Point(start)))]
+    else:
+        parts = [shapely.convex_hull(shapely.union_all(
+            [shapely.MultiPoint([start, end]), _disc(start + reach * u), _disc(end + reach * u)]))]
+        w = None if next_end is None else _unit(np.asarray(next_end, float) - end)
+        if w is not None:
+            a0, a1 = math.atan2(u[1], u[0]), math.atan2(w[1], w[0])
+            turn = (a1 - a0 + math.pi) % (2 * math.pi) - math.pi
+            fan = [shapely.Point(end)] + [
+                _disc(end + reach * np.array([math.cos(a0 + turn * k / CORNER_STEPS),
+                                              math.sin(a0 + turn * k / CORNER_STEPS)]))
+                for k in range(CORNER_STEPS + 1)]
+            parts.append(shapely.convex_hull(shapely.union_all(fan)))
+    if drift_m is not None and float(np.hypot(*drift_m)) > 0.0:
+        dx, dy = float(drift_m[0]), float(drift_m[1])
+        parts = [shapely.convex_hull(shapely.union(
+            part, shapely.transform(part, lambda xy: xy + (dx, dy)))) for part in parts]
+    return shapely.union_all(parts)
 
 
 def region_clearances(site: Site, region: shapely.Geometry) -> NDArray[np.float64]:
@@ -143,21 +176,28 @@ def _leg_speed_mps(leg: Leg, default_speed_mps: float) -> float:
     return leg.speed_mps if leg.speed_mps is not None else default_speed_mps
 
 
-def _leg_region(flight: Flight, k: int, speed_mps: float) -> shapely.Geometry:
+def _leg_region(flight: Flight, k: int, speed_mps: float,
+                drift_m: NDArray[np.float64] | None = None) -> shapely.Geometry:
     leg = flight.legs[k]
     nxt = flight.legs[k + 1].end_xy_m if k + 1 < len(flight.legs) and leg.pass_through else None
-    return coast_region(leg.start_xy_m, leg.end_xy_m, speed_mps, nxt)
+    return coast_region(leg.start_xy_m, leg.end_xy_m, speed_mps, nxt, drift_m)
 
 
-def position_loss_speed_cap_mps(flight: Flight, k: int, site: Site, speed_mps: float
-                                ) -> float | None:
-    """The fastest speed, up to ``speed_mps``, at which a position loss on leg ``k`` stays
-    out of every zone (to 0.1 m/s); None when none at or above :data:`MIN_SPEED_MPS` does
-    (the wander alone reaches a buffer). The one speed rule of position loss: the exporter
-    writes it, the audit checks it."""
+def _leg_drift_m(flight: Flight, k: int, site: Site, params: Mapping[str, float] | None
+                 ) -> NDArray[np.float64]:
+    leg = flight.legs[k]
+    return drift_xy_m(site, max(leg.start_alt_m, leg.end_alt_m), params)
+
+
+def position_loss_speed_cap_mps(flight: Flight, k: int, site: Site, speed_mps: float,
+                                drift_m: NDArray[np.float64] | None = None) -> float | None:
+    """The fastest speed, up to ``speed_mps``, at which a position loss on leg ``k`` (drifting
+    ``drift_m`` while it lands) stays out of every zone (to 0.1 m/s); None when none at or
+    above :data:`MIN_SPEED_MPS` does (the wander, or the drift, alone reaches a zone). The
+    one speed rule of position loss: the exporter writes it, the audit checks it."""
     def clear(v: float) -> bool:
         return not site.zone_names or bool(np.all(
-            region_clearances(site, _leg_region(flight, k, v)) >= 0.0))
+            region_clearances(site, _leg_region(flight, k, v, drift_m)) >= 0.0))
 
     if clear(speed_mps):
         return speed_mps
@@ -170,57 +210,70 @@ def position_loss_speed_cap_mps(flight: Flight, k: int, site: Site, speed_mps: f
     return math.floor(lo * 10) / 10
 
 
-def audit_position_loss(flight: Flight, site: Site, default_speed_mps: float
-                        ) -> list[PositionLossFinding]:
-    """Every leg whose position-loss region enters a zone (a leg without a
-    commanded speed flies ``default_speed_mps``, the autopilot's WPNAV_SPEED)."""
+def audit_position_loss(flight: Flight, site: Site, params: Mapping[str, float] | None, *,
+                        drift: bool = True) -> list[PositionLossFinding]:
+    """Every leg whose position-loss region enters a zone, at the autopilot parameters
+    ``params`` (a leg without a commanded speed flies WPNAV_SPEED; the landing's length sets
+    the drift). ``drift``: in the site's wind, the region drifts downwind for the whole
+    failsafe landing (:func:`drift_xy_m`); without it, the coast as in still air (what a
+    wider buffer can keep clear: :func:`berth_buffer_m`)."""
     out: list[PositionLossFinding] = []
     if not site.zone_names:
         return out
+    default = default_speed_mps(params)
     for k, leg in enumerate(flight.legs):
-        v = _leg_speed_mps(leg, default_speed_mps)
-        clr = region_clearances(site, _leg_region(flight, k, v))
+        v = _leg_speed_mps(leg, default)
+        d = _leg_drift_m(flight, k, site, params) if drift else None
+        clr = region_clearances(site, _leg_region(flight, k, v, d))
         bad = [m for m in range(len(clr)) if clr[m] < 0.0]
         if not bad:
             continue
-        cap = position_loss_speed_cap_mps(flight, k, site, v)
+        cap = position_loss_speed_cap_mps(flight, k, site, v, d)
+        drift_m = 0.0 if d is None else float(np.hypot(*d))
         for m in bad:
             out.append(PositionLossFinding(site.zone_names[m], k, leg.item, v, float(clr[m]),
-                                           site.buffer_m, cap))
+                                           site.buffer_m, cap, drift_m))
     return out
 
 
 def _sampled_leg_clearance_m(site: Site, start: NDArray[np.float64], end: NDArray[np.float64],
-                             speed_mps: float, step_m: float) -> tuple[NDArray[np.float64],
-                                                                       NDArray[np.float64]]:
+                             speed_mps: float, step_m: float, drift_m: NDArray[np.float64]
+                             ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Points every ``step_m`` along a leg and, for each, the least clearance (m) from any zone
-    of the coast's wander disc ahead of it (negative: how deep)."""
+    of the coast's wander disc ahead of it, carried ``drift_m`` downwind (negative: how
+    deep)."""
     u = _unit(end - start)
     n = max(2, int(math.ceil(float(np.hypot(*(end - start))) / step_m)) + 1)
     pts = start + np.linspace(0.0, 1.0, n)[:, None] * (end - start)
     centres = pts + (COAST_S * speed_mps * u if u is not None else 0.0)
+    drifted = centres + drift_m
     clr = np.full(n, np.inf)
     for c, r in zip(site.nfz_xy_m, site.nfz_radius_m, strict=True):
-        clr = np.minimum(clr, np.hypot(*(centres - c).T) - float(r) - WANDER_M)
+        clr = np.minimum(clr, segment_point_distance(centres, drifted, c) - float(r) - WANDER_M)
+    steps = max(1, int(math.ceil(float(np.hypot(*drift_m)) / step_m)))
     for z in site.polygon_zones:
-        clr = np.minimum(clr, point_clearance_m(z, centres) - WANDER_M)
+        for t in np.linspace(0.0, 1.0, steps + 1):
+            clr = np.minimum(clr, point_clearance_m(z, centres + t * drift_m) - WANDER_M)
     return pts, clr
 
 
-def worst_position_loss_point(flight: Flight, site: Site, default_speed_mps: float,
+def worst_position_loss_point(flight: Flight, site: Site, params: Mapping[str, float] | None,
                               step_m: float = 1.0) -> tuple[NDArray[np.float64], float] | None:
-    """Where to lose the position for the coast to come closest to a zone, and that least
-    clearance (m) of the wander disc: the failsafe fires :data:`DETECTION_DELAY_S` after the
-    loss, so the point is that much flying (and holding) before the worst place for the coast
-    to start, along the mission's legs. None without a zone or a horizontal leg."""
+    """Where to lose the position for the coast (drifting downwind in the site's wind while it
+    lands) to come closest to a zone, and that least clearance (m) of the wander disc: the
+    failsafe fires :data:`DETECTION_DELAY_S` after the loss, so the point is that much flying
+    (and holding) before the worst place for the coast to start, along the mission's legs.
+    None without a zone or a horizontal leg."""
     if not site.zone_names:
         return None
+    default = default_speed_mps(params)
     best: tuple[float, int, NDArray[np.float64]] | None = None
     for k, leg in enumerate(flight.legs):
         if leg.length_m < 1e-6:
             continue
-        v = _leg_speed_mps(leg, default_speed_mps)
-        pts, clr = _sampled_leg_clearance_m(site, leg.start_xy_m, leg.end_xy_m, v, step_m)
+        v = _leg_speed_mps(leg, default)
+        pts, clr = _sampled_leg_clearance_m(site, leg.start_xy_m, leg.end_xy_m, v, step_m,
+                                            _leg_drift_m(flight, k, site, params))
         i = int(np.argmin(clr))
         if best is None or clr[i] < best[0]:
             best = (float(clr[i]), k, pts[i])
@@ -230,7 +283,7 @@ def worst_position_loss_point(flight: Flight, site: Site, default_speed_mps: flo
     left_s = DETECTION_DELAY_S
     while True:
         leg = flight.legs[k]
-        v = _leg_speed_mps(leg, default_speed_mps)
+        v = _leg_speed_mps(leg, default)
         back = leg.start_xy_m - p
         flown_s = float(np.hypot(*back)) / max(v, 1e-9)
         if flown_s >= left_s:
@@ -269,12 +322,15 @@ def berth_buffer_m(buffer_m: float, findings: list[PositionLossFinding] |
 class Berth:
     """A plan's buffer widened for position loss: ``site_buffer_m`` the buffer asked for,
     ``buffer_m`` the one planned with, ``deepest_m`` how deep the coast reached a zone at the
-    buffer asked for, ``left`` the findings the widest plan still has (0: every coast clear)."""
+    buffer asked for, ``left`` the findings the widest plan still has (0: every coast clear).
+    ``windy``: the plan is made for a wind, whose drift during the landing the berth leaves
+    out (no buffer covers it: :func:`drift_xy_m`)."""
 
     site_buffer_m: float
     buffer_m: float
     deepest_m: float
     left: int
+    windy: bool = False
 
     @property
     def message(self) -> str:
@@ -284,7 +340,9 @@ class Berth:
             return (f"{coast}, and no wider buffer could be planned (home inside it, or the "
                     f"safety gate refused the plan): {self.left} leg finding(s), see "
                     f"validate-mission --params")
-        then = ("every coast now stays clear" if not self.left else
+        clear = ("every coast now stays clear, but for the wind's drift while it lands"
+                 if self.windy else "every coast now stays clear")
+        then = (clear if not self.left else
                 f"{self.left} leg finding(s) remain, see validate-mission --params")
         return (f"buffer widened from {self.site_buffer_m:g} m to {self.buffer_m:.1f} m: "
                 f"{coast}; {then}")

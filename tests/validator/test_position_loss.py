@@ -3,10 +3,15 @@ the legs the audit warns about, the one speed rule, and the coast measured from 
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import numpy as np
 import pytest
+import shapely
 
-from tests.validator.builders import make_site, waypoint_plan
+from tests.validator.builders import ALT_M, make_site, waypoint_plan
+from validator.autopilot.rules import failsafe_land_s
 from validator.flight import resolve_flight
 from validator.mavlink.faults import measure_coast
 from validator.position_loss import (
@@ -18,10 +23,20 @@ from validator.position_loss import (
     audit_position_loss,
     berth_buffer_m,
     coast_region,
+    drift_xy_m,
     position_loss_speed_cap_mps,
     region_clearances,
     worst_position_loss_point,
 )
+from validator.site import load_site
+from validator.wind import Wind
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def _wpnav(speed_mps):
+    """Parameters whose WPNAV_SPEED (cm/s) is ``speed_mps``."""
+    return {"WPNAV_SPEED": speed_mps * 100.0}
 
 
 def _flight(site, points, v):
@@ -51,7 +66,7 @@ def test_a_leg_running_at_a_zone_is_capped_and_the_cap_keeps_the_buffer():
                      buffer_m=3.0)
     flight = _flight(site, [(0.0, 50.0), (180.0, 50.0)], 10.0)
     k = next(i for i, leg in enumerate(flight.legs) if leg.end_xy_m[0] == pytest.approx(180.0))
-    found = [f for f in audit_position_loss(flight, site, 10.0) if f.leg == k]
+    found = [f for f in audit_position_loss(flight, site, _wpnav(10.0)) if f.leg == k]
     assert found and found[0].zone == "NFZ1" and found[0].clearance_m < 0.0
     cap = position_loss_speed_cap_mps(flight, k, site, 10.0)
     assert cap is not None and 1.0 <= cap < 10.0 == found[0].speed_mps
@@ -64,7 +79,7 @@ def test_a_leg_passing_a_zone_closer_than_the_wander_has_no_speed_that_helps():
     site = make_site(nfz=((100.0, 0.0, 20.0),), gns=((0.0, 28.0), (200.0, 28.0)),
                      buffer_m=3.0)
     flight = _flight(site, [(0.0, 28.0), (200.0, 28.0)], 5.0)
-    found = audit_position_loss(flight, site, 5.0)
+    found = audit_position_loss(flight, site, _wpnav(5.0))
     assert found and all(f.speed_cap_mps is None for f in found)
     assert "wider berth" in found[0].message
 
@@ -72,7 +87,7 @@ def test_a_leg_passing_a_zone_closer_than_the_wander_has_no_speed_that_helps():
 def test_a_zone_out_of_reach_is_no_finding():
     site = make_site(nfz=((100.0, 200.0, 20.0),), buffer_m=3.0)
     assert audit_position_loss(_flight(site, [(0.0, 50.0), (200.0, 50.0)], 10.0),
-                               site, 10.0) == []
+                               site, _wpnav(10.0)) == []
 
 
 def test_the_coast_is_measured_from_the_failsafes_mode_change():
@@ -93,7 +108,7 @@ def test_the_berth_adds_the_deepest_coast_and_its_margin_to_the_buffer():
     site = make_site(nfz=((100.0, 0.0, 20.0),), gns=((0.0, 28.0), (200.0, 28.0)),
                      buffer_m=3.0)
     flight = _flight(site, [(0.0, 28.0), (200.0, 28.0)], 5.0)
-    found = [f for f in audit_position_loss(flight, site, 5.0)
+    found = [f for f in audit_position_loss(flight, site, _wpnav(5.0))
              if abs(flight.legs[f.leg].end_xy_m[0] - 200.0) < 1e-3]  # the leg beside it
     deepest = max(-f.clearance_m for f in found)
     assert berth_buffer_m(3.0, found) == pytest.approx(3.0 + deepest + BERTH_MARGIN_M)
@@ -106,7 +121,8 @@ def test_a_coast_deeper_than_the_wander_first_asks_for_the_wander_only():
     # plan already that far out is asked for the whole depth
     site = make_site(nfz=((220.0, 50.0, 20.0),), gns=((0.0, 50.0), (180.0, 50.0)),
                      buffer_m=3.0)
-    found = audit_position_loss(_flight(site, [(0.0, 50.0), (180.0, 50.0)], 10.0), site, 10.0)
+    found = audit_position_loss(_flight(site, [(0.0, 50.0), (180.0, 50.0)], 10.0), site,
+                                _wpnav(10.0))
     deepest = max(-f.clearance_m for f in found)
     assert 3.0 + deepest > WANDER_M
     assert berth_buffer_m(3.0, found) == pytest.approx(WANDER_M + BERTH_MARGIN_M)
@@ -117,7 +133,7 @@ def test_a_coast_deeper_than_the_wander_first_asks_for_the_wander_only():
 def test_a_leg_moved_out_by_the_berth_leaves_the_zone_out_of_reach():
     site = make_site(nfz=((100.0, 0.0, 20.0),), gns=((0.0, 28.0), (200.0, 28.0)),
                      buffer_m=3.0)
-    found = audit_position_loss(_flight(site, [(0.0, 28.0), (200.0, 28.0)], 5.0), site, 5.0)
+    found = audit_position_loss(_flight(site, [(0.0, 28.0), (200.0, 28.0)], 5.0), site, _wpnav(5.0))
     need = berth_buffer_m(3.0, found)
     assert need is not None
     y = 20.0 + need  # the leg as a plan with the wider buffer keeps it
@@ -126,7 +142,7 @@ def test_a_leg_moved_out_by_the_berth_leaves_the_zone_out_of_reach():
              if abs(leg.end_xy_m[0] - 200.0) < 1e-3 and abs(leg.start_xy_m[0]) < 1e-3)
     before = [f for f in found if f.leg == k]
     assert before, "the leg at the narrow buffer must be a finding for this test to mean anything"
-    assert [f for f in audit_position_loss(moved, site, 5.0) if f.leg == k] == []
+    assert [f for f in audit_position_loss(moved, site, _wpnav(5.0)) if f.leg == k] == []
 
 
 @pytest.mark.parametrize("points", [[(0.0, 50.0), (300.0, 50.0)],
@@ -136,7 +152,7 @@ def test_a_gps_loss_is_aimed_the_failsafe_delay_before_the_worst_coast(points):
     # loss must come 8.2 s of flight (82 m at 10 m/s) before, over a corner if need be
     site = make_site(nfz=((360.0, 50.0, 20.0),), gns=((0.0, 50.0), (300.0, 50.0)),
                      buffer_m=3.0)
-    found = worst_position_loss_point(_flight(site, points, 10.0), site, 10.0)
+    found = worst_position_loss_point(_flight(site, points, 10.0), site, _wpnav(10.0))
     assert found is not None
     xy, clearance = found
     assert clearance == pytest.approx(360.0 - 300.0 - COAST_S * 10.0 - 20.0 - WANDER_M, abs=0.5)
@@ -146,4 +162,82 @@ def test_a_gps_loss_is_aimed_the_failsafe_delay_before_the_worst_coast(points):
 def test_no_zone_no_point_to_aim_a_gps_loss_at():
     site = make_site(nfz=(), gns=((0.0, 50.0), (300.0, 50.0)), buffer_m=3.0)
     assert worst_position_loss_point(_flight(site, [(0.0, 50.0), (300.0, 50.0)], 10.0),
-                                     site, 10.0) is None
+                                     site, _wpnav(10.0)) is None
+
+
+# -- in wind: the failsafe lands without a position, and the air carries the vehicle ---------
+
+WIND_FLIGHTS = REPO / "tests" / "data" / "failsafe" / "gps-loss-wind.json"
+
+
+def test_a_failsafe_landing_from_30_m_takes_the_measured_42_s():
+    assert failsafe_land_s(30.0, None) == pytest.approx(41.8, abs=0.1)  # measured 41.75, 41.8
+
+
+def test_a_faster_high_descent_shortens_the_landing_and_its_drift():
+    default = failsafe_land_s(30.0, None)
+    assert failsafe_land_s(30.0, {"LAND_SPEED_HIGH": 300.0}) == pytest.approx(
+        default - 20.0 / 1.5 + 20.0 / 3.0)
+    # below LAND_ALT_LOW the whole descent is at LAND_SPEED (0.5 m/s)
+    assert failsafe_land_s(8.0, None) == pytest.approx(4.0 + 8.0 / 0.5 + 4.5)
+
+
+def test_still_air_leaves_no_drift():
+    site = make_site(nfz=((100.0, 150.0, 20.0),), gns=((0.0, 0.0), (200.0, 0.0)))
+    assert drift_xy_m(site, 30.0, None) == pytest.approx([0.0, 0.0])
+
+
+def test_the_drift_runs_downwind_for_the_whole_landing():
+    site = make_site(nfz=((100.0, 150.0, 20.0),), gns=((0.0, 0.0), (200.0, 0.0)))
+    windy = site.with_limits(wind=Wind(4.0, 180.0))  # from the south: it blows north
+    assert drift_xy_m(windy, 30.0, None) == pytest.approx(
+        [0.0, 4.0 * failsafe_land_s(30.0, None)], abs=1e-9)
+
+
+def test_a_zone_downwind_of_a_leg_is_reached_in_wind_and_not_in_still_air():
+    # the leg runs east 130 m south of a zone's edge: out of the coast's reach in still air,
+    # but 4 m/s from the south carries a vehicle without a position 167 m north
+    site = make_site(nfz=((100.0, 150.0, 20.0),), gns=((0.0, 0.0), (200.0, 0.0)))
+    windy = site.with_limits(wind=Wind(4.0, 180.0))
+    plan = _flight(site, [(0.0, 0.0), (200.0, 0.0)], 5.0)
+    assert audit_position_loss(plan, site, _wpnav(5.0)) == []
+    found = audit_position_loss(plan, windy, _wpnav(5.0))
+    assert found and {f.zone for f in found} == {"NFZ1"}
+    f = found[0]
+    assert f.drift_m == pytest.approx(4.0 * failsafe_land_s(ALT_M, None), abs=0.1)
+    assert f.speed_cap_mps is None  # no speed helps: the drift alone reaches it
+    assert "drifting" in f.message and "LAND_SPEED_HIGH" in f.message
+    # the berth's view leaves the drift out: a wider buffer cannot keep it clear
+    assert audit_position_loss(plan, windy, _wpnav(5.0), drift=False) == []
+
+
+def test_a_gps_loss_in_wind_is_aimed_where_the_drift_comes_closest():
+    site = make_site(nfz=((100.0, 150.0, 20.0),), gns=((0.0, 0.0), (200.0, 0.0)))
+    windy = site.with_limits(wind=Wind(4.0, 180.0))
+    plan = _flight(site, [(0.0, 0.0), (200.0, 0.0)], 5.0)
+    found = worst_position_loss_point(plan, windy, _wpnav(5.0))
+    assert found is not None
+    _, clearance = found
+    assert clearance < 0.0  # the drift reaches the zone
+    calm = worst_position_loss_point(plan, site, _wpnav(5.0))
+    assert calm is not None and calm[1] > 0.0
+
+
+@pytest.mark.parametrize("flight", json.loads(WIND_FLIGHTS.read_text())["flights"],
+                         ids=lambda f: f"{f['wind']['speed_mps']:g}@{f['wind']['from_deg']:g}")
+def test_each_gps_loss_flown_in_sitl_wind_ends_inside_the_modelled_region(flight):
+    """ArduCopter 4.5.6 SITL: a GPS loss in wind, from the failsafe's point and velocity the
+    landed vehicle lies within the drifting region, and outside the still-air one (the
+    measured drift is far beyond the coast)."""
+    site = load_site(REPO / flight["site"]).with_limits(wind=Wind(
+        flight["wind"]["speed_mps"], flight["wind"]["from_deg"], flight["wind"]["turbulence_mps"]))
+    p = np.array(flight["failsafe_xy_m"])
+    v = np.array(flight["velocity_mps"])
+    start = p - v  # the last second's flying: the leg the failsafe fired on
+    speed = float(np.hypot(*v))
+    end = shapely.Point(flight["end_xy_m"])
+    drift = drift_xy_m(site, flight["altitude_m"], None)
+    assert coast_region(start, p, speed, drift_m=drift).contains(end)
+    assert not coast_region(start, p, speed).contains(end)
+    assert flight["landing_s"] == pytest.approx(failsafe_land_s(flight["altitude_m"], None),
+                                                abs=1.0)

@@ -318,10 +318,9 @@ def fault_watch(v: Validation, kind: str, vehicle_params: Mapping[str, float] | 
         raise InputError(f"--fault: {v.site_path} has no zone: no worst point to inject at")
     target = worst.xy_m
     if kind == "gps-loss" and not px4:  # its failsafe path is the coast, not a return
-        from validator.autopilot.rules import default_speed_mps
         from validator.position_loss import worst_position_loss_point
 
-        coast = worst_position_loss_point(v.flight, v.site, default_speed_mps(vehicle_params))
+        coast = worst_position_loss_point(v.flight, v.site, vehicle_params)
         if coast is not None:
             target = (float(coast[0][0]), float(coast[0][1]))
 
