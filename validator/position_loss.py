@@ -27,6 +27,17 @@ failsafe fired. Over a leg the failsafe may fire anywhere, so the region is the 
 leg and the discs ahead of its two ends; at a corner the velocity turns from one leg to the
 next, so the discs ahead of the corner sweep between the two directions.
 
+**In wind** the levelled vehicle moves with the air for the whole landing: its pause, the
+descent to LAND_ALT_LOW and the slow final metres
+(:func:`~validator.autopilot.rules.failsafe_land_s`, 41.8 s from 30 m). Measured on the same
+SITL (``--fault gps-loss --wind``, 30 m; report ``fault``,
+``tests/data/failsafe/gps-loss-wind.json``): 146 m downwind in 4 m/s, 239 m in
+6 m/s, 318 m in 8 m/s with 2 m/s turbulence, each over a 41-42 s landing. So the region is
+swept downwind by the flight wind times that landing (:func:`drift_xy_m`; 167, 251 and 334 m
+there). No buffer keeps such a drift clear and no leg speed shortens it, so the berth plans
+against the still-air coast (``audit_position_loss(..., drift=False)``), and the drift is a
+warning that names the wind, how far, and the zones.
+
 The region is judged against the zones themselves, not their buffers: the buffer is the
 margin of the planned path, and the coast is what the vehicle does when that path is lost
 (the model already holds the measured worst case). The speed of a leg is one rule
@@ -84,13 +95,12 @@ class PositionLossFinding:
         if self.speed_cap_mps is not None:
             fix = f"at most {self.speed_cap_mps:.1f} m/s on this leg keeps it out"
         elif self.drift_m > WANDER_M:
-            fix = ("no speed keeps it out (the wind's drift alone reaches it): a lower "
-                   "altitude, or a faster descent (LAND_SPEED_HIGH), shortens the drift")
+            fix = ("no speed keeps it out (the drift alone reaches it; a lower altitude or "
+                   "a faster LAND_SPEED_HIGH shortens it)")
         else:
             fix = (f"no speed keeps it out (the {WANDER_M:g} m wander alone reaches it): the "
                    f"leg needs a wider berth (a site buffer over the {WANDER_M:g} m wander)")
-        drift = (f", drifting {self.drift_m:.0f} m with the wind while it lands,"
-                 if self.drift_m > 0 else "")
+        drift = f", drifting {self.drift_m:.0f} m as it lands," if self.drift_m > 0 else ""
         return (f"GPS loss: from the leg to item {self.item} at {self.speed_mps:.1f} m/s the "
                 f"coast after the EKF failsafe (Land without a position){drift} {where}; {fix}")
 
