@@ -2,7 +2,8 @@
 the plan plan-mission makes now), data-link loss on PX4 SIH, injected where a straight return
 would come closest to a zone (a GPS loss: where its coast would)
 (``validate-mission --sitl-binary ... --fault KIND``). With the parameters plan-mission writes,
-the vehicle must keep out of every zone and end landed or holding still.
+the vehicle must keep out of every zone and end landed or holding still; a GPS loss in wind
+drifts downwind while it lands, as far as the audit warned.
 
 Skipped without a SITL binary (``$ARDUPILOT_SITL`` / ``$PX4_SITL`` or the README's documented
 paths); each flies a whole mission against the wall clock.
@@ -93,3 +94,35 @@ def test_a_gps_loss_on_the_default_plan_coasts_clear_of_every_zone(tmp_path):
     report = json.loads(out.read_text())
     _assert_safe(status, report, "LAND")
     assert report["fault"]["coast"] is not None  # the EKF failsafe fired and the coast measured
+
+
+@needs_arducopter
+def test_a_gps_loss_in_wind_drifts_downwind_as_far_as_the_audit_warns(tmp_path):
+    # the realistic site planned for 4 m/s from the south and flown in it: a vehicle without
+    # a position lands drifting north with the air (146 m measured once, into NFZ2); the
+    # audit must have warned of that drift, and the flown drift must lie within it
+    import numpy as np
+
+    from mission_planner.cli import plan_mission_main
+    from validator.autopilot.rules import failsafe_land_s
+    from validator.position_loss import COAST_S, WANDER_M
+    from validator.wind import Wind
+
+    site = str(DATA / "sites" / "realistic.yaml")
+    plan, params = tmp_path / "m.plan", tmp_path / "m.param"
+    assert plan_mission_main([site, "-o", str(plan), "--wind", "4@180", "--quiet"]) == 0
+    out = tmp_path / "report.json"
+    validate_mission_main([str(plan), "--site", site, "--params", str(params),
+                           "--sitl-binary", str(ARDUCOPTER), "--fault", "gps-loss",
+                           "--report", str(out), "--quiet"])
+    report = json.loads(out.read_text())
+    fault = report["fault"]
+    assert fault["end_state"] == "landed" and "LAND" in fault["modes"]
+    warned = [f for f in report["failsafe"]["position_loss"] if f["drift_m"] > 0]
+    assert warned, "the audit must warn of the drift in this wind"
+    drift = Wind(4.0, 180.0).vector_mps * failsafe_land_s(30.0, None)
+    track = np.array(fault["track_xy_m"])
+    failsafe_at = track[int(round(fault["coast"]["delay_s"]))]
+    moved = np.asarray(fault["end_xy_m"]) - failsafe_at
+    north = float(moved[1])
+    assert 0.5 * drift[1] < north <= drift[1] + COAST_S * 10.0 + WANDER_M, (north, drift)
