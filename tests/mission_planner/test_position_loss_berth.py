@@ -99,3 +99,29 @@ def test_plan_mission_says_it_widened_the_buffer_and_buffer_m_keeps_the_given_on
                               "--report", str(tmp_path / "c.json")]) == 0
     assert "buffer widened" not in capsys.readouterr().err
     assert "position_loss_berth" in json.loads((tmp_path / "c.json").read_text())
+
+
+def test_in_wind_the_berth_takes_one_step_and_plan_mission_warns_of_the_drift(tmp_path, capsys):
+    # realistic.yaml in 3 m/s from 270°: at the wander's 12.5 m one coast still reaches NFZ1,
+    # and a second step asked for 27.5 m (1.50 against 1.80 bps/Hz); in wind the landing's
+    # drift (125 m here) is beyond any berth, so the berth stops at its first step and
+    # plan-mission warns of the drift instead
+    from mission_planner.cli import plan_mission_main
+    from validator.position_loss import BERTH_MARGIN_M, WANDER_M
+    from validator.wind import Wind
+
+    windy = load_site(REALISTIC).with_limits(wind=Wind(3.0, 270.0))
+    mission = plan_and_build(windy)
+    berth = mission.position_loss_berth
+    assert berth is not None and berth.windy
+    assert berth.buffer_m <= WANDER_M + BERTH_MARGIN_M + 1e-9
+    assert "but for the wind's drift" in berth.message or berth.left
+    drifting = [f for f in position_loss_findings(mission) if f.drift_m > 100.0]
+    assert drifting  # the audit with the drift finds what the berth leaves
+
+    assert plan_mission_main([str(REALISTIC), "-o", str(tmp_path / "w.plan"), "--quiet",
+                              "--wind", "3@270"]) == 0
+    err = capsys.readouterr().err
+    [line] = [x for x in err.splitlines() if "drifts up to" in x]
+    assert line.startswith("plan-mission: warning: a GPS loss in 3 m/s from 270°")
+    assert "no buffer keeps that clear" in line
