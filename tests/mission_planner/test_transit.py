@@ -128,3 +128,24 @@ def test_a_transit_obstacle_near_an_end_point_keeps_what_that_point_allows():
     far = shapely.MultiPoint([(50.0, 60.0), (50.0, 300.0)])
     whole = shapely.Polygon(_largest_outline_clear_of(zone, 3.5, far))
     assert whole.exterior.distance(zone.shape) == pytest.approx(3.5)
+
+
+def test_an_end_point_round_a_corner_keeps_the_outline_at_the_whole_grow():
+    """An end point just beyond the grown margin, round a corner (harbour in 8 m/s from 45°:
+    the cycle's first waypoint 3.45 m from the breakwater's corner, the transit grown by
+    3.44 m): the fence's 30° chords stand off the corner up to 3.56 m and held the point in,
+    and shrinking them until it was out let the transit's last chord pass 3.33 m from the
+    zone. Rounded with finer chords, the outline keeps the whole margin."""
+    import shapely
+
+    from mission_planner.mission.clearance import _largest_outline_clear_of
+    from validator.zones import fence_outline_m, polygon_zone
+
+    zone = polygon_zone("Z", [(0, 0), (100, 0), (100, 50), (0, 50)], "test")
+    corner = np.array([100.0, 50.0])
+    at = corner + 3.45 * np.array([math.cos(math.radians(60)), math.sin(math.radians(60))])
+    ends = shapely.MultiPoint([at, (300.0, 300.0)])
+    assert shapely.Polygon(fence_outline_m(zone, 3.44)).intersects(ends)  # the old trap
+    outline = shapely.Polygon(_largest_outline_clear_of(zone, 3.44, ends))
+    assert not outline.intersects(ends)
+    assert outline.exterior.distance(zone.shape) >= 3.43  # the buffer, not 3.33
