@@ -19,7 +19,12 @@ from mission_planner.mission.options import (
     fence_margin_for,
     leg_margin_m,
 )
-from mission_planner.mission.speeds import assign_speeds, stop_lags, wind_speeds
+from mission_planner.mission.speeds import (
+    assign_speeds,
+    stop_lags,
+    transit_speeds,
+    wind_speeds,
+)
 from mission_planner.mission.steps import (
     CycleStep,
     merge_straight_steps,
@@ -192,11 +197,26 @@ def build_mission(solution: Solution, options: MissionOptions | None = None) -> 
         lat, lon = frame.to_geodetic(xy)
         return float(lat), float(lon)
 
+    autopilot, timing_params = timed_for(solution, opt)
+
+    def transit(path: NDArray[np.float64], to_land: bool) -> None:
+        """The transit's speeds and waypoints, each leg at the speed it can hold in the wind
+        (:func:`.speeds.transit_speeds`); with ``to_land`` the last leg's end is the LAND
+        that follows, not a waypoint."""
+        current = None
+        for k, v in enumerate(transit_speeds(path, site, autopilot, timing_params,
+                                             transit_speed)):
+            if current is None or abs(v - current) > opt.speed_tol_mps:
+                items.append(_speed(float(v)))
+                current = float(v)
+            if not (to_land and k == len(path) - 2):
+                items.append(_nav(Cmd.NAV_WAYPOINT, *latlon(path[k + 1]), alt))
+        if current is None:  # no leg at all (home is the cycle's end point)
+            items.append(_speed(transit_speed))
+
     items: list[MissionItem] = []
     items.append(_nav(Cmd.NAV_TAKEOFF, *latlon(home), alt))
-    items.append(_speed(transit_speed))
-    for p in outbound[1:]:
-        items.append(_nav(Cmd.NAV_WAYPOINT, *latlon(p), alt))
+    transit(outbound, False)
     first = len(items)
     current: float | None = None
     for s, hold in zip(steps, holds, strict=True):
@@ -208,9 +228,7 @@ def build_mission(solution: Solution, options: MissionOptions | None = None) -> 
     closing = len(items) - 1
     if opt.cycles > 1:
         items.append(_jump(first, opt.cycles - 1))
-    items.append(_speed(transit_speed))
-    for p in back[1:-1]:
-        items.append(_nav(Cmd.NAV_WAYPOINT, *latlon(p), alt))
+    transit(back, True)
     items.append(_nav(Cmd.NAV_LAND, *latlon(home), 0.0))
 
     margin = fence_margin_for(site, opt)
