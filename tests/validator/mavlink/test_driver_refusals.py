@@ -45,3 +45,42 @@ def test_a_silent_vehicle_adds_nothing():
     with pytest.raises(LinkError) as err:
         _until_accepted(_Refusing([]), _Idle(), mavlink.MAV_CMD_NAV_TAKEOFF, patience_s=0.0)
     assert "last:" not in str(err.value)
+
+
+class _Climbing:
+    """A vehicle whose first take-off was accepted with its ACK lost: it climbs, and refuses
+    every take-off asked of it after."""
+
+    def __init__(self) -> None:
+        self.armed = True
+        self.t_s = 10.0
+        self.rows = [(10.0, 0.0, 0.0, 0.0)]
+
+    def pump(self, until: float, done: object) -> bool:
+        self.t_s += 1.0
+        self.rows.append((self.t_s, 0.0, 0.0, 1.5 * (self.t_s - 10.0)))  # 1.5 m/s up
+        return False
+
+
+def test_a_take_off_whose_ack_was_lost_is_not_asked_again_until_the_patience_runs_out():
+    from validator.mavlink.driver import _arm_and_take_off
+
+    link, rec = _Refusing(["Arming motors"]), _Climbing()
+    assert _arm_and_take_off(link, rec, 30.0) == 10.0  # the first request's time
+    assert link.asked == 2  # once more after the climb began, then no more
+
+
+def test_a_vehicle_still_on_the_ground_is_asked_again(monkeypatch):
+    import validator.mavlink.driver as driver
+
+    class _Grounded(_Climbing):
+        def pump(self, until: float, done: object) -> bool:
+            self.t_s += 1.0
+            self.rows.append((self.t_s, 0.0, 0.0, 0.0))
+            return False
+
+    link = _Refusing([])
+    monkeypatch.setattr(driver, "ARM_PATIENCE_S", 0.05)
+    with pytest.raises(LinkError, match="MAV_CMD_NAV_TAKEOFF"):
+        driver._arm_and_take_off(link, _Grounded(), 30.0)
+    assert link.asked >= 2
