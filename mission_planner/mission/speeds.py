@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 
 from mission_planner.mission.steps import CycleStep
 from validator.motion.arducopter import STOP_LAG_S, leg_speeds_mps
-from validator.motion.profile import profile_wind
+from validator.motion.profile import Profile, profile_wind
 from validator.motion.px4_mission import px4_top_speed_mps
 from validator.motion.speed_model import motion_profile
 from validator.site import Site
@@ -94,16 +94,23 @@ def wind_speeds(steps: list[CycleStep], trajectory_m: NDArray[np.float64], site:
         if not s.scurve or s.speed_mps is None or length <= 0:
             out.append(s)
             continue
-        unit = (d / length)[None, :]
-        if profile.name == "px4":
-            wind = profile_wind(profile)
-            g = (ground_speed_mps(px4_top_speed_mps(profile), wind.vector_mps, unit)
-                 if wind is not None else np.array([speed_mps]))
-            speed = float(min(speed_mps, float(g[0])))
-        else:
-            speed = float(leg_speeds_mps(profile, speed_mps, unit)[0])
+        speed = float(_wind_capped_mps(profile, speed_mps, (d / length)[None, :])[0])
         out.append(replace(s, speed_mps=speed))
     return out
+
+
+def _wind_capped_mps(profile: Profile, speed_mps: float, unit: NDArray[np.float64]
+                     ) -> NDArray[np.float64]:
+    """``speed_mps``, or along each unit course ``unit`` (L, 2) the lower ground speed the
+    vehicle's top airspeed leaves in the profile's wind: ArduCopter's rule
+    (:func:`validator.motion.arducopter.leg_speeds_mps`), PX4's likewise."""
+    if profile.name != "px4":
+        return np.asarray(leg_speeds_mps(profile, speed_mps, unit), dtype=float)
+    wind = profile_wind(profile)
+    if wind is None:
+        return np.full(len(unit), float(speed_mps))
+    g = ground_speed_mps(px4_top_speed_mps(profile), wind.vector_mps, unit)
+    return np.minimum(float(speed_mps), g)
 
 
 def transit_speeds(path_m: NDArray[np.float64], site: Site, autopilot: str,
@@ -124,15 +131,9 @@ def transit_speeds(path_m: NDArray[np.float64], site: Site, autopilot: str,
     if site.flight_wind is None or not len(d):
         return out
     moving = lengths > 0
-    unit = d[moving] / lengths[moving, None]
     profile = motion_profile(site, autopilot, dict(timing_params))
-    if profile.name == "px4":
-        wind = profile_wind(profile)
-        g = (ground_speed_mps(px4_top_speed_mps(profile), wind.vector_mps, unit)
-             if wind is not None else np.full(len(unit), float(speed_mps)))
-        out[moving] = np.minimum(float(speed_mps), g)
-    else:
-        out[moving] = leg_speeds_mps(profile, float(speed_mps), unit)
+    out[moving] = _wind_capped_mps(profile, float(speed_mps),
+                                   d[moving] / lengths[moving, None])
     return out
 
 

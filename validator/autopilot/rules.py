@@ -47,7 +47,14 @@ ACCEPTANCE_RADIUS_PARAM = {"ardupilot": "WPNAV_RADIUS", "px4": "NAV_ACC_RAD"}
 def default_speed_mps(params: Mapping[str, float] | None) -> float:
     """The horizontal speed (m/s) ArduCopter flies a leg with no DO_CHANGE_SPEED in force:
     WPNAV_SPEED from ``params`` (its units, cm/s), else its default."""
-    return _WPNAV_SPEED.to_si * float((params or {}).get("WPNAV_SPEED", _WPNAV_SPEED.default))
+    return _param_si("WPNAV_SPEED", params)
+
+
+def _param_si(name: str, params: Mapping[str, float] | None) -> float:
+    """ArduCopter parameter ``name`` in SI units: from ``params`` (its own units), else its
+    default."""
+    spec = param_table("ardupilot")[name]
+    return spec.to_si * float((params or {}).get(name, spec.default))
 
 
 FAILSAFE_LAND_PAUSE_S = 4.0  # ArduCopter's LAND_WITH_DELAY_MS (config.h): a failsafe's pause
@@ -60,14 +67,10 @@ def failsafe_land_s(altitude_m: float, params: Mapping[str, float] | None) -> fl
     LAND_ALT_LOW, LAND_SPEED below, and :data:`TOUCHDOWN_S`. ArduCopter 4.5.6 SITL from 30 m
     with the defaults: 41.75 and 41.8 s measured (GPS loss in 4 and 6 m/s of wind), 41.8 s
     here."""
-    table = param_table("ardupilot")
-
-    def si(name: str) -> float:
-        return table[name].to_si * float((params or {}).get(name, table[name].default))
-
-    slow = si("LAND_SPEED")
-    fast = max(si("LAND_SPEED_HIGH") or si("WPNAV_SPEED_DN"), slow)
-    low = si("LAND_ALT_LOW")
+    slow = _param_si("LAND_SPEED", params)
+    fast = max(_param_si("LAND_SPEED_HIGH", params) or _param_si("WPNAV_SPEED_DN", params),
+               slow)
+    low = _param_si("LAND_ALT_LOW", params)
     h = max(float(altitude_m), 0.0)
     return FAILSAFE_LAND_PAUSE_S + max(h - low, 0.0) / fast + min(h, low) / slow + TOUCHDOWN_S
 
