@@ -43,6 +43,7 @@ DEFAULT_DURATION_S = 600.0
 RECONNECT_S = 0.5  # between attempts to reach a TCP vehicle that closed its port
 _MAX_DATAGRAM = 65535
 _V1, _V2 = 0xFE, 0xFD
+_COMMAND_ACK = 77  # MAVLink message id
 
 
 @dataclass(frozen=True)
@@ -116,6 +117,17 @@ def message_id(packet: bytes) -> int | None:
     return None
 
 
+def acked_command(packet: bytes) -> int | None:
+    """The command a COMMAND_ACK packet answers (None: not a COMMAND_ACK); ``command`` is the
+    payload's first field, a little-endian uint16 (MAVLink 2 trims trailing zero bytes, so an
+    ACCEPTED answer to a command below 256 carries one byte)."""
+    if message_id(packet) != _COMMAND_ACK:
+        return None
+    start = 6 if packet[0] == _V1 else 10
+    payload = packet[start:start + min(packet[1], 2)]
+    return int.from_bytes(payload, "little")
+
+
 def split_packets(buf: bytearray) -> list[bytes]:
     """Take the whole MAVLink 1/2 packets off the front of ``buf`` (a TCP byte stream; bytes
     before a start marker are skipped, an incomplete packet stays for the next read). The
@@ -164,6 +176,9 @@ class LossyRelay:
         # the message ids a gap kept from the vehicle, in order: a test can wait for what the
         # ground station does while cut off (its LAND, say) instead of timing it
         self.swallowed_to_vehicle: list[int] = []
+        # the commands whose COMMAND_ACK reached the ground station, in order: a test can cut
+        # the link once the ground station knows the mission started, not a guess after it
+        self.acked_to_gcs: list[int] = []
         self._pending: list[tuple[float, int, bool, bytes]] = []  # (due, n, to_vehicle, data)
         self._counter = 0
         self._stream = bytearray()
@@ -256,6 +271,9 @@ class LossyRelay:
                 if not to_vehicle:
                     if self._gcs_addr is not None:
                         self._gcs.sendto(data, self._gcs_addr)
+                        command = acked_command(data)
+                        if command is not None:
+                            self.acked_to_gcs.append(command)
                 elif self._scheme == "tcp":
                     if self._vehicle is not None:
                         self._vehicle.sendall(data)

@@ -24,6 +24,7 @@ from validator.site import site_to_dict
 
 SPEEDUP = 5.0
 COMMAND_LONG = 76  # MAVLink message id: the tool's LAND (DO_SET_MODE)
+MISSION_START = 300  # MAV_CMD: the tool's last command before the flight is its own
 
 
 @pytest.fixture()
@@ -47,13 +48,15 @@ def relayed(files, start_vehicle) -> Iterator[tuple]:
 
 def cut_in_auto(vehicle, relay, *, after_s: float, for_s: float | None,
                 until_commanded: bool = False) -> threading.Thread:
-    """Cut the link ``after_s`` wall seconds into the mission (AUTO), for ``for_s`` (None:
-    for good); ``until_commanded``: until the tool, having given the link up, sends its first
-    command (LAND) into the gap, whatever the machine's load made of the wall clock."""
+    """Cut the link ``after_s`` wall seconds after the tool has heard MISSION_START accepted,
+    for ``for_s`` (None: for good); ``until_commanded``: until the tool, having given the link
+    up, sends its first command (LAND) into the gap, whatever the machine's load made of the
+    wall clock. (A cut timed from the vehicle's AUTO once caught the tool still waiting for an
+    ACK that 5 % loss had eaten, and the run ended on "no COMMAND_ACK" instead.)"""
 
     def run() -> None:
         deadline = time.monotonic() + 60.0
-        while vehicle.mode != CopterMode.AUTO and time.monotonic() < deadline:
+        while MISSION_START not in relay.acked_to_gcs and time.monotonic() < deadline:
             time.sleep(0.02)
         time.sleep(after_s)
         relay.cut()

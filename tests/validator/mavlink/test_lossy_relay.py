@@ -14,6 +14,7 @@ from validator.mavlink.link import Link, LinkError, upload_to
 from validator.mavlink.lossy_relay import (
     LinkFaults,
     LossyRelay,
+    acked_command,
     main,
     message_id,
     split_packets,
@@ -54,6 +55,19 @@ def test_a_packets_message_id_is_read_in_both_versions():
     v1 = bytes(mav1.heartbeat_encode(2, 3, 0, 0, 4).pack(mav1, force_mavlink1=True))
     assert v1[0] == 0xFE and message_id(v1) == mavlink.MAVLINK_MSG_ID_HEARTBEAT
     assert message_id(b"junk") is None
+
+
+def test_the_command_a_command_ack_answers_is_read_even_when_mavlink2_trims_it():
+    mav = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+
+    def ack(command: int) -> bytes:
+        return bytes(mav.command_ack_encode(command, mavlink.MAV_RESULT_ACCEPTED).pack(mav))
+
+    set_mode = ack(mavlink.MAV_CMD_DO_SET_MODE)
+    assert set_mode[1] == 1  # 176 with ACCEPTED (0) after it: one payload byte left
+    assert acked_command(set_mode) == mavlink.MAV_CMD_DO_SET_MODE
+    assert acked_command(ack(mavlink.MAV_CMD_MISSION_START)) == mavlink.MAV_CMD_MISSION_START
+    assert acked_command(packet(1)) is None
 
 
 def test_a_mavlink1_packet_is_whole_too():
