@@ -121,7 +121,9 @@ def table(flights: list[dict[str, Any]]) -> str:
     for f in flights:
         t, pred, flown = f["period_s"], f["predicted_cycle_s"], f["flown_cycle_s"]
         clear = min(f["flown_clearance_m"].values(), default=float("nan"))
-        rate, planned = f["flown_min_rate_bps_hz"], f["planned_min_rate_bps_hz"]
+        # the report's prediction (its replay in the plan's wind), as targets() measures
+        rate = f["flown_min_rate_bps_hz"]
+        planned = f.get("report_min_rate_bps_hz") or f["replayed_min_rate_bps_hz"]
         lines.append(
             f"| {f['site']} | {f['wind']} | {f['plan']} | "
             f"{flown / t:.3f} | {pred / flown:.3f} | {clear:.2f} | "
