@@ -190,7 +190,7 @@ def fly_mission(
         landed, verdict = after_link_loss(link, modes, own_failsafe, say)
         if landed:
             try:  # record the descent too: it is part of the flight
-                rec.pump_vehicle_time(LAND_RECORD_S, lambda: not rec.armed)
+                rec.pump_vehicle_time(LAND_RECORD_S, rec.disarm_recorded())
             except LinkLost:
                 pass
         when = (f" {rec.t_s - start_s:.1f} s into the mission"

@@ -28,6 +28,8 @@ from validator.track_file import RecordedTrack
 # Vehicle seconds without a position report that make a gap in the recorded track: telemetry
 # comes at 20 Hz, so even a link losing a third of its packets leaves nothing this long.
 LINK_GAP_S = 1.0
+# How long a recording that ends at the disarm waits for a position report after it (wall s)
+DISARM_GRACE_S = 1.0
 
 
 class LinkLost(LinkError):
@@ -152,6 +154,24 @@ class Recorder:
 
         self.pump(math.inf, done)
         return bool(stop())
+
+    def disarm_recorded(self, grace_s: float = DISARM_GRACE_S) -> Callable[[], bool]:
+        """A stop for :meth:`pump`: the vehicle has disarmed and a position report since is
+        recorded (so the track ends on a sample marked disarmed), or ``grace_s`` wall seconds
+        have passed since the disarm without one. Stopping on the disarm HEARTBEAT alone ends
+        the track on the sample before it, still marked armed."""
+        disarmed_at: list[float] = []
+
+        def done() -> bool:
+            if self.armed:
+                return False
+            if self.rows and not self.rows[-1][8]:
+                return True
+            if not disarmed_at:
+                disarmed_at.append(time.monotonic())
+            return time.monotonic() - disarmed_at[0] >= grace_s
+
+        return done
 
     def take(self, m: Any) -> None:
         """Fold one pymavlink message into the state (fields are its attributes); the link
