@@ -74,5 +74,10 @@ def test_drag_grows_with_the_square_of_the_airspeed():
 
 
 def test_only_a_fall_in_drag_lags():
-    lag = corner_wind_lag_s([5.0, 2.0, 3.0], [1.0, 4.0, 3.0])
+    lag = corner_wind_lag_s([160.0] * 3, [5.0, 2.0, 3.0], [1.0, 4.0, 3.0])
     assert lag == pytest.approx([4.0 * arducopter.CORNER_WIND_LAG_S_PER_MPS2, 0.0, 0.0])
+
+
+def test_only_a_sharp_corner_lags_in_wind():
+    lag = corner_wind_lag_s([30.0, arducopter.CORNER_LAG_FREE_DEG, 100.0], [5.0] * 3, [1.0] * 3)
+    assert lag == pytest.approx([0.0, 0.0, 4.0 * arducopter.CORNER_WIND_LAG_S_PER_MPS2])

@@ -100,9 +100,14 @@ def arducopter_top_speed_mps(profile: Profile) -> float:
     """The fastest an ``arducopter`` profile's vehicle flies (m/s), whatever WPNAV_SPEED says:
     its lean-limited top speed (:func:`top_speed_mps` at the profile's air density), capped by
     VEHICLE_SPEED_MAX."""
-    v = top_speed_mps(arducopter_lean_max_deg(profile), profile.si("VEHICLE_DRAG"),
-                      air_density_ratio(profile.si("ALT_AMSL")))
+    v = top_speed_mps(arducopter_lean_max_deg(profile), _drag_per_m(profile))
     return min(v, profile.si("VEHICLE_SPEED_MAX"))
+
+
+def _drag_per_m(profile: Profile) -> float:
+    """The drag deceleration over airspeed² (1/m) of an ``arducopter`` profile's vehicle:
+    VEHICLE_DRAG at the air density of ALT_AMSL."""
+    return profile.si("VEHICLE_DRAG") * air_density_ratio(profile.si("ALT_AMSL"))
 
 
 @dataclass(frozen=True)
@@ -274,13 +279,17 @@ def corner_lag_s(turn_deg: ArrayLike, speed_mps: ArrayLike) -> NDArray[np.float6
                       * np.maximum(turn - CORNER_LAG_FREE_DEG, 0.0), dtype=float)
 
 
-def corner_wind_lag_s(drag_in_mps2: ArrayLike, drag_out_mps2: ArrayLike) -> NDArray[np.float64]:
+def corner_wind_lag_s(turn_deg: ArrayLike, drag_in_mps2: ArrayLike,
+                      drag_out_mps2: ArrayLike) -> NDArray[np.float64]:
     """How much more than :func:`corner_lag_s` (s) ArduCopter lags at a corner flown through
-    in wind, where the drag on the vehicle (m/s² of lean, :func:`drag_accel_mps2`) falls from
-    ``drag_in_mps2`` on the leg before to ``drag_out_mps2`` on the leg after; 0 where it
-    rises."""
+    in wind that turns ``turn_deg`` and where the drag on the vehicle (m/s² of lean,
+    :func:`drag_accel_mps2`) falls from ``drag_in_mps2`` on the leg before to ``drag_out_mps2``
+    on the leg after; 0 where it rises, and up to :data:`CORNER_LAG_FREE_DEG` of turn (the
+    vehicle keeps up with its target there)."""
     drop = np.asarray(drag_in_mps2, dtype=float) - np.asarray(drag_out_mps2, dtype=float)
-    return np.asarray(CORNER_WIND_LAG_S_PER_MPS2 * np.maximum(drop, 0.0), dtype=float)
+    sharp = np.asarray(turn_deg, dtype=float) > CORNER_LAG_FREE_DEG
+    return np.asarray(np.where(sharp, CORNER_WIND_LAG_S_PER_MPS2 * np.maximum(drop, 0.0), 0.0),
+                      dtype=float)
 
 
 def drag_accel_mps2(profile: Profile, ground_velocity_mps: ArrayLike) -> NDArray[np.float64]:
@@ -291,8 +300,7 @@ def drag_accel_mps2(profile: Profile, ground_velocity_mps: ArrayLike) -> NDArray
     v = np.atleast_2d(np.asarray(ground_velocity_mps, dtype=float))
     wind = profile_wind(profile)
     air = v - (wind.vector_mps if wind is not None else np.zeros(2))
-    k = profile.si("VEHICLE_DRAG") * air_density_ratio(profile.si("ALT_AMSL"))
-    return np.asarray(k * np.einsum("ij,ij->i", air, air), dtype=float)
+    return np.asarray(_drag_per_m(profile) * np.einsum("ij,ij->i", air, air), dtype=float)
 
 
 def _turns_deg(geom: LegGeometry, corners: NDArray[np.int64]) -> NDArray[np.float64]:
@@ -327,8 +335,7 @@ def fly(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
     lag = corner_lag_s(turns, np.minimum(peak[corners], peak[corners + 1]))
     if profile_wind(profile) is not None and corners.size:
         drag = drag_accel_mps2(profile, peak[:, None] * geom.unit[:, :2])
-        lag = lag + np.where(turns > CORNER_LAG_FREE_DEG,
-                             corner_wind_lag_s(drag[corners], drag[corners + 1]), 0.0)
+        lag = lag + corner_wind_lag_s(turns, drag[corners], drag[corners + 1])
     # on the ground the climb waits for spool-up and lift-off; a landing ends when the land
     # detector has seen the touchdown
     liftoff = np.array([LIFTOFF_DELAY_S if leg.kind == "takeoff" and leg.start_alt_m <= 0
