@@ -18,7 +18,7 @@ from validator.motion.fly import fly
 from validator.motion.limits import air_density_ratio, site_limits, top_speed_mps
 from validator.motion.path import LegGeometry
 from validator.motion.profile import make_profile, parse_param_overrides
-from validator.motion.scurve import scurve_peak_speed, scurve_rest_to_rest
+from validator.motion.scurve import SEG_CRUISE, scurve_peak_speed, scurve_rest_to_rest
 from validator.plan_format import Cmd
 
 
@@ -79,7 +79,7 @@ def test_a_leg_too_short_for_its_speed_peaks_with_no_cruise_left():
     peak = scurve_peak_speed(L, V, A, J, tj)
     short = peak < V
     assert 0 < np.count_nonzero(short) < n  # both kinds of leg are in the sample
-    cruise_s = scurve_rest_to_rest(L, V, A, J, tj).dur_s[:, 7]
+    cruise_s = scurve_rest_to_rest(L, V, A, J, tj).dur_s[:, SEG_CRUISE]
     assert np.all(cruise_s[short] < 1e-6)
     assert np.all(cruise_s[~short] > 0.0)
 

@@ -19,8 +19,9 @@ STOP_LAG_S after the S-curve ends (all three fitted to ArduCopter 4.5.6 SITL fli
 CORNER_LAG_FREE_DEG lags its blend by :func:`corner_lag_s` (the target's clock slows through
 it). In wind (WIND_SPEED, WIND_FROM) the top speed holds
 in the air: each leg is capped at the ground speed its course leaves
-(:func:`leg_speed_caps_mps`), and a corner flown through into less drag lags by
-:func:`corner_wind_lag_s` more; gusts do not move the modelled track.
+(:func:`leg_speed_caps_mps`); gusts do not move the modelled track. A leg entered through a
+corner flown through first runs at the speed of the leg before, as ArduCopter builds its
+S-curve then, and changes to its own after (:func:`corner_first_speeds_mps`).
 """
 
 from __future__ import annotations
@@ -49,7 +50,13 @@ from validator.motion.path import (
     time_grid,
 )
 from validator.motion.profile import Profile, profile_wind
-from validator.motion.scurve import SEG_CRUISE, SEG_DECEL_START, Profiles1D, scurve_to_touchdown
+from validator.motion.scurve import (
+    SEG_CHANGE_START,
+    SEG_DECEL_START,
+    Profiles1D,
+    accel_phase_gain_mps,
+    scurve_to_touchdown,
+)
 from validator.wind import check_flyable, ground_speed_mps
 
 CORNER_SEARCH_STEP_S = 0.0025  # ArduCopter checks the corner condition at its 400 Hz loop rate
@@ -72,15 +79,6 @@ STOP_LAG_S = 0.6
 # (10 m/s: 0.3 s at 100°, 1.05 s at 172°; 6 m/s: 0.15 s and 0.8 s).
 CORNER_LAG_FREE_DEG = 72.0
 CORNER_LAG_S_PER_MPS_DEG = 0.00108
-# In wind a sharp corner flown through also lags by how much less drag the next leg's airspeed
-# brings: the lean that held the vehicle against the wind (the velocity controller's
-# integrator) unwinds slower than the target turns, so the vehicle brakes itself and the
-# target's clock slows. Measured on ArduCopter 4.5.6 SITL (realistic site, 7 m/s from 315°,
-# tests/data/arducopter-sitl-wind/corner-wind): two corners of 156° and 164° from upwind at
-# the air-speed cap into downwind at 10 m/s, the drag falling 2.1 and 4.2 m/s², lagged 1.7 and
-# 3.3 s more than in still air (the slow leg's own shortfall taken out). A chain of 10 m legs
-# turning into more drag lagged 0.1 s at most: rises cost nothing.
-CORNER_WIND_LAG_S_PER_MPS2 = 0.8
 
 
 def arducopter_lean_max_deg(profile: Profile) -> float:
@@ -131,13 +129,15 @@ def scurve_limits(profile: Profile) -> ScurveLimits:
 
 
 def leg_speed_caps_mps(profile: Profile, unit: NDArray[np.float64],
-                       names: list[str] | None = None) -> NDArray[np.float64]:
+                       names: list[str] | None = None,
+                       top_mps: float | None = None) -> NDArray[np.float64]:
     """(n,) the fastest ground speed (m/s) an ``arducopter`` profile's vehicle holds along
-    each leg's direction ``unit`` (n, 3): its top speed (:func:`arducopter_top_speed_mps`),
-    which in wind (WIND_SPEED, WIND_FROM) holds in the air, so less upwind and more downwind
-    (:func:`validator.wind.ground_speed_mps`). A wind at or above the top speed is refused
-    (:class:`InputError` naming the first leg, of ``names``, it cannot fly)."""
-    top = arducopter_top_speed_mps(profile)
+    each leg's direction ``unit`` (n, 3): its top speed (``top_mps``, by default
+    :func:`arducopter_top_speed_mps`), which in wind (WIND_SPEED, WIND_FROM) holds in the air,
+    so less upwind and more downwind (:func:`validator.wind.ground_speed_mps`). A wind at or
+    above the top speed is refused (:class:`InputError` naming the first leg, of ``names``, it
+    cannot fly)."""
+    top = arducopter_top_speed_mps(profile) if top_mps is None else top_mps
     wind = profile_wind(profile)
     if wind is None:
         return np.full(len(unit), top)
@@ -186,10 +186,41 @@ def _ardu_limits(
     landing = np.array([leg.kind == "land" for leg in legs]) & vertical
     land_speed = profile.si("LAND_SPEED")
     speed = np.where(landing, np.maximum(speed, land_speed), speed)
-    prof = scurve_to_touchdown(geom.length_m, speed, accel, jerk, jerk_ramp_s(profile, jerk),
+    ramp = jerk_ramp_s(profile, jerk)
+    blend = np.array([False] + [leg.pass_through for leg in legs[:-1]])
+    # what the vehicle can fly, not what the plan allows (VEHICLE_SPEED_MAX): nothing but the
+    # lean limit holds the vehicle back from the speed the S-curve was built at
+    lean_caps = leg_speed_caps_mps(profile, unit, top_mps=top_speed_mps(
+        arducopter_lean_max_deg(profile), _drag_per_m(profile)))
+    first = corner_first_speeds_mps(speed, np.minimum(np.roll(cmd, 1), lean_caps),
+                                    blend & ~vertical & ~np.roll(vertical, 1),
+                                    accel_phase_gain_mps(accel, jerk, ramp))
+    prof = scurve_to_touchdown(geom.length_m, speed, accel, jerk, ramp,
                                np.where(landing, land_speed, 0.0),
-                               np.where(landing, profile.si("LAND_ALT_LOW"), 0.0))
+                               np.where(landing, profile.si("LAND_ALT_LOW"), 0.0), first)
     return prof, speed
+
+
+def corner_first_speeds_mps(
+    speed_mps: NDArray[np.float64], built_mps: NDArray[np.float64],
+    after_corner: NDArray[np.bool_], jerk_gain_mps: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """(n,) the speed (m/s) each leg first accelerates to before it changes to its own
+    ``speed_mps``: its own speed, but for a leg entered through a corner flown through
+    (``after_corner``), whose S-curve ArduCopter built while the leg before ran, at that
+    leg's speed (``built_mps``, capped by this leg's top ground speed). Its DO_CHANGE_SPEED
+    runs once the corner's waypoint is reached, when the new leg has started, and
+    ``SCurve::set_speed_max`` can then only shorten the constant-acceleration segment still
+    ahead: a slower leg first reaches the built speed, or at least what the jerk phases alone
+    gain (``jerk_gain_mps``, :func:`~validator.motion.scurve.accel_phase_gain_mps`), then
+    slows; a faster one first reaches the built speed, then speeds up. Measured on ArduCopter
+    4.5.6 SITL in wind (harbour site, 7 m/s from 315°): a leg built at 9.3 m/s and commanded
+    3.57 m/s ran at 5.3 m/s (its top speed in that wind) for 5 s before slowing; one built at
+    3.11 commanded 10 held 3.1 m/s for a second before accelerating again."""
+    slower = built_mps > speed_mps
+    first = np.where(slower, np.minimum(built_mps, np.maximum(speed_mps, jerk_gain_mps)),
+                     built_mps)
+    return np.asarray(np.where(after_corner, first, speed_mps), dtype=float)
 
 
 def jerk_ramp_s(profile: Profile, jerk_mps3: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -227,7 +258,7 @@ def corner_overlaps_s(
         return out
     T = prof.total_s[i]
     tau_max = np.minimum(T - prof.boundary_time_s(SEG_DECEL_START)[i],
-                         prof.boundary_time_s(SEG_CRUISE)[i + 1])
+                         prof.boundary_time_s(SEG_CHANGE_START)[i + 1])
     L = geom.length_m
     live = (tau_max > 0) & (L[i] > 0) & (L[i + 1] > 0)
     u1, u2 = geom.unit[i], geom.unit[i + 1]
@@ -279,30 +310,6 @@ def corner_lag_s(turn_deg: ArrayLike, speed_mps: ArrayLike) -> NDArray[np.float6
                       * np.maximum(turn - CORNER_LAG_FREE_DEG, 0.0), dtype=float)
 
 
-def corner_wind_lag_s(turn_deg: ArrayLike, drag_in_mps2: ArrayLike,
-                      drag_out_mps2: ArrayLike) -> NDArray[np.float64]:
-    """How much more than :func:`corner_lag_s` (s) ArduCopter lags at a corner flown through
-    in wind that turns ``turn_deg`` and where the drag on the vehicle (m/s² of lean,
-    :func:`drag_accel_mps2`) falls from ``drag_in_mps2`` on the leg before to ``drag_out_mps2``
-    on the leg after; 0 where it rises, and up to :data:`CORNER_LAG_FREE_DEG` of turn (the
-    vehicle keeps up with its target there)."""
-    drop = np.asarray(drag_in_mps2, dtype=float) - np.asarray(drag_out_mps2, dtype=float)
-    sharp = np.asarray(turn_deg, dtype=float) > CORNER_LAG_FREE_DEG
-    return np.asarray(np.where(sharp, CORNER_WIND_LAG_S_PER_MPS2 * np.maximum(drop, 0.0), 0.0),
-                      dtype=float)
-
-
-def drag_accel_mps2(profile: Profile, ground_velocity_mps: ArrayLike) -> NDArray[np.float64]:
-    """(n,) the drag (m/s², the horizontal thrust that holds it) on an ``arducopter``
-    profile's vehicle flying at each horizontal ground velocity (n, 2) (east, north) in the
-    profile's wind: VEHICLE_DRAG x the air density ratio x airspeed² (the drag
-    :func:`~validator.motion.limits.top_speed_mps` balances at the lean limit)."""
-    v = np.atleast_2d(np.asarray(ground_velocity_mps, dtype=float))
-    wind = profile_wind(profile)
-    air = v - (wind.vector_mps if wind is not None else np.zeros(2))
-    return np.asarray(_drag_per_m(profile) * np.einsum("ij,ij->i", air, air), dtype=float)
-
-
 def _turns_deg(geom: LegGeometry, corners: NDArray[np.int64]) -> NDArray[np.float64]:
     """The horizontal turn (degrees) at the end of each leg in ``corners`` into the next."""
     a, b = geom.unit[corners, :2], geom.unit[corners + 1, :2]
@@ -330,12 +337,8 @@ def fly(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
     corners = np.flatnonzero(blend)
     overlap = np.zeros(n)
     overlap[corners] = corner_overlaps_s(geom, prof, corners, speed, radius, corner_acc)
-    peak = prof.peak_speed_mps()
-    turns = _turns_deg(geom, corners)
-    lag = corner_lag_s(turns, np.minimum(peak[corners], peak[corners + 1]))
-    if profile_wind(profile) is not None and corners.size:
-        drag = drag_accel_mps2(profile, peak[:, None] * geom.unit[:, :2])
-        lag = lag + corner_wind_lag_s(turns, drag[corners], drag[corners + 1])
+    cruise = prof.end_speed_mps()
+    lag = corner_lag_s(_turns_deg(geom, corners), np.minimum(cruise[corners], cruise[corners + 1]))
     # on the ground the climb waits for spool-up and lift-off; a landing ends when the land
     # detector has seen the touchdown
     liftoff = np.array([LIFTOFF_DELAY_S if leg.kind == "takeoff" and leg.start_alt_m <= 0

@@ -8,8 +8,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-SEG_CRUISE = 7  # S-curves: segments 0-6 accelerate, 7 cruises, 8-14 decelerate, 15 end run
-SEG_DECEL_START = 8
+# S-curves: segments 0-6 accelerate, 7-13 change to the leg's speed (empty but after a speed
+# change at a corner flown through), 14 cruises, 15-21 decelerate, 22 end run
+SEG_CHANGE_START = 7
+SEG_CRUISE = 14
+SEG_DECEL_START = 15
 
 
 @dataclass(frozen=True)
@@ -51,6 +54,10 @@ class Profiles1D:
 
     def peak_speed_mps(self) -> NDArray[np.float64]:
         return np.asarray(np.max(self._bounds[2], axis=1))  # type: ignore[attr-defined]
+
+    def end_speed_mps(self) -> NDArray[np.float64]:
+        """The speed (m/s) each leg brakes from: its cruise, or a short leg's peak."""
+        return np.asarray(self._bounds[2][:, SEG_DECEL_START])  # type: ignore[attr-defined]
 
     def state(
         self, leg: NDArray[np.int64], tau_s: NDArray[np.float64]
@@ -140,6 +147,28 @@ def _bisect(
     return lo
 
 
+def accel_phase_gain_mps(
+    accel_mps2: NDArray[np.float64], jerk_mps3: NDArray[np.float64],
+    jerk_ramp_s: NDArray[np.float64] | float,
+) -> NDArray[np.float64]:
+    """The speed (m/s) an acceleration phase gains in its jerk segments alone, with no time at
+    full acceleration: the least gain that reaches ``accel_mps2``."""
+    A = np.asarray(accel_mps2, dtype=float)
+    J = np.asarray(jerk_mps3, dtype=float)
+    tj = np.broadcast_to(np.asarray(jerk_ramp_s, dtype=float), A.shape)
+    jm = np.minimum(J, np.divide(A, tj, out=np.full_like(A, np.inf), where=tj > 0))
+    return np.asarray(A * (2.0 * tj + np.maximum(A / jm - tj, 0.0)), dtype=float)
+
+
+def _change_distance(
+    v1: NDArray[np.float64], v2: NDArray[np.float64], A: NDArray[np.float64],
+    J: NDArray[np.float64], tj: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """Distance (m) a jerk-limited change from ``v1`` to ``v2`` covers: the mean speed over an
+    acceleration phase of |v2 − v1| (symmetric, so the mean is the midpoint)."""
+    return np.asarray((v1 + v2) / 2.0 * _accel_phase(np.abs(v2 - v1), A, J, tj)[3], dtype=float)
+
+
 def scurve_peak_speed(
     length_m: NDArray[np.float64] | float,
     speed_mps: NDArray[np.float64] | float,
@@ -192,6 +221,7 @@ def scurve_to_touchdown(
     jerk_ramp_s: NDArray[np.float64] | float,
     end_speed_mps: NDArray[np.float64] | float,
     end_run_m: NDArray[np.float64] | float,
+    first_speed_mps: NDArray[np.float64] | None = None,
 ) -> Profiles1D:
     """Jerk-limited moves from rest that end with ``end_run_m`` metres at ``end_speed_mps``.
 
@@ -199,6 +229,12 @@ def scurve_to_touchdown(
     jerk-limited to the end speed as it reaches the end run (LAND_ALT_LOW) and touches down at
     that speed. With no end speed (0) this is :func:`scurve_rest_to_rest`. Same segments as
     that (accelerate, cruise, decelerate) plus the end run.
+
+    ``first_speed_mps`` (per leg, m/s): a leg that first accelerates to that speed and then,
+    jerk-limited as its own phase, changes to ``speed_mps`` before it cruises (ArduCopter's
+    speed change at a corner flown through, :mod:`validator.motion.arducopter`). Where the two
+    phases and the braking do not fit in the leg, or there is an end speed, the leg flies
+    rest-to-rest at the lower of the two speeds.
     """
     L = np.maximum(np.asarray(length_m, dtype=float), 0.0)
     shape = L.shape
@@ -209,6 +245,14 @@ def scurve_to_touchdown(
     ve = np.where(L >= ramp_to_ve, ve, 0.0)  # too short to reach the end speed: stop instead
     run = np.where(ve > 0, np.clip(run, 0.0, L - ramp_to_ve), 0.0)
     V = np.maximum(V, ve)
+    v1 = V.copy() if first_speed_mps is None else np.broadcast_to(
+        np.asarray(first_speed_mps, dtype=float), shape).astype(float)
+    change = _change_distance(v1, V, A, J, tj)
+    two = (np.abs(v1 - V) > 1e-9) & (ve <= 0) & (v1 > 0) & (V > 0)
+    fits = two & (v1 * _accel_phase(v1, A, J, tj)[3] / 2.0 + change
+                  + V * _accel_phase(V, A, J, tj)[3] / 2.0 <= L)
+    V = np.where(two & ~fits, np.minimum(v1, V), V)
+    v1 = np.where(fits, v1, V)
 
     def distance(v: NDArray[np.float64]) -> NDArray[np.float64]:
         up = _accel_phase(v, A, J, tj)[3]
@@ -216,22 +260,30 @@ def scurve_to_touchdown(
         return v * up / 2.0 + (v + ve) * down / 2.0 + run
 
     lo = _bisect(distance, L, ve.copy(), V.copy())
-    v = np.where(L <= 0, 0.0, np.where(distance(V) <= L, V, lo))
-    jm, t2, t4, up = _accel_phase(v, A, J, tj)
+    v = np.where(L <= 0, 0.0, np.where(fits | (distance(V) <= L), V, lo))
+    v1 = np.where(fits, v1, v)
+    jm, t2, t4, up = _accel_phase(v1, A, J, tj)
+    jc, t2c, t4c, chg = _accel_phase(np.abs(v - v1), A, J, tj)
+    jc = np.where(v < v1, -jc, jc)
     jd, t2d, t4d, down = _accel_phase(v - ve, A, J, tj)
-    cruise = L - v * up / 2.0 - (v + ve) * down / 2.0 - run
+    cruise = (L - v1 * up / 2.0 - (v1 + v) * chg / 2.0 - (v + ve) * down / 2.0 - run)
     tc = np.divide(np.maximum(cruise, 0.0), v, out=np.zeros_like(v), where=v > 0)
     t_run = np.divide(run, ve, out=np.zeros_like(ve), where=ve > 0)
     tu = np.where(up > 0, tj, 0.0)  # no move, no jerk ramps: a zero-length leg takes no time
     td = np.where(down > 0, tj, 0.0)
+    tcg = np.where(chg > 0, tj, 0.0)
     snap = np.divide(jm, tu, out=np.zeros_like(jm), where=tu > 0)
     snap_d = np.divide(jd, td, out=np.zeros_like(jd), where=td > 0)
+    snap_c = np.divide(jc, tcg, out=np.zeros_like(jc), where=tcg > 0)
     z = np.zeros_like(L)
     up_segs = [(tu, z, snap), (t2, jm, z), (tu, jm, -snap)]
     down_segs = [(tu, z, -snap), (t2, -jm, z), (tu, -jm, snap)]
+    change_segs = [(tcg, z, snap_c), (t2c, jc, z), (tcg, jc, -snap_c), (t4c, z, z),
+                   (tcg, z, -snap_c), (t2c, -jc, z), (tcg, -jc, snap_c)]
     brake = [(td, z, -snap_d), (t2d, -jd, z), (td, -jd, snap_d), (t4d, z, z),
              (td, z, snap_d), (t2d, jd, z), (td, jd, -snap_d)]
-    segs = up_segs + [(t4, z, z)] + down_segs + [(tc, z, z)] + brake + [(t_run, z, z)]
+    segs = (up_segs + [(t4, z, z)] + down_segs + change_segs + [(tc, z, z)] + brake
+            + [(t_run, z, z)])
     dur, jerk0, snaps = (np.stack([seg[i] for seg in segs], axis=1) for i in range(3))
     return Profiles1D(L, np.zeros_like(L), dur, jerk0, snaps)
 
