@@ -79,6 +79,24 @@ class Mission:
         return not self.problems
 
 
+# The outbound transit's last stretch (m) flown at the service cycle's first speed, where that
+# is slower (_entry_speed_mps)
+APPROACH_M = 20.0
+
+
+def _entry_speed_mps(steps: list[CycleStep], autopilot: str) -> float | None:
+    """The speed the outbound transit must reach the cycle's start at, or None: the first
+    leg's, for ArduCopter when the cycle starts with a leg. ArduCopter builds a leg's S-curve
+    while the leg before it runs, at that leg's speed, and a DO_CHANGE_SPEED after the corner
+    only partly slows it (:func:`validator.motion.arducopter.corner_first_speeds_mps`):
+    entered from a faster transit, the first leg would start fast and the first cycle come
+    early. Commanded from a waypoint short of the start, the first leg is built at its own
+    speed, and the cycle still starts flying."""
+    if autopilot != "ardupilot" or not steps or steps[0].leg_s <= 0:
+        return None
+    return steps[0].speed_mps
+
+
 def _nav(cmd: Cmd, lat: float, lon: float, alt: float, p1: float = 0.0) -> MissionItem:
     # param4 NaN: keep the current yaw (QGroundControl's default).
     return MissionItem(int(cmd), [p1, 0.0, 0.0, _NAN, lat, lon, alt],
@@ -199,13 +217,23 @@ def build_mission(solution: Solution, options: MissionOptions | None = None) -> 
 
     autopilot, timing_params = timed_for(solution, opt)
 
-    def transit(path: NDArray[np.float64], to_land: bool) -> None:
+    def transit(path: NDArray[np.float64], to_land: bool,
+                approach_mps: float | None = None) -> None:
         """The transit's speeds and waypoints, each leg at the speed it can hold in the wind
         (:func:`.speeds.transit_speeds`); with ``to_land`` the last leg's end is the LAND
-        that follows, not a waypoint."""
+        that follows, not a waypoint. ``approach_mps``: the speed the last leg ends at, where
+        it is slower, over its last :data:`APPROACH_M` (at most half of it)."""
         current = None
-        for k, v in enumerate(transit_speeds(path, site, autopilot, timing_params,
-                                             transit_speed)):
+        speeds = transit_speeds(path, site, autopilot, timing_params, transit_speed)
+        if approach_mps is not None and len(speeds) and (
+                approach_mps < speeds[-1] - opt.speed_tol_mps):
+            last = path[-1] - path[-2]
+            length = float(np.hypot(*last))
+            if length > opt.stationary_tol_m:  # else it reaches the start at rest
+                cut = path[-1] - last / length * min(APPROACH_M, length / 2.0)
+                path = np.vstack([path[:-1], cut, path[-1:]])
+                speeds = np.append(speeds, approach_mps)
+        for k, v in enumerate(speeds):
             if current is None or abs(v - current) > opt.speed_tol_mps:
                 items.append(_speed(float(v)))
                 current = float(v)
@@ -216,7 +244,7 @@ def build_mission(solution: Solution, options: MissionOptions | None = None) -> 
 
     items: list[MissionItem] = []
     items.append(_nav(Cmd.NAV_TAKEOFF, *latlon(home), alt))
-    transit(outbound, False)
+    transit(outbound, False, _entry_speed_mps(steps, autopilot))
     first = len(items)
     current: float | None = None
     for s, hold in zip(steps, holds, strict=True):

@@ -8,6 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from mission_planner.flight_report import replay_mission
 from mission_planner.mission import (
     MissionOptions,
     as_received,
@@ -23,6 +24,7 @@ from mission_planner.mission import (
     service_steps,
     whole_second_holds,
 )
+from mission_planner.mission.build import APPROACH_M
 from tests.mission_planner.solutions import (
     NUDGED_LEG_SLACK_M,
     circle_points,
@@ -353,6 +355,52 @@ def test_a_cycle_starting_at_home_still_flies_to_q0_first():
     assert [it.command for it in m.plan.items[:first]] == [Cmd.NAV_TAKEOFF, Cmd.DO_CHANGE_SPEED,
                                                            Cmd.NAV_WAYPOINT]
     assert not m.problems
+
+
+def _slow_square(autopilot="ardupilot", period_s=180.0):
+    """A 100 m square at 2.2 m/s (180 s), entered from a 10 m/s transit."""
+    site = make_site(uav={"altitude": 30.0, "max_speed": 10.0, "period": period_s, "slots": 12})
+    sq = [(150.0, 150.0), (250.0, 150.0), (250.0, 250.0), (150.0, 250.0)]
+    return build_mission(solution_for(site, subdivided(sq, 3)),
+                         MissionOptions(autopilot=autopilot))
+
+
+def _outbound(m):
+    """(command, speed or waypoint xy) of the items between the takeoff and the cycle."""
+    first, _ = m.cycle_items
+    frame = m.solution.site.frame
+    out = []
+    for it in m.plan.items[1:first]:
+        if it.command == Cmd.DO_CHANGE_SPEED:
+            out.append(("speed", it.params[1]))
+        else:
+            out.append(("wp", tuple(np.round(frame.to_local(it.params[4], it.params[5]), 1))))
+    return out
+
+
+def test_a_slower_first_leg_is_commanded_short_of_the_cycle_start():
+    m = _slow_square()
+    q0 = m.trajectory_m[0]
+    out = _outbound(m)
+    first_speed = m.steps[0].speed_mps
+    assert [k for k, _ in out] == ["speed", "wp", "speed", "wp"]
+    assert out[0][1] == pytest.approx(10.0) and out[2][1] == pytest.approx(first_speed)
+    assert np.hypot(*(np.array(out[1][1]) - q0)) == pytest.approx(APPROACH_M, abs=0.2)
+    assert out[3][1] == pytest.approx(tuple(q0), abs=0.1)
+
+
+def test_the_approach_keeps_the_first_cycle_on_time():
+    # flown through at 10 m/s, the first leg would start fast and the cycle come 4 % early
+    assert replay_mission(_slow_square()).cycle_ratio == pytest.approx(1.0, abs=0.02)
+
+
+def test_px4_missions_have_no_approach_waypoint():
+    assert [k for k, _ in _outbound(_slow_square("px4"))] == ["speed", "wp"]
+
+
+def test_a_first_leg_as_fast_as_the_transit_has_no_approach_waypoint():
+    # 100 m sides in 40 s: 10 m/s, the transit's speed
+    assert [k for k, _ in _outbound(_slow_square(period_s=40.0))] == ["speed", "wp"]
 
 
 # ---------------------------------------------------------------------------- long legs
