@@ -19,6 +19,7 @@ flight. Then the per-flight table is printed (``--table`` prints it from ``--out
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import subprocess
 import sys
@@ -177,13 +178,21 @@ def main() -> None:
                     help="fly only the still-air plans in wind (they do not change with the "
                     "wind model, so they can be flown apart)")
     ap.add_argument("--table", action="store_true", help="only print the table of --out")
+    ap.add_argument("--keep-plans", type=Path,
+                    help="write the plans (and their .param) into this directory and keep them "
+                    "(default: a temporary one)")
     args = ap.parse_args()
     flights: list[dict[str, Any]] = json.loads(args.out.read_text()) if args.out.exists() else []
     if not args.table:
         if not args.binary:
             ap.error("--binary is needed to fly")
         done = {(f["site"], f["wind"], f["plan"]) for f in flights}
-        with tempfile.TemporaryDirectory(prefix="nfz-wind-") as tmp:
+        with contextlib.ExitStack() as stack:
+            if args.keep_plans:
+                args.keep_plans.mkdir(parents=True, exist_ok=True)
+                tmp = str(args.keep_plans)
+            else:
+                tmp = stack.enter_context(tempfile.TemporaryDirectory(prefix="nfz-wind-"))
             for name in args.sites:
                 site = SITES[name]
                 blind = Path(tmp) / f"{name}-still.plan"
