@@ -14,7 +14,7 @@ import pytest
 from validator.api import replay_plan
 from validator.autopilot.param_file import read_params
 from validator.motion import arducopter
-from validator.motion.arducopter import corner_first_speeds_mps
+from validator.motion.arducopter import corner_changed_speeds_mps, corner_first_speeds_mps
 from validator.plan_format import read_plan
 from validator.site import load_site
 from validator.track_file import read_track
@@ -89,3 +89,22 @@ def test_a_leg_not_entered_through_a_corner_runs_at_its_own_speed():
     first = corner_first_speeds_mps(np.array([3.0]), np.array([10.0]), np.array([False]),
                                     np.array([7.0]))
     assert first == pytest.approx([3.0])
+
+
+def test_a_leg_with_room_changes_to_its_own_speed():
+    # built at 7 m/s with 100 m of constant speed: 12 jerk times of 0.3 s cover 25 m
+    cruise = corner_changed_speeds_mps(np.array([7.0, 3.0]), np.array([3.0, 7.0]),
+                                       np.array([100.0, 100.0]), np.full(2, 0.3))
+    assert cruise == pytest.approx([3.0, 7.0])
+
+
+def test_a_leg_without_room_keeps_the_speed_it_was_built_at():
+    cruise = corner_changed_speeds_mps(np.array([7.0, 3.0]), np.array([3.0, 7.0]),
+                                       np.array([20.0, 10.0]), np.full(2, 0.3))
+    assert cruise == pytest.approx([7.0, 3.0])
+
+
+def test_a_rise_goes_only_as_far_as_the_room_allows():
+    cruise = corner_changed_speeds_mps(np.array([3.0]), np.array([10.0]), np.array([18.0]),
+                                       np.array([0.3]))
+    assert cruise == pytest.approx([5.0])  # 18 m over 12 x 0.3 s

@@ -55,6 +55,7 @@ from validator.motion.scurve import (
     SEG_DECEL_START,
     Profiles1D,
     accel_phase_gain_mps,
+    rest_to_rest_m,
     scurve_to_touchdown,
 )
 from validator.wind import check_flyable, ground_speed_mps
@@ -195,10 +196,28 @@ def _ardu_limits(
     first = corner_first_speeds_mps(speed, np.minimum(np.roll(cmd, 1), lean_caps),
                                     blend & ~vertical & ~np.roll(vertical, 1),
                                     accel_phase_gain_mps(accel, jerk, ramp))
-    prof = scurve_to_touchdown(geom.length_m, speed, accel, jerk, ramp,
+    built_const_m = geom.length_m - rest_to_rest_m(first, accel, jerk, ramp)
+    cruise = corner_changed_speeds_mps(first, speed, built_const_m, ramp)
+    prof = scurve_to_touchdown(geom.length_m, cruise, accel, jerk, ramp,
                                np.where(landing, land_speed, 0.0),
                                np.where(landing, profile.si("LAND_ALT_LOW"), 0.0), first)
     return prof, speed
+
+
+def corner_changed_speeds_mps(
+    first_mps: NDArray[np.float64], speed_mps: NDArray[np.float64],
+    built_const_m: NDArray[np.float64], jerk_ramp_s: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """(n,) the speed (m/s) a leg that first runs at ``first_mps`` changes to on the way to its
+    own ``speed_mps``, as ``SCurve::set_speed_max`` allows: only where the constant-speed part
+    of the S-curve it was built as (``built_const_m``, m) lasts more than 12 jerk times (the
+    jerk ramp ``jerk_ramp_s``, at most 1 s) at the first speed, else it keeps the first speed;
+    and a rise only to that part's length over 12 jerk times."""
+    jerk_time = np.minimum(np.asarray(jerk_ramp_s, dtype=float), 1.0)
+    room = np.asarray(built_const_m, dtype=float) / (12.0 * jerk_time)
+    up = np.minimum(speed_mps, room)
+    changed = np.where(speed_mps > first_mps, up, speed_mps)
+    return np.asarray(np.where(room > first_mps, changed, first_mps), dtype=float)
 
 
 def corner_first_speeds_mps(

@@ -160,6 +160,18 @@ def accel_phase_gain_mps(
     return np.asarray(A * (2.0 * tj + np.maximum(A / jm - tj, 0.0)), dtype=float)
 
 
+def rest_to_rest_m(
+    speed_mps: NDArray[np.float64], accel_mps2: NDArray[np.float64],
+    jerk_mps3: NDArray[np.float64], jerk_ramp_s: NDArray[np.float64] | float,
+) -> NDArray[np.float64]:
+    """The distance (m) a move from rest to ``speed_mps`` and back to rest covers, with no
+    cruise."""
+    v = np.asarray(speed_mps, dtype=float)
+    tj = np.broadcast_to(np.asarray(jerk_ramp_s, dtype=float), v.shape)
+    return np.asarray(v * _accel_phase(v, np.asarray(accel_mps2, dtype=float),
+                                       np.asarray(jerk_mps3, dtype=float), tj)[3], dtype=float)
+
+
 def _change_distance(
     v1: NDArray[np.float64], v2: NDArray[np.float64], A: NDArray[np.float64],
     J: NDArray[np.float64], tj: NDArray[np.float64],
@@ -234,7 +246,7 @@ def scurve_to_touchdown(
     jerk-limited as its own phase, changes to ``speed_mps`` before it cruises (ArduCopter's
     speed change at a corner flown through, :mod:`validator.motion.arducopter`). Where the two
     phases and the braking do not fit in the leg, or there is an end speed, the leg flies
-    rest-to-rest at the lower of the two speeds.
+    rest-to-rest at the first speed.
     """
     L = np.maximum(np.asarray(length_m, dtype=float), 0.0)
     shape = L.shape
@@ -251,7 +263,7 @@ def scurve_to_touchdown(
     two = (np.abs(v1 - V) > 1e-9) & (ve <= 0) & (v1 > 0) & (V > 0)
     fits = two & (v1 * _accel_phase(v1, A, J, tj)[3] / 2.0 + change
                   + V * _accel_phase(V, A, J, tj)[3] / 2.0 <= L)
-    V = np.where(two & ~fits, np.minimum(v1, V), V)
+    V = np.where(two & ~fits, v1, V)
     v1 = np.where(fits, v1, V)
 
     def distance(v: NDArray[np.float64]) -> NDArray[np.float64]:
