@@ -33,6 +33,7 @@ from numpy.typing import NDArray
 
 from validator.flight import Flight, Leg
 from validator.geometry import min_leg_clearance
+from validator.motion.arducopter import leg_speeds_mps
 from validator.motion.fly import fly
 from validator.motion.path import FlownPath
 from validator.motion.profile import Profile
@@ -181,12 +182,19 @@ def _turn_deg(a: NDArray[np.float64], c: NDArray[np.float64], b: NDArray[np.floa
 def _fly_cycle(points_m: NDArray[np.float64], stops: NDArray[np.bool_], speed_mps: float,
                profile: Profile) -> FlownPath:
     """One cycle from rest at waypoint 0 back to it, without holds (a stop is a leg that does
-    not pass through: :class:`~validator.flight.Leg`'s ``pass_through``)."""
+    not pass through: :class:`~validator.flight.Leg`'s ``pass_through``), each leg commanded
+    the speed the export will command it (:func:`validator.motion.arducopter.leg_speeds_mps`:
+    in wind, less where its course leaves less): the leg after a corner first runs at the
+    speed commanded before it."""
     w = len(points_m)
+    step = np.roll(points_m, -1, axis=0) - points_m
+    length = np.hypot(step[:, 0], step[:, 1])
+    unit = np.divide(step, length[:, None], out=np.zeros_like(step), where=length[:, None] > 0)
+    speeds = leg_speeds_mps(profile, speed_mps, unit)
     legs = tuple(
         Leg(item=k, first_item=k, kind="waypoint", start_xy_m=points_m[k],
             end_xy_m=points_m[(k + 1) % w], start_alt_m=0.0, end_alt_m=0.0,
-            speed_mps=speed_mps, hold_s=0.0, pass_through=not stops[(k + 1) % w])
+            speed_mps=float(speeds[k]), hold_s=0.0, pass_through=not stops[(k + 1) % w])
         for k in range(w)
     )
     flight = Flight(legs=legs, home_xy_m=points_m[0], firmware_type=int(Autopilot.ARDUPILOTMEGA),

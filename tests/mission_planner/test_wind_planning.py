@@ -174,6 +174,16 @@ def test_windy_plan_says_its_wind_and_commands_ground_speeds(windy_plan) -> None
     assert slower >= 1 and len(traj) == 65
 
 
+def test_the_planner_times_a_windy_cycle_as_the_replay_flies_it(windy_plan) -> None:
+    """Its cycle is timed with the exported speeds: a leg after a corner first runs at the
+    speed commanded before it (the planner timing its legs at the planning speed instead
+    flew them up to 1.9 s a cycle faster than the exported plan)."""
+    d, _ = windy_plan
+    report = json.loads((d / "w.json").read_text())
+    assert report["flight"]["replayed_cycle_s"] == pytest.approx(
+        report["mission"]["cycle_duration_s"], abs=0.1)
+
+
 def test_validate_mission_reports_another_wind(windy_plan, capsys) -> None:
     d, out = windy_plan
     code = validate_mission_main([str(out), "--site", SAMPLE, "--params",
