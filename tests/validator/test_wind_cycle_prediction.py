@@ -1,8 +1,9 @@
-"""The report's predicted cycle and rates in wind, pinned to real flights: the seventh
-campaign's plans (plan-mission's at a92f119, made for their wind) replayed by today's model
-against their ArduCopter 4.5.6 SITL flights in that wind
-(``tests/data/arducopter-sitl-wind/flights-wind-corners.json``; the plans and their parameter
-files in ``wind-corners-plans.json.gz``, as plan-mission wrote them)."""
+"""The report's predicted cycle and rates in wind, pinned to real flights: the plans of two
+campaigns replayed by today's model against their ArduCopter 4.5.6 SITL flights in the wind
+each was made for (``tests/data/arducopter-sitl-wind``): the seventh (plan-mission's plans at
+a92f119, ``flights-wind-corners.json``, plans and parameter files in
+``wind-corners-plans.json.gz``) and the eighth (at 13d9dac, with the speed change at a corner:
+``flights-speed-change.json``, ``speed-change-plans.json.gz``), as plan-mission wrote them."""
 
 from __future__ import annotations
 
@@ -26,11 +27,16 @@ SITES = {"realistic": ROOT / "samples" / "realistic.yaml",
          "harbour": DATA / "sites" / "harbour.yaml"}
 
 
-def _replayed_against_flown() -> tuple[np.ndarray, np.ndarray]:
+CAMPAIGNS = {"seventh": ("flights-wind-corners.json", "wind-corners-plans.json.gz"),
+             "eighth": ("flights-speed-change.json", "speed-change-plans.json.gz")}
+
+
+def _replayed_against_flown(campaign: str) -> tuple[np.ndarray, np.ndarray]:
     """Per windy flight of a plan made for its wind: the replayed cycle over the flown one, and
     the flown min rate over the replayed one (the report's)."""
-    plans = json.loads(gzip.decompress((DATA / "wind-corners-plans.json.gz").read_bytes()))
-    flights = json.loads((DATA / "flights-wind-corners.json").read_text())
+    flights_file, plans_file = CAMPAIGNS[campaign]
+    plans = json.loads(gzip.decompress((DATA / plans_file).read_bytes()))
+    flights = json.loads((DATA / flights_file).read_text())
     cycles, rates = [], []
     for f in flights:
         if f["plan"] != "aware" or f["wind_speed_mps"] <= 0:
@@ -45,28 +51,33 @@ def _replayed_against_flown() -> tuple[np.ndarray, np.ndarray]:
     return np.array(cycles), np.array(rates)
 
 
-def _without_the_corner_speed_change(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(arducopter, "corner_first_speeds_mps",
-                        lambda speed, built, after, gain: speed)
-
-
-def test_the_predicted_cycle_is_within_3_percent_of_the_flown_one():
-    ratio, _ = _replayed_against_flown()
+@pytest.mark.parametrize("campaign", list(CAMPAIGNS))
+def test_the_predicted_cycle_is_within_3_percent_of_the_flown_one(campaign):
+    ratio, _ = _replayed_against_flown(campaign)
     assert len(ratio) >= 20
-    # one miss: orchard in 8 m/s from 45° flew 4.5 % early (README, Wind: the speed change
-    # at a corner)
+    # one miss in each: orchard in 8 m/s from 45° flew 4.5 % early (README, Wind: corners
+    # that shed drag)
     assert np.sum(np.abs(ratio - 1) <= 0.03) >= len(ratio) - 1, np.round(ratio, 3)
-    assert abs(np.mean(ratio) - 1) <= 0.003  # unbiased
+    assert abs(np.mean(ratio) - 1) <= 0.003, np.round(ratio, 3)  # unbiased
 
 
-def test_the_flown_min_rate_is_at_least_0_97_of_the_reported_one():
-    _, ratio = _replayed_against_flown()
-    assert np.sum(ratio >= 0.97) >= len(ratio) - 1, np.round(ratio, 3)
+# Flights whose worst node got less than 0.97 of the report's rate: timing inside the cycle
+# (README, Wind: the speed change at a corner); the seventh campaign's plans had 3 more
+# without the speed change
+RATE_MISSES = {"seventh": 1, "eighth": 3}
+
+
+@pytest.mark.parametrize("campaign", list(CAMPAIGNS))
+def test_the_flown_min_rate_is_at_least_0_97_of_the_reported_one(campaign):
+    _, ratio = _replayed_against_flown(campaign)
+    assert np.sum(ratio >= 0.97) >= len(ratio) - RATE_MISSES[campaign], np.round(ratio, 3)
+    assert np.min(ratio) >= 0.94, np.round(ratio, 3)
 
 
 def test_without_the_corner_speed_change_cycle_and_rates_are_predicted_worse(monkeypatch):
-    _without_the_corner_speed_change(monkeypatch)
-    cycle, rate = _replayed_against_flown()
+    monkeypatch.setattr(arducopter, "corner_first_speeds_mps",
+                        lambda speed, built, after, gain: speed)
+    cycle, rate = _replayed_against_flown("seventh")
     assert np.mean(cycle) - 1 < -0.005, np.round(cycle, 3)
     assert np.sum(np.abs(cycle - 1) <= 0.03) <= len(cycle) - 3, np.round(cycle, 3)
     assert np.sum(rate >= 0.97) <= len(rate) - 3, np.round(rate, 3)
