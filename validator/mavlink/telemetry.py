@@ -160,16 +160,17 @@ class Recorder:
         recorded (so the track ends on a sample marked disarmed), or ``grace_s`` wall seconds
         have passed since the disarm without one. Stopping on the disarm HEARTBEAT alone ends
         the track on the sample before it, still marked armed."""
-        disarmed_at: list[float] = []
+        disarmed_at: float | None = None
 
         def done() -> bool:
+            nonlocal disarmed_at
             if self.armed:
                 return False
             if self.rows and not self.rows[-1][8]:
                 return True
-            if not disarmed_at:
-                disarmed_at.append(time.monotonic())
-            return time.monotonic() - disarmed_at[0] >= grace_s
+            if disarmed_at is None:
+                disarmed_at = time.monotonic()
+            return time.monotonic() - disarmed_at >= grace_s
 
         return done
 

@@ -99,8 +99,13 @@ def arducopter_top_speed_mps(profile: Profile) -> float:
     """The fastest an ``arducopter`` profile's vehicle flies (m/s), whatever WPNAV_SPEED says:
     its lean-limited top speed (:func:`top_speed_mps` at the profile's air density), capped by
     VEHICLE_SPEED_MAX."""
-    v = top_speed_mps(arducopter_lean_max_deg(profile), _drag_per_m(profile))
-    return min(v, profile.si("VEHICLE_SPEED_MAX"))
+    return min(_lean_top_speed_mps(profile), profile.si("VEHICLE_SPEED_MAX"))
+
+
+def _lean_top_speed_mps(profile: Profile) -> float:
+    """What the lean limit alone lets an ``arducopter`` profile's vehicle fly (m/s), in still
+    air (:func:`top_speed_mps` at the profile's drag and air density)."""
+    return top_speed_mps(arducopter_lean_max_deg(profile), _drag_per_m(profile))
 
 
 def _drag_per_m(profile: Profile) -> float:
@@ -191,8 +196,7 @@ def _ardu_limits(
     blend = np.array([False] + [leg.pass_through for leg in legs[:-1]])
     # what the vehicle can fly, not what the plan allows (VEHICLE_SPEED_MAX): nothing but the
     # lean limit holds the vehicle back from the speed the S-curve was built at
-    lean_caps = leg_speed_caps_mps(profile, unit, top_mps=top_speed_mps(
-        arducopter_lean_max_deg(profile), _drag_per_m(profile)))
+    lean_caps = leg_speed_caps_mps(profile, unit, top_mps=_lean_top_speed_mps(profile))
     first = corner_first_speeds_mps(speed, np.minimum(np.roll(cmd, 1), lean_caps),
                                     blend & ~vertical & ~np.roll(vertical, 1),
                                     accel_phase_gain_mps(accel, jerk, ramp))

@@ -52,9 +52,6 @@ class Profiles1D:
         """Time (s) at which segment ``k`` starts (k = S: the end)."""
         return np.asarray(self._bounds[0][:, k])  # type: ignore[attr-defined]
 
-    def peak_speed_mps(self) -> NDArray[np.float64]:
-        return np.asarray(np.max(self._bounds[2], axis=1))  # type: ignore[attr-defined]
-
     def end_speed_mps(self) -> NDArray[np.float64]:
         """The speed (m/s) each leg brakes from: its cruise, or a short leg's peak."""
         return np.asarray(self._bounds[2][:, SEG_DECEL_START])  # type: ignore[attr-defined]
@@ -84,6 +81,14 @@ class Profiles1D:
         return pos, vel, acc
 
 
+def _full_jerk(
+    A: NDArray[np.float64], J: NDArray[np.float64], tj: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The peak jerk (m/s³) and its hold t2 (s) of an acceleration phase that reaches ``A``."""
+    jm = np.minimum(J, np.divide(A, tj, out=np.full_like(A, np.inf), where=tj > 0))
+    return jm, np.maximum(A / jm - tj, 0.0)
+
+
 def _accel_phase(
     v: NDArray[np.float64], A: NDArray[np.float64], J: NDArray[np.float64], tj: NDArray[np.float64]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
@@ -92,8 +97,7 @@ def _accel_phase(
     The jerk ramps over ``tj`` to ±J, holds t2, ramps back; the acceleration holds its peak t4.
     Peak acceleration J·(tj + t2) ≤ A; speed gained = peak·(2·tj + t2 + t4).
     """
-    jm = np.minimum(J, np.divide(A, tj, out=np.full_like(A, np.inf), where=tj > 0))
-    t2_full = np.maximum(A / jm - tj, 0.0)
+    jm, t2_full = _full_jerk(A, J, tj)
     v_full = A * (2.0 * tj + t2_full)  # least speed gain that reaches A
     with np.errstate(invalid="ignore", divide="ignore"):
         # below v_full: v = J·(tj + t2)·(2·tj + t2), solved for t2 >= 0
@@ -154,10 +158,9 @@ def accel_phase_gain_mps(
     """The speed (m/s) an acceleration phase gains in its jerk segments alone, with no time at
     full acceleration: the least gain that reaches ``accel_mps2``."""
     A = np.asarray(accel_mps2, dtype=float)
-    J = np.asarray(jerk_mps3, dtype=float)
     tj = np.broadcast_to(np.asarray(jerk_ramp_s, dtype=float), A.shape)
-    jm = np.minimum(J, np.divide(A, tj, out=np.full_like(A, np.inf), where=tj > 0))
-    return np.asarray(A * (2.0 * tj + np.maximum(A / jm - tj, 0.0)), dtype=float)
+    _, t2_full = _full_jerk(A, np.asarray(jerk_mps3, dtype=float), tj)
+    return np.asarray(A * (2.0 * tj + t2_full), dtype=float)
 
 
 def rest_to_rest_m(
@@ -165,7 +168,7 @@ def rest_to_rest_m(
     jerk_mps3: NDArray[np.float64], jerk_ramp_s: NDArray[np.float64] | float,
 ) -> NDArray[np.float64]:
     """The distance (m) a move from rest to ``speed_mps`` and back to rest covers, with no
-    cruise."""
+    cruise: the speed times one acceleration phase (the two phases mirror each other)."""
     v = np.asarray(speed_mps, dtype=float)
     tj = np.broadcast_to(np.asarray(jerk_ramp_s, dtype=float), v.shape)
     return np.asarray(v * _accel_phase(v, np.asarray(accel_mps2, dtype=float),
@@ -201,7 +204,7 @@ def scurve_peak_speed(
                    for x in (speed_mps, accel_mps2, jerk_mps3, jerk_ramp_s))
 
     def distance(v: NDArray[np.float64]) -> NDArray[np.float64]:
-        return v * _accel_phase(v, A, J, tj)[3]  # rest -> v -> rest: v times one phase
+        return rest_to_rest_m(v, A, J, tj)
 
     reach = distance(V) <= L
     return np.asarray(np.where(reach, V, _bisect(distance, L, np.zeros(shape), V)), dtype=float)
@@ -261,8 +264,9 @@ def scurve_to_touchdown(
         np.asarray(first_speed_mps, dtype=float), shape).astype(float)
     change = _change_distance(v1, V, A, J, tj)
     two = (np.abs(v1 - V) > 1e-9) & (ve <= 0) & (v1 > 0) & (V > 0)
-    fits = two & (v1 * _accel_phase(v1, A, J, tj)[3] / 2.0 + change
-                  + V * _accel_phase(V, A, J, tj)[3] / 2.0 <= L)
+    # accelerate to v1, change to V, brake from V: half of each rest-to-rest move
+    fits = two & ((rest_to_rest_m(v1, A, J, tj) + rest_to_rest_m(V, A, J, tj)) / 2.0 + change
+                  <= L)
     V = np.where(two & ~fits, v1, V)
     v1 = np.where(fits, v1, V)
 
