@@ -79,6 +79,8 @@ def validate(files, relay, *extra: str) -> tuple[int, dict]:
     out = tmp / "report.json"
     status = validate_mission_main([str(plan), "--site", str(site), "--connect", relay.url,
                                     "--report", str(out), *extra])
+    # exit 2 writes no report: its one-line reason is in the captured stderr below
+    assert out.exists(), f"validate-mission exited {status} with no report"
     return status, json.loads(out.read_text())
 
 
