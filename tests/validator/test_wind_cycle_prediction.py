@@ -2,8 +2,9 @@
 campaigns replayed by today's model against their ArduCopter 4.5.6 SITL flights in the wind
 each was made for (``tests/data/arducopter-sitl-wind``): the seventh (plan-mission's plans at
 a92f119, ``flights-wind-corners.json``, plans and parameter files in
-``wind-corners-plans.json.gz``) and the eighth (at 13d9dac, with the speed change at a corner:
-``flights-speed-change.json``, ``speed-change-plans.json.gz``), as plan-mission wrote them."""
+``wind-corners-plans.json.gz``), the eighth (at 13d9dac, with the speed change at a corner:
+``flights-speed-change.json``, ``speed-change-plans.json.gz``) and the ninth (at 7129cd1, the
+berth's probe: ``flights-probe.json``, ``probe-plans.json.gz``), as plan-mission wrote them."""
 
 from __future__ import annotations
 
@@ -28,7 +29,13 @@ SITES = {"realistic": ROOT / "samples" / "realistic.yaml",
 
 
 CAMPAIGNS = {"seventh": ("flights-wind-corners.json", "wind-corners-plans.json.gz"),
-             "eighth": ("flights-speed-change.json", "speed-change-plans.json.gz")}
+             "eighth": ("flights-speed-change.json", "speed-change-plans.json.gz"),
+             "ninth": ("flights-probe.json", "probe-plans.json.gz")}
+# Flights whose predicted cycle missed the flown one by over 3 %: orchard in 8 m/s from 45°
+# flew 4.5-4.7 % early in each (README, Wind: corners that shed drag); in the ninth realistic
+# in 7 m/s from 315°, turbulence 2, 3.1 % late (its upwind legs at the air-speed cap flew 6 %
+# slow; the eighth's plan there was 2.5 % late)
+CYCLE_MISSES = {"seventh": 1, "eighth": 1, "ninth": 2}
 
 
 def _replayed_against_flown(campaign: str) -> tuple[np.ndarray, np.ndarray]:
@@ -55,16 +62,15 @@ def _replayed_against_flown(campaign: str) -> tuple[np.ndarray, np.ndarray]:
 def test_the_predicted_cycle_is_within_3_percent_of_the_flown_one(campaign):
     ratio, _ = _replayed_against_flown(campaign)
     assert len(ratio) >= 20
-    # one miss in each: orchard in 8 m/s from 45° flew 4.5 % early (README, Wind: corners
-    # that shed drag)
-    assert np.sum(np.abs(ratio - 1) <= 0.03) >= len(ratio) - 1, np.round(ratio, 3)
+    assert np.sum(np.abs(ratio - 1) <= 0.03) >= len(ratio) - CYCLE_MISSES[campaign], \
+        np.round(ratio, 3)
     assert abs(np.mean(ratio) - 1) <= 0.003, np.round(ratio, 3)  # unbiased
 
 
 # Flights whose worst node got less than 0.97 of the report's rate: timing inside the cycle
 # (README, Wind: the speed change at a corner); the seventh campaign's plans had 3 more
 # without the speed change
-RATE_MISSES = {"seventh": 1, "eighth": 3}
+RATE_MISSES = {"seventh": 1, "eighth": 3, "ninth": 1}
 
 
 @pytest.mark.parametrize("campaign", list(CAMPAIGNS))
