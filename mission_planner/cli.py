@@ -82,6 +82,7 @@ from validator.plan_format import Autopilot
 from validator.site import Site
 from validator.uas_zones.applicability import AirspaceOptions, parse_at
 from validator.wind import parse_wind_arg
+from validator.wind_track import extrapolation_warning
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -250,6 +251,9 @@ def _plan(args: argparse.Namespace) -> int:
     drifting = position_loss_drift_warning(mission)
     if drifting:
         print(f"plan-mission: warning: {drifting}", file=sys.stderr)
+    guessed = extrapolation_warning(mission.solution.site.flight_wind)
+    if guessed:
+        print(f"plan-mission: warning: {guessed}", file=sys.stderr)
     too_fast = speed_warning(site, args.dynamics, autopilot.key)
     if too_fast:
         print(f"plan-mission: warning: {too_fast}", file=sys.stderr)

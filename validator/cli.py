@@ -68,7 +68,7 @@ from validator.validation import (
     wind_label,
 )
 from validator.wind import parse_wind_arg
-from validator.wind_track import buffer_share
+from validator.wind_track import buffer_share, extrapolation_warning
 
 __all__ = ["Validation", "build_parser", "default_profile_name", "format_report",
            "validate_mission", "validate_mission_main"]
@@ -160,6 +160,9 @@ def format_report(v: Validation) -> str:
                      f"{site.buffer_m:g} m buffer ({share['share_of_buffer']:.0%}; the flown "
                      f"track's extra closeness at the {share['deviation_quantile']:.0%} quantile "
                      "of SITL flights)")
+        guessed = extrapolation_warning(v.flown_wind)
+        if guessed:
+            lines.append(f"  warning: {guessed}")
     if v.replay is not None and v.profile is not None:
         params = " ".join(f"{k}={v.profile.params[k]:g}" for k in KEY_PARAMS[v.profile.name])
         lines += ["", *_track_lines(f"Replay ({v.profile.name}, {1 / v.dt_s:g} Hz, "

@@ -36,13 +36,22 @@ DEVIATION_QUANTILE = 0.99
 @dataclass(frozen=True)
 class DeviationModel:
     """d_q = ``intercept_m`` + ``per_turbulence`` · turbulence + ``per_wind`` · wind speed
-    (m, m/s), at ``quantile``, from ``flights`` flights."""
+    (m, m/s), at ``quantile``, from ``flights`` flights in winds up to ``wind_max_mps`` and
+    turbulence up to ``turbulence_max_mps`` (beyond, the line is extrapolated)."""
 
     intercept_m: float
     per_turbulence: float
     per_wind: float
     quantile: float
     flights: int
+    wind_max_mps: float
+    turbulence_max_mps: float
+
+    def extrapolated(self, wind: Wind | None) -> bool:
+        """Whether ``wind`` (at the flight altitude) is stronger or gustier than any flight
+        the model is fitted to."""
+        return wind is not None and (wind.speed_mps > self.wind_max_mps
+                                     or wind.turbulence_mps > self.turbulence_max_mps)
 
     def deviation_m(self, wind: Wind | None) -> float:
         """The extra closeness (m) of a flight in ``wind`` (at the flight altitude) at the
@@ -68,7 +77,8 @@ def fit_deviation_model(wind_mps: Sequence[float], turbulence_mps: Sequence[floa
     slopes = np.maximum(coef[1:], 0.0)
     residual = d - a[:, 1:] @ slopes
     intercept = float(np.quantile(residual, quantile, method="higher"))
-    return DeviationModel(intercept, float(slopes[0]), float(slopes[1]), quantile, int(d.size))
+    return DeviationModel(intercept, float(slopes[0]), float(slopes[1]), quantile, int(d.size),
+                          float(np.max(w)), float(np.max(t)))
 
 
 # Fitted to the flights of plans made for their wind, in both files (see the module docstring;
@@ -77,7 +87,8 @@ def fit_deviation_model(wind_mps: Sequence[float], turbulence_mps: Sequence[floa
 DEVIATION_MODEL = DeviationModel(intercept_m=0.27731003056387954,
                                  per_turbulence=0.02089585553137111,
                                  per_wind=0.013103103711118195,
-                                 quantile=DEVIATION_QUANTILE, flights=52)
+                                 quantile=DEVIATION_QUANTILE, flights=52,
+                                 wind_max_mps=8.0, turbulence_max_mps=2.0)
 
 
 def wind_buffer_m(buffer_m: float, wind: Wind | None) -> float:
@@ -92,4 +103,19 @@ def buffer_share(buffer_m: float, wind: Wind | None) -> dict[str, float]:
     quantile and its share of the buffer (for the reports)."""
     d = DEVIATION_MODEL.deviation_m(wind)
     return {"track_deviation_m": d, "deviation_quantile": DEVIATION_MODEL.quantile,
-            "buffer_m": buffer_m, "share_of_buffer": d / buffer_m if buffer_m > 0 else math.inf}
+            "buffer_m": buffer_m, "share_of_buffer": d / buffer_m if buffer_m > 0 else math.inf,
+            "extrapolated": DEVIATION_MODEL.extrapolated(wind)}
+
+
+def extrapolation_warning(wind: Wind | None) -> str | None:
+    """One line when ``wind`` (at the flight altitude) is beyond the flights the deviation
+    model is fitted to, so the buffer's share of it is a guess; else None."""
+    if not DEVIATION_MODEL.extrapolated(wind):
+        return None
+    assert wind is not None
+    m = DEVIATION_MODEL
+    return (f"the wind buffer's track deviation is fitted to SITL flights in winds up to "
+            f"{m.wind_max_mps:g} m/s with turbulence up to {m.turbulence_max_mps:g} m/s; in "
+            f"{wind.label()} its {m.deviation_m(wind):.2f} m is extrapolated: check the plan in "
+            f"that wind (validate-mission --sitl-binary --wind) or keep a wider buffer "
+            f"(--buffer-m)")

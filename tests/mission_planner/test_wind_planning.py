@@ -207,6 +207,21 @@ def test_validate_mission_reports_another_wind(windy_plan, capsys) -> None:
     assert cycle["flown_cycle_s"] / cycle["planned_period_s"] > 1.05
 
 
+def test_a_wind_beyond_the_buffer_models_flights_is_a_warning(windy_plan, tmp_path,
+                                                               capsys) -> None:
+    # the track-deviation model is fitted to SITL flights up to 8 m/s, turbulence 2 m/s
+    _, out = windy_plan
+    assert validate_mission_main([str(out), "--site", SAMPLE, "--params",
+                                  str(out.with_suffix(".param")), "--wind", "9@270,1"]) in (0, 1)
+    text = capsys.readouterr().out
+    assert "  warning: the wind buffer's track deviation is fitted to SITL flights" in text
+    assert plan_mission_main([SAMPLE, "-o", str(tmp_path / "g.plan"), "--quiet",
+                              "--dynamics", "none", "--wind", "4@90,3"]) == 0
+    [line] = [x for x in capsys.readouterr().err.splitlines() if "extrapolated" in x]
+    assert line.startswith("plan-mission: warning: the wind buffer's track deviation")
+    assert "in 4 m/s from 90°, turbulence 3 m/s its" in line
+
+
 def test_validate_mission_refuses_a_wind_the_plan_cannot_fly(windy_plan, capsys) -> None:
     _, out = windy_plan
     code = validate_mission_main([str(out), "--site", SAMPLE, "--wind", "12@180"])

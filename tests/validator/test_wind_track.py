@@ -107,3 +107,17 @@ def test_the_fifth_campaign_kept_the_buffer() -> None:
              if f["wind_speed_mps"] > 0]
     assert len(aware) >= 8
     assert all(min(f["flown_clearance_m"].values()) >= f["buffer_m"] for f in aware)
+
+
+def test_a_wind_beyond_the_fitted_flights_is_said_to_be_extrapolated() -> None:
+    from validator.wind_track import extrapolation_warning
+
+    assert extrapolation_warning(None) is None
+    assert extrapolation_warning(Wind(8.0, 45.0, 2.0)) is None  # the strongest flown
+    assert buffer_share(3.0, Wind(8.0, 45.0, 2.0))["extrapolated"] is False
+    stronger = extrapolation_warning(Wind(9.0, 45.0, 1.0))
+    assert stronger is not None and "winds up to 8 m/s with turbulence up to 2 m/s" in stronger
+    assert "in 9 m/s from 45°, turbulence 1 m/s its" in stronger
+    gustier = Wind(4.0, 90.0, 3.0)
+    assert extrapolation_warning(gustier) is not None
+    assert buffer_share(3.0, gustier)["extrapolated"] is True
