@@ -105,6 +105,7 @@ class FlightCheck:
             "replayed_cycle_s": self.replayed_cycle_s,
             "replayed_cycles_s": list(c.flown_cycles_s) if c is not None else [],
             "cycle_ratio": self.cycle_ratio,
+            "replayed_mission_s": self.report.duration_s,  # take-off to landing
             "replayed_clearance_by_nfz_m": clearances,
             "replayed_clearance_min_m": min(clearances.values()) if clearances else None,
             "fence_entries": len(self.report.fence_entries),

@@ -6,8 +6,9 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
-from mission_planner.mission.build import Mission
+from mission_planner.mission.build import Mission, timed_for
 from mission_planner.mission.readback import flown_legs
+from mission_planner.mission.speeds import transit_speeds
 from mission_planner.transit import path_length_m
 from validator.geometry import expanded_radius, segment_point_distance
 from validator.plan_format import Cmd
@@ -31,6 +32,19 @@ def cycle_duration_s(mission: Mission) -> float:
         total += hold + s.stop_lag_s
         prev = here
     return total
+
+
+def transit_s(mission: Mission, path_m: np.ndarray) -> float:
+    """Duration (s) of a transit polyline ``path_m`` (P, 2), each leg at the speed the
+    export commands it (:func:`.speeds.transit_speeds`: in wind, what the vehicle's top
+    airspeed leaves along its course), without its accelerations."""
+    d = np.diff(np.asarray(path_m, dtype=float), axis=0)
+    if not len(d):
+        return 0.0
+    autopilot, timing_params = timed_for(mission.solution, mission.options)
+    speeds = transit_speeds(path_m, mission.solution.site, autopilot, timing_params,
+                            mission.plan.cruise_speed_mps)
+    return float(np.sum(np.hypot(d[:, 0], d[:, 1]) / speeds))
 
 
 def mission_summary(mission: Mission) -> dict[str, object]:
@@ -81,8 +95,10 @@ def mission_summary(mission: Mission) -> dict[str, object]:
         "transit_out_waypoints": len(mission.outbound_m) - 1,
         "transit_return_m": ret_len,
         "transit_return_waypoints": len(mission.return_m) - 1,
+        # nominal: no take-off, landing or accelerations (the replay's replayed_mission_s has)
         "mission_duration_s": (mission.options.cycles * cycle_s
-                               + (out_len + ret_len) / plan.cruise_speed_mps),
+                               + transit_s(mission, mission.outbound_m)
+                               + transit_s(mission, mission.return_m)),
         "fence_margin_m": mission.fence_margin_m,
         "fence_radii_m": {n: float(r + mission.fence_margin_m)
                           for n, r in zip(site.nfz_names, site.nfz_radius_m, strict=True)},

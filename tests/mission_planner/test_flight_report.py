@@ -89,3 +89,13 @@ def test_flight_section_holds_what_the_issue_asks_for(hurried):
     assert section["replayed_clearance_min_m"] == min(
         section["replayed_clearance_by_nfz_m"].values())
     assert section["warning"] == hurried.warning()
+
+
+def test_the_flight_section_says_how_long_the_whole_mission_flies(slow):
+    from mission_planner.mission import mission_summary
+
+    section = slow.as_dict()
+    assert section["replayed_mission_s"] == pytest.approx(slow.track.t_s[-1] - slow.track.t_s[0])
+    # take-off, climb, accelerations and landing on top of the summary's nominal figure
+    nominal = mission_summary(_square(180.0))["mission_duration_s"]
+    assert nominal + 10.0 < section["replayed_mission_s"] < nominal + 120.0

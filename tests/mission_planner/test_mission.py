@@ -210,6 +210,32 @@ def test_transit_bends_around_an_nfz_between_home_and_the_cycle():
     assert np.max(np.abs(xy[:, 1])) > 20
 
 
+
+def test_the_mission_duration_flies_the_transits_at_what_the_wind_leaves():
+    # home to a cycle 250 m east and back, in 6 m/s from the east: out into the wind at the
+    # ground speed the top airspeed leaves, back at the transit speed
+    from mission_planner.mission.summary import transit_s
+    from validator.motion.speed_model import cruise_speed_mps
+    from validator.wind import Wind, ground_speed_mps
+
+    site = make_site(ground_nodes=[{"name": "GN1", "x": 250.0, "y": 0.0}], no_fly_zones=[])
+    points = circle_points((250.0, 0.0), 40.0, site.slots, phase_rad=math.pi)
+    still = build_mission(solution_for(site, points))
+    windy_site = site.with_limits(wind=Wind(6.0, 90.0))
+    windy = build_mission(solution_for(windy_site, points))
+    v = windy.plan.cruise_speed_mps
+    top = cruise_speed_mps(windy_site)
+    for path, nominal in ((windy.outbound_m, True), (windy.return_m, False)):
+        d = np.diff(path, axis=0)
+        length = np.hypot(d[:, 0], d[:, 1])
+        g = np.minimum(v, ground_speed_mps(top, Wind(6.0, 90.0).vector_mps, d / length[:, None]))
+        assert transit_s(windy, path) == pytest.approx(float(np.sum(length / g)))
+        assert bool(transit_s(windy, path) > 1.5 * np.sum(length) / v) is nominal
+    assert transit_s(still, still.outbound_m) == pytest.approx(
+        float(np.sum(np.hypot(*np.diff(still.outbound_m, axis=0).T))) / v)
+    assert (mission_summary(windy)["mission_duration_s"]
+            > mission_summary(still)["mission_duration_s"] + 20.0)
+
 def _tangent_polygon(centre, distance_m, sides):
     """A closed tour whose every leg passes exactly ``distance_m`` from ``centre``."""
     return circle_points(centre, distance_m / math.cos(math.pi / sides), sides)
