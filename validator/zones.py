@@ -109,7 +109,9 @@ def convex_parts(vertices_xy_m: ArrayLike) -> tuple[NDArray[np.float64], ...]:
     poly = orient(shapely.Polygon(v), 1.0)
     if math.isclose(poly.convex_hull.area, poly.area, rel_tol=1e-12, abs_tol=1e-9):
         return (np.asarray(poly.exterior.coords, dtype=float)[:-1],)
-    parts = [orient(t, 1.0) for t in shapely.constrained_delaunay_triangles(poly).geoms]
+    # a triangle of three (nearly) collinear vertices has no area and no ring to keep
+    parts = [orient(t, 1.0) for t in shapely.constrained_delaunay_triangles(poly).geoms
+             if t.area > 0.0]
     merged = True
     while merged:
         merged = False
@@ -127,7 +129,8 @@ def convex_parts(vertices_xy_m: ArrayLike) -> tuple[NDArray[np.float64], ...]:
                     break
             if merged:
                 break
-    return tuple(np.asarray(p.exterior.coords, dtype=float)[:-1] for p in parts)
+    return tuple(np.asarray(p.exterior.coords, dtype=float)[:-1] for p in parts
+                 if not p.is_empty)
 
 
 def support_m(part_xy_m: ArrayLike, direction: ArrayLike) -> NDArray[np.float64]:

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import shapely
-from hypothesis import assume, given, settings
+from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 from mission_planner.optimize import PlannerOptions, plan
@@ -48,9 +48,18 @@ def polygons(draw: st.DrawFn) -> np.ndarray:
     return pts
 
 
+# Found by CI: three vertices on one line, 1e-277 m apart, made Delaunay a triangle with no
+# area, whose part had no vertices.
+SLIVERED = np.array([[13.0, 0.0], [13.0, 7.17298969e-278], [13.0, 1.20171299e-137],
+                     [5.40302306, 8.41470985], [-4.16146837, 9.09297427],
+                     [-9.89992497, 1.41120008], [2.83662185, -9.58924275],
+                     [9.60170287, -2.79415498]])
+
+
 @settings(max_examples=300, deadline=None)
 @given(polygons(), st.tuples(coord, coord, coord, coord), st.tuples(coord, coord, coord, coord),
        st.floats(0.0, 20.0), st.booleans())
+@example(SLIVERED, (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0), 0.0, False)
 def test_a_leg_the_rows_accept_keeps_the_buffer(verts, current, move, buffer_m, projected):
     zone = polygon_zone("Z", verts, "test")
     a0, b0 = np.array(current[:2]), np.array(current[2:])
@@ -70,6 +79,13 @@ def test_a_leg_the_rows_accept_keeps_the_buffer(verts, current, move, buffer_m, 
         distance = shapely.distance(zone.shape, leg)
     assert distance >= buffer_m - 1e-6
 
+
+
+def test_every_convex_part_has_a_ring_and_together_they_are_the_zone() -> None:
+    zone = polygon_zone("Z", SLIVERED, "test")
+    assert all(len(part) >= 3 for part in zone.parts)
+    union = shapely.union_all([shapely.Polygon(part) for part in zone.parts])
+    assert union.symmetric_difference(zone.shape).area < 1e-9
 
 def test_leg_separation_direction_is_the_distance_at_a_clear_leg() -> None:
     square = np.array([(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)])
