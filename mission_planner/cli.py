@@ -279,6 +279,7 @@ def _replay_summary(flight: FlightCheck) -> str:
     clearance = min(flight.clearance_by_nfz_m.values(), default=None)
     return ", ".join([
         "cycle " + ("not completed" if cycle is None else f"{cycle:.1f} s"),
+        f"take-off to landing {flight.report.duration_s:.0f} s",
         "min rate " + ("not scored" if rate is None else f"{rate:.4f} bps/Hz"),
         "min NFZ clearance " + ("none (no NFZ)" if clearance is None else f"{clearance:.2f} m"),
     ])

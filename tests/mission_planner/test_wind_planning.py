@@ -138,8 +138,13 @@ def test_every_leg_transits_included_is_commanded_what_the_wind_leaves(windy_pla
 
 def test_the_summary_line_says_the_wind(tmp_path, capsys) -> None:
     out = tmp_path / "w.plan"
-    assert plan_mission_main([SAMPLE, "-o", str(out), "--wind", "3@90", "--quiet"]) == 0
-    assert "planned for wind 3 m/s from 90°" in capsys.readouterr().out
+    assert plan_mission_main([SAMPLE, "-o", str(out), "--wind", "3@90", "--quiet",
+                              "--report", str(tmp_path / "r.json")]) == 0
+    line = capsys.readouterr().out
+    assert "planned for wind 3 m/s from 90°" in line
+    # how long the replay flies it, in that wind: the figure held against the battery
+    flown_s = json.loads((tmp_path / "r.json").read_text())["flight"]["replayed_mission_s"]
+    assert "arducopter replay: cycle 1" in line and f"take-off to landing {flown_s:.0f} s" in line
 
 
 def test_windy_plan_says_its_wind_and_commands_ground_speeds(windy_plan) -> None:
