@@ -129,8 +129,7 @@ def convex_parts(vertices_xy_m: ArrayLike) -> tuple[NDArray[np.float64], ...]:
                     break
             if merged:
                 break
-    return tuple(np.asarray(p.exterior.coords, dtype=float)[:-1] for p in parts
-                 if not p.is_empty)
+    return tuple(np.asarray(p.exterior.coords, dtype=float)[:-1] for p in parts)
 
 
 def support_m(part_xy_m: ArrayLike, direction: ArrayLike) -> NDArray[np.float64]:

@@ -210,7 +210,6 @@ def test_transit_bends_around_an_nfz_between_home_and_the_cycle():
     assert np.max(np.abs(xy[:, 1])) > 20
 
 
-
 def test_the_mission_duration_flies_the_transits_at_what_the_wind_leaves():
     # home to a cycle 250 m east and back, in 6 m/s from the east: out into the wind at the
     # ground speed the top airspeed leaves, back at the transit speed
@@ -235,6 +234,7 @@ def test_the_mission_duration_flies_the_transits_at_what_the_wind_leaves():
         float(np.sum(np.hypot(*np.diff(still.outbound_m, axis=0).T))) / v)
     assert (mission_summary(windy)["mission_duration_s"]
             > mission_summary(still)["mission_duration_s"] + 20.0)
+
 
 def _tangent_polygon(centre, distance_m, sides):
     """A closed tour whose every leg passes exactly ``distance_m`` from ``centre``."""

@@ -80,12 +80,12 @@ def test_a_leg_the_rows_accept_keeps_the_buffer(verts, current, move, buffer_m, 
     assert distance >= buffer_m - 1e-6
 
 
-
 def test_every_convex_part_has_a_ring_and_together_they_are_the_zone() -> None:
     zone = polygon_zone("Z", SLIVERED, "test")
     assert all(len(part) >= 3 for part in zone.parts)
     union = shapely.union_all([shapely.Polygon(part) for part in zone.parts])
     assert union.symmetric_difference(zone.shape).area < 1e-9
+
 
 def test_leg_separation_direction_is_the_distance_at_a_clear_leg() -> None:
     square = np.array([(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)])
