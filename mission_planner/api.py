@@ -140,7 +140,8 @@ def write_mission(
     ``report`` (JSON) and its track to the ``html`` view (``html_map``: on OpenStreetMap
     tiles; the view also draws the wind and the failsafe paths of the parameter file);
     ``geojson`` and ``plot`` (PNG, the paper's Fig. 3) are optional too.
-    Raises :class:`UnsafeMission` for a mission the safety gate refuses, unless ``force``, and
+    Raises :class:`UnsafeMission` for a mission the safety gate refuses, or whose ``flight``
+    has violations (:attr:`FlightCheck.problems`), unless ``force``, and
     :class:`~validator.errors.InputError` for paths that collide or whose folder is missing.
     """
     out = Path(out)
@@ -153,8 +154,9 @@ def write_mission(
 
         paths += list(sidecar_paths(out))
     check_output_paths(paths)
-    if mission.problems and not force:
-        raise UnsafeMission(mission.problems)
+    problems = mission.problems + (flight.problems if flight is not None else ())
+    if problems and not force:
+        raise UnsafeMission(problems)
     files = output_files(mission, out, fmt=kind, report=report, geojson=geojson, plot=plot,
                          params=param_file, autopilot_params=autopilot_params, flight=flight,
                          html=html, html_map=html_map)

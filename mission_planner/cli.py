@@ -33,7 +33,8 @@ taken or why not, and stderr a line per zone.
 The result line goes to stdout; progress, notes and warnings to stderr. Exit status
 (:data:`validator.cli_common.EXIT_STATUS`): 0 written; 1 refused by the safety gate (some leg
 inside an NFZ plus its buffer, or another problem of
-:func:`mission_planner.mission.plan_problems`), nothing written unless ``--force``; 2 bad input
+:func:`mission_planner.mission.plan_problems`, or the replay's: a zone or fence entered, a
+flight longer than the site's ``uav.endurance``), nothing written unless ``--force``; 2 bad input
 (one line on stderr naming the field), nothing written; 130 interrupted, nothing written.
 Every output is prepared in memory first and written atomically.
 
@@ -229,12 +230,13 @@ def _plan(args: argparse.Namespace) -> int:
     if args.at and not site.airspace.uas and not args.quiet:
         print("plan-mission: note: the site names no UAS zones (ED-269, ED-318): --at "
               "changes nothing", file=sys.stderr)
-    if mission.problems:
-        for problem in mission.problems:
+    problems = mission.problems + flight.problems
+    if problems:
+        for problem in problems:
             print(f"plan-mission: unsafe: {problem}", file=sys.stderr)
         if not args.force:
             print(f"plan-mission: refused to write {args.output} "
-                  f"({len(mission.problems)} problems); --force writes it anyway",
+                  f"({len(problems)} problems); --force writes it anyway",
                   file=sys.stderr)
             return EXIT_VERDICT
         print("plan-mission: --force: writing the unsafe mission", file=sys.stderr)

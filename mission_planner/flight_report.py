@@ -71,6 +71,12 @@ class FlightCheck:
         return flown / planned if planned and flown is not None else None
 
     @property
+    def problems(self) -> tuple[str, ...]:
+        """Why the flown mission must not be written, one line each: every violation the
+        replay finds (a zone or fence entered, a flight longer than the UAV's endurance)."""
+        return tuple(f.message for f in self.report.violations)
+
+    @property
     def clearance_by_nfz_m(self) -> dict[str, float]:
         return {p.name: p.clearance_m for p in self.report.nfz}
 

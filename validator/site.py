@@ -6,6 +6,8 @@ A site file is YAML of this shape (see ``samples/paper-default.yaml``)::
     origin: {lat: 37.5585, lon: 126.999, alt: 40.0}   # WGS84; alt = ground AMSL, m
     home: {x: 0.0, y: 0.0}                            # optional, default: the origin
     uav: {altitude: 30.0, max_speed: 30.0, period: 50.0, slots: 50}
+                              # optional: max_accel, max_jerk, endurance (s, take-off to
+                              # landing with the reserve)
     radio: {p_avg_dbm: 20.0, p_peak_dbm: 26.0206, beta0_db: -30.0, noise_dbm: -70.0}
     ground_nodes:
       - {name: GN1, x: 60.0, y: 340.0}            # metres east/north of origin ...
@@ -151,6 +153,9 @@ class UavModel(_Strict):
                              description="m/s^2")
     max_jerk: float = Field(default=DEFAULT_MAX_JERK_MPS3, gt=0, le=MAX_JERK_MPS3,
                             description="m/s^3")
+    endurance: float | None = Field(default=None, gt=0, le=MAX_PERIOD_S,
+                                    description="flight time from take-off until the vehicle "
+                                    "must be on the ground with its landing reserve, s")
 
 
 class RadioModel(_Strict):
@@ -218,6 +223,7 @@ class Site:
     polygon_zones: tuple[PolygonZone, ...] = ()
     airspace: SiteAirspace = SiteAirspace()
     wind: Wind | None = None  # the forecast the plan is made for; None: still air
+    endurance_s: float | None = None  # take-off to landing with the reserve; None: unchecked
 
     @property
     def flight_wind(self) -> Wind | None:
@@ -417,6 +423,7 @@ def site_from_model(model: SiteModel, source: str = "site", *,
         polygon_zones=tuple(z.polygon for z in zones if z.polygon is not None),
         airspace=air,
         wind=Wind.from_model(model.wind) if model.wind is not None else None,
+        endurance_s=model.uav.endurance,
     )
     _check_home_clear(site, f"{source}: home")
     return site
@@ -458,6 +465,7 @@ def site_to_dict(site: Site) -> dict[str, object]:
             "slots": site.slots,
             "max_accel": site.max_accel_mps2,
             "max_jerk": site.max_jerk_mps3,
+            **({"endurance": site.endurance_s} if site.endurance_s is not None else {}),
         },
         "radio": {
             "p_avg_dbm": dbm(site.p_avg_w),

@@ -77,3 +77,18 @@ def test_the_view_draws_the_failsafe_paths_of_the_parameter_file_written(mission
     assert "region" in kinds and "line" in kinds
     assert any("FS_THR_ENABLE 1" in t["hovertext"] for t in failsafe)
     assert parse_params((tmp_path / "m.param").read_text())["FS_THR_ENABLE"] == 1.0
+
+
+def test_a_flight_beyond_the_endurance_is_refused_unless_forced(mission, tmp_path):
+    flight = api.replay_mission(mission)
+    assert flight.problems == ()
+    site = dataclasses.replace(mission.solution.site, endurance_s=flight.report.duration_s / 2)
+    short = api.replay_mission(dataclasses.replace(
+        mission, solution=dataclasses.replace(mission.solution, site=site)))
+    assert len(short.problems) == 1 and "uav.endurance" in short.problems[0]
+    with pytest.raises(api.UnsafeMission) as refused:
+        api.write_mission(mission, tmp_path / "m.plan", flight=short)
+    assert refused.value.problems == short.problems
+    assert list(tmp_path.iterdir()) == []
+    api.write_mission(mission, tmp_path / "m.plan", flight=short, force=True)
+    assert (tmp_path / "m.plan").is_file()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import io
 import json
 import math
@@ -253,6 +254,16 @@ def test_dynamics_reaches_the_planner_vehicle_by_default(tmp_path, capsys, squar
     code, err = _run([_write_site(tmp_path, SLOW), "-o", tmp_path / "m.plan", *args], capsys)
     assert code == 0, err
     assert [o.dynamics for o in square_planner] == [dynamics]
+
+
+def test_a_mission_longer_than_the_endurance_is_refused(tmp_path, capsys, square_planner):
+    slow = copy.deepcopy(SLOW)
+    slow["uav"]["endurance"] = 120.0  # a 180 s cycle cannot fit
+    code, err = _run([_write_site(tmp_path, slow), "-o", tmp_path / "m.plan"], capsys)
+    assert code == 1
+    assert "beyond the UAV's endurance of 120 s (uav.endurance)" in err, err
+    assert "refused to write" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["site.yaml"]
 
 
 @pytest.mark.parametrize("args, through", [([], True), (["--stop-at-every-waypoint"], False)])

@@ -148,3 +148,24 @@ def test_recorded_track_is_scored_like_the_replay(site, service):
     assert rec.throughput is not None and rep.throughput is not None
     np.testing.assert_allclose(rec.throughput.flown_bps_hz, rep.throughput.flown_bps_hz,
                                rtol=0.02)
+
+
+def test_a_flight_longer_than_the_endurance_is_a_violation_naming_both_times(site, service):
+    flight = resolve_flight(service, site)
+    track = replay(flight, make_profile("arducopter", site_limits(site)))
+    flying_s = float(track.t_s[track.leg >= 0][-1] - track.t_s[track.leg >= 0][0])
+    held = score_track(track, flight, site.with_limits(endurance_s=flying_s + 1.0), service)
+    assert held.violations == []
+    short = score_track(track, flight, site.with_limits(endurance_s=flying_s - 1.0), service)
+    assert [f.message for f in short.violations] == [
+        f"the mission flies {flying_s:.0f} s from take-off to landing, beyond the UAV's "
+        f"endurance of {flying_s - 1.0:g} s (uav.endurance): fewer cycles or a shorter period"]
+
+
+def test_no_endurance_no_check_and_wind_is_named_as_the_remedy():
+    from validator.replay.score import endurance_finding
+
+    assert endurance_finding(1e6, None) is None
+    windy = endurance_finding(300.0, 250.0, windy=True)
+    assert windy is not None and windy.severity == "violation"
+    assert windy.message.endswith("fewer cycles or a calmer day")

@@ -68,6 +68,16 @@ def test_site_round_trips_through_its_dict() -> None:
     assert again.p_peak_w == pytest.approx(site.p_peak_w)
 
 
+def test_endurance_is_optional_in_seconds_and_round_trips() -> None:
+    data = _base()
+    assert parse_site(data).endurance_s is None
+    assert "endurance" not in site_to_dict(parse_site(data))["uav"]  # type: ignore[operator]
+    data["uav"]["endurance"] = 840
+    site = parse_site(data)
+    assert site.endurance_s == 840.0
+    assert parse_site(site_to_dict(site)).endurance_s == 840.0
+
+
 def test_rejects_unknown_key() -> None:
     data = _base()
     data["uav"]["top_speed"] = 3
@@ -80,7 +90,7 @@ def test_rejects_missing_field() -> None:
     _rejects(data, "radio.noise_dbm", "missing")
 
 
-@pytest.mark.parametrize("field", ["altitude", "max_speed", "period", "slots"])
+@pytest.mark.parametrize("field", ["altitude", "max_speed", "period", "slots", "endurance"])
 def test_rejects_non_positive_uav_numbers(field: str) -> None:
     data = _base()
     data["uav"][field] = 0

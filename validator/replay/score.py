@@ -195,6 +195,20 @@ def _cross_track(flight: Flight, track: Track) -> NDArray[np.float64]:
     return np.where(track.leg >= 0, best, np.nan)
 
 
+def endurance_finding(flying_s: float, endurance_s: float | None,
+                      windy: bool = False) -> Finding | None:
+    """A violation when the vehicle flies the mission (``flying_s``, take-off to landing, s)
+    longer than its endurance (``endurance_s``, the site's ``uav.endurance``, s; None: not
+    checked): its low-battery failsafe would cut the mission short, or the reserve would go.
+    ``windy``: the flight is in wind, which a calmer day would shorten."""
+    if endurance_s is None or flying_s <= endurance_s:
+        return None
+    remedy = "fewer cycles or a calmer day" if windy else "fewer cycles or a shorter period"
+    return Finding("violation", f"the mission flies {flying_s:.0f} s from take-off to landing, "
+                   f"beyond the UAV's endurance of {endurance_s:g} s (uav.endurance): "
+                   f"{remedy}", None)
+
+
 def score_track(
     track: Track,
     flight: Flight,
@@ -291,6 +305,10 @@ def score_track(
             throughput = scored
     elif flight.service is not None:
         findings.append(Finding("note", "throughput not scored: no complete cycle", None))
+    over = endurance_finding(float(t[-1] - t[0]), site.endurance_s,
+                             site.flight_wind is not None)
+    if over is not None:
+        findings.append(over)
     return TrackReport(
         source=track.source,
         samples=int(track.t_s.size),
