@@ -235,17 +235,16 @@ def validate_mission(
 def audit_refusal(plan_path: str, site_path: str,
                    params: Mapping[str, float] | None = None) -> str | None:
     """Why the validator rejects the plan before an upload (``upload-mission --site``; one
-    line), or None: the audit's violations, and with ``params`` (the file ``--params``
-    will send) every failsafe path they leave that crosses a zone or its buffer."""
-    v = validate_mission(plan_path, site_path)
-    problems = list(v.violations)
-    if params is not None:
-        problems += [Finding("violation", f.message, f.item)
-                     for f in audit_failsafes(v.plan, v.site, v.flight, params).findings]
+    line), or None: the audit's violations, the replay's (a zone or fence entered, a flight
+    longer than the site's ``uav.endurance``), and with ``params`` (the file ``--params``
+    will send, which the replay flies with) every failsafe path they leave that crosses a
+    zone or its buffer."""
+    v = validate_mission(plan_path, site_path, replay_flight=True,
+                         vehicle_params=None if params is None else dict(params))
+    problems = v.violations
     if not problems:
         return None
     first = problems[0]
     where = f"item {first.item}: " if first.item is not None else ""
     return (f"{plan_path} fails the audit against {site_path} ({len(problems)} "
             f"violation(s), first: {where}{first.message})")
-

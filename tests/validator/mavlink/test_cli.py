@@ -53,6 +53,22 @@ def test_upload_mission_refuses_a_plan_the_audit_rejects_unless_forced(tmp_path,
     assert upload_mission_main([*args, "--force"]) == 0
 
 
+def test_upload_mission_refuses_a_flight_beyond_the_endurance(tmp_path, start_vehicle, capsys):
+    site = make_site(nfz=((100.0, 0.0, 20.0),))
+    plan = waypoint_plan(site, [(40.0, 60.0), (160.0, 60.0)])  # clear of NFZ1
+    path = tmp_path / "m.plan"
+    write_plan(plan, path)
+    site_path = tmp_path / "site.yaml"
+    vehicle = start_vehicle(plan)
+    args = [str(path), "--connect", url_of(vehicle), "--site", str(site_path)]
+    for endurance_s, status in ((3600.0, 0), (10.0, 1)):
+        site_path.write_text(yaml.safe_dump(site_to_dict(site.with_limits(
+            endurance_s=endurance_s))))
+        assert upload_mission_main(args) == status
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "beyond the UAV's endurance of 10 s" in err, err
+
+
 def test_upload_mission_nack_exits_2_with_one_line(tmp_path, plan, capsys):
     path = tmp_path / "m.plan"
     write_plan(plan, path)
