@@ -43,6 +43,8 @@ print(f"replayed cycle {flight.replayed_cycle_s:.1f} s for T = {flight.period_s:
       f"replayed min rate {flight.replayed_min_rate_bps_hz:.4f} bps/Hz")
 if flight.warning():
     print("warning:", flight.warning())
+for problem in flight.problems:  # e.g. longer than the site's uav.endurance: write refuses it
+    print("unsafe:", problem)
 
 # %% Write the plan, its parameter file, the report and the interactive view (all or none)
 written = api.write_mission(mission, OUT / "mission.plan", autopilot_params=params,
