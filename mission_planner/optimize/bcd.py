@@ -81,7 +81,9 @@ class PlannerOptions:
     flies best: "air-frame" (Algorithm 1 with the air-frame cone) and "still-air" (the
     still-air path re-timed in the wind). Neither wins everywhere: at the berth's 12.5 m
     buffer the still-air paths planned up to 36 % more on realistic.yaml and site-d, the
-    air-frame ones up to 13 % more on site-c (:mod:`.flyable`).
+    air-frame ones up to 13 % more on site-c (:mod:`.flyable`). ``first_fit``: the "vehicle"
+    search ends at the first planning speed whose moves fit T, not the best one: for a plan
+    only looked at, never flown (the GPS-loss berth's probe, :mod:`mission_planner.pipeline`).
     "none" is the paper's kinematic model (top speed only): the
     studies reproducing the paper's figures use it (:data:`PAPER_OPTIONS`).
     """
@@ -104,6 +106,7 @@ class PlannerOptions:
     overrelax: bool = True
     search_ahead: bool = True
     wind_paths: tuple[str, ...] = ("air-frame", "still-air")
+    first_fit: bool = False
 
 
 PAPER_OPTIONS = PlannerOptions(dynamics="none")  # the paper's model, for its figures

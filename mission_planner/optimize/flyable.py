@@ -188,7 +188,9 @@ class _Search:
     """The top-speed search's state (module docstring): what was tried and what it gave."""
 
     start: float  # the first speed: the site's V or the vehicle's real top speed
-    calibrated: bool  # PX4: the search ends at the first speed that fits (see _as_calibrated)
+    # the search ends at the first speed that fits: PX4's (see _as_calibrated), and a probe's
+    # (PlannerOptions.first_fit)
+    first_fit: bool
     fits_at: float | None = None  # the fastest speed whose moves fit T
     over_at: float | None = None  # the slowest speed whose moves overran T
     tried: set[float] = field(default_factory=set)
@@ -212,7 +214,7 @@ class _Search:
         if self.fits_at is None:
             return None if overrun is None else speed * float(np.clip(0.9 / overrun, 0.2, 0.9))
         if self.over_at is None:
-            if self.calibrated:
+            if self.first_fit:
                 return None
             # The vehicle flies this path within T with time to spare: planning for a faster
             # UAV than it is (a path reaching further, or hovering longer) may still fit.
@@ -383,7 +385,8 @@ def _search(site: Site, scheme: str, opt: PlannerOptions, progress: Progress | N
             still_path: bool, first_mps: float | None = None) -> tuple[_Search, int]:
     """The top-speed search (module docstring), from ``first_mps`` if given (else the start),
     and how many speeds it tried."""
-    search = _Search(cruise_speed_mps(site, opt.autopilot), _as_calibrated(opt))
+    search = _Search(cruise_speed_mps(site, opt.autopilot),
+                     _as_calibrated(opt) or opt.first_fit)
     speed = search.start if first_mps is None else first_mps
     tries = 0
 

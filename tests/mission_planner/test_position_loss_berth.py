@@ -127,24 +127,26 @@ def test_in_wind_the_berth_takes_one_step_and_plan_mission_warns_of_the_drift(tm
     assert "no buffer keeps that clear" in line
 
 
-def _recorded_plans(monkeypatch) -> list[tuple[float, object]]:
-    """Each plan plan_and_build makes from here on: (buffer asked of it, its wind_paths)."""
+def _recorded_plans(monkeypatch) -> list[tuple[float, object, bool]]:
+    """Each plan plan_and_build makes from here on: (buffer asked of it, its wind_paths,
+    whether its search ends at the first fit)."""
     from mission_planner import pipeline
 
-    made: list[tuple[float, object]] = []
+    made: list[tuple[float, object, bool]] = []
     real = pipeline.plan_solution
 
     def recording(site, *args, **kwargs):
-        made.append((site.buffer_m, kwargs.get("wind_paths")))
+        made.append((site.buffer_m, kwargs.get("wind_paths"), kwargs.get("first_fit", False)))
         return real(site, *args, **kwargs)
 
     monkeypatch.setattr(pipeline, "plan_solution", recording)
     return made
 
 
-def test_in_wind_the_plan_a_berth_replaces_searches_one_family_of_paths(monkeypatch):
+def test_in_wind_the_plan_a_berth_replaces_searches_one_family_to_its_first_fit(monkeypatch):
     # the plan at the asked buffer is a probe for the coast's findings: one family (half the
-    # search); the berth plan, the one kept, searches every family
+    # search) up to the first speed that fits; the berth plan, the one kept, searches every
+    # family in full
     from mission_planner.pipeline import BERTH_PROBE_PATHS
     from validator.wind import Wind
 
@@ -153,7 +155,7 @@ def test_in_wind_the_plan_a_berth_replaces_searches_one_family_of_paths(monkeypa
     mission = plan_and_build(windy)
     berth = mission.position_loss_berth
     assert berth is not None and berth.buffer_m > berth.site_buffer_m
-    assert made == [(windy.buffer_m, BERTH_PROBE_PATHS), (berth.buffer_m, None)]
+    assert made == [(windy.buffer_m, BERTH_PROBE_PATHS, True), (berth.buffer_m, None, False)]
     assert mission.solution.site.buffer_m == berth.buffer_m
 
 
@@ -167,4 +169,4 @@ def test_in_wind_a_probe_without_findings_is_planned_again_with_every_family(mon
     monkeypatch.setattr(pipeline, "position_loss_findings", lambda mission, drift=True: ())
     mission = plan_and_build(windy)
     assert mission.position_loss_berth is None
-    assert made == [(windy.buffer_m, BERTH_PROBE_PATHS), (windy.buffer_m, None)]
+    assert made == [(windy.buffer_m, BERTH_PROBE_PATHS, True), (windy.buffer_m, None, False)]
