@@ -119,6 +119,7 @@ class FlightCheck:
             "speed_max_mps": self.report.speed_max_mps,
             "per_gn": tp.as_dict()["per_gn"] if tp is not None else [],
             "warning": self.warning(),
+            "problems": list(self.problems),  # why plan-mission refuses it (--force: written)
             "findings": [f.as_dict() for f in self.report.findings],
         }
 
