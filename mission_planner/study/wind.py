@@ -3,8 +3,9 @@
 Each trial plans the site for one wind (``--dynamics vehicle``, as ``plan-mission --wind``)
 and flies it there with the validator's model of the autopilot; beside it the site's
 still-air plan (made once per worker process) is flown in the same wind. A row: the planned
-and flown min rate (per flown second), the flown cycle over T and the least flown clearance
-of each. Trials run on the study executors (local processes or Dask, resumable: see
+and flown min rate (per flown second), the flown cycle over T, the least flown clearance and
+the flight's take-off to landing time (``mission_s``, to hold against ``uav.endurance``) of
+each. Trials run on the study executors (local processes or Dask, resumable: see
 :func:`~mission_planner.study.executors.run_trials`); the site travels as YAML text in each
 spec, so a Dask worker needs no file. Wind speed 0 is one trial whatever the directions.
 """
@@ -36,9 +37,9 @@ if TYPE_CHECKING:
 
 WIND_COLUMNS = (
     "key", "site", "autopilot", "speed_mps", "from_deg", "turbulence_mps",
-    "min_rate_bps_hz", "flown_min_rate_bps_hz", "cycle_ratio", "clearance_min_m",
+    "min_rate_bps_hz", "flown_min_rate_bps_hz", "cycle_ratio", "clearance_min_m", "mission_s",
     "blind_flown_min_rate_bps_hz", "blind_cycle_ratio", "blind_clearance_min_m",
-    "solve_seconds", "error",
+    "blind_mission_s", "solve_seconds", "error",
 )
 AUTOPILOTS = ("ardupilot", "px4")
 
@@ -131,10 +132,12 @@ def run_wind_trial(spec: WindTrialSpec, options: PlannerOptions | None = None) -
         aware = _flown(mission, wind)
         row.update(min_rate_bps_hz=mission.solution.min_rate_bps_hz,
                    flown_min_rate_bps_hz=aware.replayed_min_rate_bps_hz,
-                   cycle_ratio=aware.cycle_ratio, clearance_min_m=_clearance(aware))
+                   cycle_ratio=aware.cycle_ratio, clearance_min_m=_clearance(aware),
+                   mission_s=aware.report.duration_s)
         blind = _flown(_still_plan(spec.site_yaml, spec.autopilot), wind)
         row.update(blind_flown_min_rate_bps_hz=blind.replayed_min_rate_bps_hz,
-                   blind_cycle_ratio=blind.cycle_ratio, blind_clearance_min_m=_clearance(blind))
+                   blind_cycle_ratio=blind.cycle_ratio, blind_clearance_min_m=_clearance(blind),
+                   blind_mission_s=blind.report.duration_s)
     except Exception as err:  # a failed trial is a result, not the end of the study
         row["error"] = " ".join(f"{type(err).__name__}: {err}".split())
     if row["solve_seconds"] is None:

@@ -46,6 +46,10 @@ def test_wind_study_writes_its_table_and_figure(tmp_path, capsys) -> None:
     assert abs(float(windy["cycle_ratio"]) - 1.0) < 0.05  # planned for it: on time
     assert float(windy["blind_cycle_ratio"]) > 1.05  # the still-air plan runs late
     assert float(rows[0]["cycle_ratio"]) == pytest.approx(float(rows[0]["blind_cycle_ratio"]))
+    # take-off to landing: in still air both plans are the one plan; in wind each its own
+    assert float(rows[0]["mission_s"]) == pytest.approx(float(rows[0]["blind_mission_s"]))
+    assert float(windy["mission_s"]) != pytest.approx(float(windy["blind_mission_s"]))
+    assert all(100.0 < float(r[k]) < 900.0 for r in rows for k in ("mission_s", "blind_mission_s"))
     assert (out / "wind.png").read_bytes()[:4] == b"\x89PNG"
     # run again: resumed, nothing re-run
     assert main(["wind", SAMPLE, "-o", str(out), "--speeds", "0,5", "--directions", "270",
