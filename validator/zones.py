@@ -109,9 +109,12 @@ def convex_parts(vertices_xy_m: ArrayLike) -> tuple[NDArray[np.float64], ...]:
     poly = orient(shapely.Polygon(v), 1.0)
     if math.isclose(poly.convex_hull.area, poly.area, rel_tol=1e-12, abs_tol=1e-9):
         return (np.asarray(poly.exterior.coords, dtype=float)[:-1],)
-    # a triangle of three (nearly) collinear vertices has no area and no ring to keep
+    # A triangle of three (nearly) collinear vertices has no ring worth keeping: none at all,
+    # or a sliver (CI's property test drew 1e-37 m²) that a merge simplifies away to nothing.
+    # Below a 1e-12 share of the zone's area it changes the zone by less than rounding does.
+    least_m2 = 1e-12 * poly.area
     parts = [orient(t, 1.0) for t in shapely.constrained_delaunay_triangles(poly).geoms
-             if t.area > 0.0]
+             if t.area > least_m2]
     merged = True
     while merged:
         merged = False

@@ -54,12 +54,18 @@ SLIVERED = np.array([[13.0, 0.0], [13.0, 7.17298969e-278], [13.0, 1.20171299e-13
                      [5.40302306, 8.41470985], [-4.16146837, 9.09297427],
                      [-9.89992497, 1.41120008], [2.83662185, -9.58924275],
                      [9.60170287, -2.79415498]])
+# Found by CI again: triangles of 1e-37 m², kept for having an area, merged into a part that
+# simplified to nothing.
+SPECKED = np.array([[11.0, 0.0], [10.0, 3.30726842e-182], [11.0, 1.83176163e-071],
+                    [10.0, 1.17549435e-037], [5.40302306, 8.41470985],
+                    [-7.19007983, -8.32482745]])
 
 
 @settings(max_examples=300, deadline=None)
 @given(polygons(), st.tuples(coord, coord, coord, coord), st.tuples(coord, coord, coord, coord),
        st.floats(0.0, 20.0), st.booleans())
 @example(SLIVERED, (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0), 0.0, False)
+@example(SPECKED, (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0), 0.0, False)
 def test_a_leg_the_rows_accept_keeps_the_buffer(verts, current, move, buffer_m, projected):
     zone = polygon_zone("Z", verts, "test")
     a0, b0 = np.array(current[:2]), np.array(current[2:])
@@ -80,8 +86,9 @@ def test_a_leg_the_rows_accept_keeps_the_buffer(verts, current, move, buffer_m, 
     assert distance >= buffer_m - 1e-6
 
 
-def test_every_convex_part_has_a_ring_and_together_they_are_the_zone() -> None:
-    zone = polygon_zone("Z", SLIVERED, "test")
+@pytest.mark.parametrize("verts", [SLIVERED, SPECKED])
+def test_every_convex_part_has_a_ring_and_together_they_are_the_zone(verts) -> None:
+    zone = polygon_zone("Z", verts, "test")
     assert all(len(part) >= 3 for part in zone.parts)
     union = shapely.union_all([shapely.Polygon(part) for part in zone.parts])
     assert union.symmetric_difference(zone.shape).area < 1e-9
