@@ -139,6 +139,7 @@ def _retimed_path(
         polygons=site.polygon_zones, polygon_clear_m=site.buffer_m + opt.nfz_margin_m,
         chordwise=not _as_calibrated(opt),
     )
+    sk = retime.started_near(sk, site.home_xy_m)
     paper_move_s = max(site.period_s - float(np.sum(sk.hold_s)), 1e-9)
     # Passing through corners leaves the time saved to the hover points; with fewer than two
     # it would all pool at one, so stopping at every corner is tried as well (stops that pay).

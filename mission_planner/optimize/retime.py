@@ -154,6 +154,18 @@ def skeleton(
     return Skeleton(np.array(points), np.array(hold))
 
 
+def started_near(sk: Skeleton, home_xy_m: NDArray[np.float64]) -> Skeleton:
+    """The same closed cycle started at its hover point nearest ``home_xy_m`` (m): a cycle
+    serves alike from whichever stop it starts at, and the transits out to its start and back
+    from it are the mission's only other flying. Unchanged without a hover point."""
+    hovering = np.flatnonzero(sk.hold_s > 0)
+    if hovering.size == 0:
+        return sk
+    gap = np.linalg.norm(sk.points_m[hovering] - np.asarray(home_xy_m, dtype=float), axis=1)
+    k = int(hovering[int(np.argmin(gap))])
+    return Skeleton(np.roll(sk.points_m, -k, axis=0), np.roll(sk.hold_s, -k))
+
+
 def _simplify(
     q: NDArray[np.float64],
     verts: list[int],

@@ -12,6 +12,7 @@ from mission_planner.optimize.retime import (
     cycle_motion,
     fit_holds,
     skeleton,
+    started_near,
     time_cycle,
 )
 from mission_planner.study.sites import random_site
@@ -63,6 +64,23 @@ def test_skeleton_straightens_wiggles_far_from_zones_and_keeps_a_zone_hugging_ar
     assert sum(tuple(np.round(p, 6)) in kept for p in top + bottom) <= 1
     assert min_leg_clearance(np.vstack([sk.points_m, sk.points_m[:1]]), np.zeros((1, 2)),
                              np.array([20.0])) >= 0.0
+
+
+def test_a_cycle_starts_at_its_hover_point_nearest_home() -> None:
+    square = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [0.0, 100.0]])
+    sk = Skeleton(square, np.array([5.0, 0.0, 3.0, 0.0]))
+    # home (100, 40) is nearest the corner (100, 0), which is flown through: the nearest
+    # hover point is (100, 100), 60 m away (the start, (0, 0), is 108 m)
+    moved = started_near(sk, np.array([100.0, 40.0]))
+    assert moved.points_m.tolist() == [[100.0, 100.0], [0.0, 100.0], [0.0, 0.0], [100.0, 0.0]]
+    assert moved.hold_s.tolist() == [3.0, 0.0, 5.0, 0.0]
+    kept = started_near(sk, np.array([-10.0, -10.0]))
+    assert np.array_equal(kept.points_m, square) and np.array_equal(kept.hold_s, sk.hold_s)
+
+
+def test_a_cycle_without_a_hover_point_keeps_its_start() -> None:
+    sk = Skeleton(np.array([[0.0, 0.0], [100.0, 0.0], [50.0, 80.0]]), np.zeros(3))
+    assert started_near(sk, np.array([100.0, 0.0])) is sk
 
 
 def test_fit_holds_fills_the_period_in_whole_seconds_but_one() -> None:
@@ -189,6 +207,23 @@ def test_pass_through_corners_can_be_turned_off(site: Site) -> None:
     move = float(leg_profiles(site, lengths[lengths > 1e-6]).total_s.sum())
     moving = sol.leg_length_m > 1e-6
     assert float(sol.delta_s[moving].sum()) == pytest.approx(move, rel=1e-6)
+
+
+def test_a_flyable_cycle_starts_near_home_at_no_cost_to_the_nodes(monkeypatch) -> None:
+    """The transits out and back are the mission's only other flying: on the golden files'
+    realistic1 site the cycle started where Algorithm 1's tour begins is 242 m from home, and
+    72 m at the hover point nearest it; the nodes get the same (a closed cycle serves alike
+    from any stop; the re-timing differs in a hold's rounding)."""
+    from mission_planner.optimize import retime
+
+    site = random_site(1, buffer_m=3.0, max_speed_mps=9.4, period_s=231.0, slots=64)
+    options = PlannerOptions(dynamics="vehicle")
+    near = plan(site, "proposed", options=options)
+    monkeypatch.setattr(retime, "started_near", lambda sk, home: sk)
+    first = plan(site, "proposed", options=options)
+    gap = [float(np.linalg.norm(s.trajectory_m[0] - site.home_xy_m)) for s in (near, first)]
+    assert gap[0] < gap[1] - 100.0, gap
+    assert near.min_rate_bps_hz == pytest.approx(first.min_rate_bps_hz, rel=0.01)
 
 
 def test_flyable_plan_keeps_clear_of_every_zone(flyable: Solution) -> None:
