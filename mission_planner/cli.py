@@ -270,18 +270,19 @@ def _plan(args: argparse.Namespace) -> int:
         f"cycle {summary['cycle_duration_s']:.1f} s (T = {summary['period_s']:g} s), "
         f"min rate {mission.solution.min_rate_bps_hz:.4f} bps/Hz, min NFZ clearance "
         + ("none (no NFZ)" if clearance is None else f"{clearance:.3f} m")
-        + f"; {flight.profile.name} replay: " + _replay_summary(flight)
+        + f"; {flight.profile.name} replay: " + _replay_summary(flight, site.endurance_s)
         + (f"; planned for wind {site.wind.label()}" if site.wind is not None else ""),
     )
     return EXIT_OK
 
 
-def _replay_summary(flight: FlightCheck) -> str:
+def _replay_summary(flight: FlightCheck, endurance_s: float | None) -> str:
     cycle, rate = flight.replayed_cycle_s, flight.replayed_min_rate_bps_hz
     clearance = min(flight.clearance_by_nfz_m.values(), default=None)
     return ", ".join([
         "cycle " + ("not completed" if cycle is None else f"{cycle:.1f} s"),
-        f"take-off to landing {flight.report.duration_s:.0f} s",
+        f"take-off to landing {flight.report.duration_s:.0f} s"
+        + ("" if endurance_s is None else f" of the {endurance_s:g} s endurance"),
         "min rate " + ("not scored" if rate is None else f"{rate:.4f} bps/Hz"),
         "min NFZ clearance " + ("none (no NFZ)" if clearance is None else f"{clearance:.2f} m"),
     ])

@@ -266,6 +266,18 @@ def test_a_mission_longer_than_the_endurance_is_refused(tmp_path, capsys, square
     assert sorted(p.name for p in tmp_path.iterdir()) == ["site.yaml"]
 
 
+def test_the_result_line_holds_the_flight_against_the_endurance(tmp_path, capsys,
+                                                                square_planner):
+    slow = copy.deepcopy(SLOW)
+    slow["uav"]["endurance"] = 3600.0
+    assert plan_mission_main([str(_write_site(tmp_path, slow)), "-o",
+                              str(tmp_path / "m.plan")]) == 0
+    assert " s of the 3600 s endurance, " in capsys.readouterr().out
+    assert plan_mission_main([str(_write_site(tmp_path, SLOW, "plain.yaml")), "-o",
+                              str(tmp_path / "p.plan")]) == 0
+    assert "endurance" not in capsys.readouterr().out
+
+
 @pytest.mark.parametrize("args, through", [([], True), (["--stop-at-every-waypoint"], False)])
 def test_corners_are_flown_through_unless_told_to_stop(tmp_path, capsys, square_planner, args,
                                                        through):
