@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from mission_planner.autopilot_params import AutopilotParams, recommended_params
-from mission_planner.flight_report import FlightCheck, replay_mission
+from mission_planner.flight_report import FlightCheck, refusals, replay_mission
 from mission_planner.mission import Mission, MissionOptions, build_mission
 from mission_planner.optimize.solution import Solution
 from mission_planner.pipeline import (
@@ -154,7 +154,7 @@ def write_mission(
 
         paths += list(sidecar_paths(out))
     check_output_paths(paths)
-    problems = mission.problems + (flight.problems if flight is not None else ())
+    problems = refusals(mission, flight)
     if problems and not force:
         raise UnsafeMission(problems)
     files = output_files(mission, out, fmt=kind, report=report, geojson=geojson, plot=plot,

@@ -52,7 +52,7 @@ from pathlib import Path
 from mission_planner.airspace_time import plan_for_time
 from mission_planner.api import write_mission
 from mission_planner.autopilot_params import AutopilotParams, recommended_params
-from mission_planner.flight_report import FlightCheck, replay_mission
+from mission_planner.flight_report import FlightCheck, refusals, replay_mission
 from mission_planner.mission import (
     OPERATING_AREAS,
     Mission,
@@ -230,7 +230,7 @@ def _plan(args: argparse.Namespace) -> int:
     if args.at and not site.airspace.uas and not args.quiet:
         print("plan-mission: note: the site names no UAS zones (ED-269, ED-318): --at "
               "changes nothing", file=sys.stderr)
-    problems = mission.problems + flight.problems
+    problems = refusals(mission, flight)
     if problems:
         for problem in problems:
             print(f"plan-mission: unsafe: {problem}", file=sys.stderr)

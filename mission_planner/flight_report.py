@@ -124,6 +124,13 @@ class FlightCheck:
         }
 
 
+def refusals(mission: Mission, flight: FlightCheck | None = None) -> tuple[str, ...]:
+    """Why ``mission`` must not be written, one line each (empty: it may be): the safety
+    gate's ``Mission.problems``, and with its replay ``flight`` that replay's
+    (:attr:`FlightCheck.problems`)."""
+    return mission.problems + (flight.problems if flight is not None else ())
+
+
 def replay_mission(
     mission: Mission,
     params: AutopilotParams | Mapping[str, float] | None = None,
@@ -149,4 +156,4 @@ def replay_mission(
     return FlightCheck(prof, values, site.period_s, report, flight, track)
 
 
-__all__ = ["CYCLE_OVERRUN_WARN", "FlightCheck", "replay_mission"]
+__all__ = ["CYCLE_OVERRUN_WARN", "FlightCheck", "refusals", "replay_mission"]

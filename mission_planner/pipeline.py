@@ -226,11 +226,9 @@ def plan_solution(
     planner_options = PlannerOptions(dynamics=dynamics, autopilot=opt.autopilot,
                                      timing_params=timing,
                                      pass_through_corners=pass_through_corners,
-                                     start_schedules=starts)
+                                     start_schedules=starts, first_fit=first_fit)
     if wind_paths is not None:
         planner_options = dataclasses.replace(planner_options, wind_paths=tuple(wind_paths))
-    if first_fit:
-        planner_options = dataclasses.replace(planner_options, first_fit=True)
     return plan(site, scheme, options=planner_options, progress=progress)
 
 
