@@ -50,9 +50,9 @@ def plan(
                          f"got {opt.wind_paths!r}")
     wind = site.flight_wind
     if wind is not None:  # a wind the vehicle cannot fly against has no plan
-        from validator.motion.speed_model import cruise_speed_mps
+        from validator.motion.speed_model import commanded_top_speed_mps
 
-        air = site.max_speed_mps if opt.dynamics == "none" else cruise_speed_mps(
+        air = site.max_speed_mps if opt.dynamics == "none" else commanded_top_speed_mps(
             site, opt.autopilot)
         check_flyable(air, wind, "wind")
     started = time.perf_counter()

@@ -15,7 +15,7 @@ MAV_PARAM_TYPE_REAL32 = 9
 # A vehicle limit a flight model puts in place of the autopilot's default (the field of
 # :class:`validator.motion.limits.VehicleLimits` it reads).
 LimitName = Literal["speed_mps", "accel_mps2", "jerk_mps3", "alt_amsl_m", "wind_speed_mps",
-                    "wind_from_deg"]
+                    "wind_from_deg", "wind_turbulence_mps"]
 
 
 @dataclass(frozen=True)

@@ -45,7 +45,8 @@ from validator.plan_format import Autopilot
 
 # Profile parameters that are the model's, not an autopilot's: never sent with PARAM_SET.
 MODEL_ONLY_PARAMS = frozenset({"VEHICLE_SPEED_MAX", "SPEED", "SPEED_UP", "SPEED_DN",
-                               "VEHICLE_DRAG", "ALT_AMSL", "WIND_SPEED", "WIND_FROM"})
+                               "VEHICLE_DRAG", "ALT_AMSL", "WIND_SPEED", "WIND_FROM",
+                               "WIND_TURB"})
 
 CONNECT_HELP = ("pymavlink connection string: udpin:0.0.0.0:14550, udpout:HOST:PORT, "
                 "tcp:HOST:PORT, or a serial port such as /dev/ttyACM0")

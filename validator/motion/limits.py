@@ -18,8 +18,8 @@ SITL_QUAD_DRAG_PER_M = 0.0561
 class VehicleLimits:
     """What a flight model needs to know of the vehicle: its top speed (m/s), acceleration
     (m/s²) and jerk (m/s³) limits, and the altitude it flies at above mean sea level (m, for
-    the air density), and the air it flies in there: the wind's speed (m/s) and the direction
-    it blows from (degrees true; :mod:`validator.wind`)."""
+    the air density), and the air it flies in there: the wind's speed (m/s), the direction
+    it blows from (degrees true) and its turbulence (m/s; :mod:`validator.wind`)."""
 
     speed_mps: float
     accel_mps2: float
@@ -27,6 +27,7 @@ class VehicleLimits:
     alt_amsl_m: float = 0.0
     wind_speed_mps: float = 0.0
     wind_from_deg: float = 0.0
+    wind_turbulence_mps: float = 0.0
 
 
 def site_limits(site: Site) -> VehicleLimits:
@@ -35,7 +36,8 @@ def site_limits(site: Site) -> VehicleLimits:
     wind = site.flight_wind
     return VehicleLimits(site.max_speed_mps, site.max_accel_mps2, site.max_jerk_mps3,
                          site.frame.alt0_m + site.altitude_m,
-                         wind.speed_mps if wind else 0.0, wind.from_deg if wind else 0.0)
+                         wind.speed_mps if wind else 0.0, wind.from_deg if wind else 0.0,
+                         wind.turbulence_mps if wind else 0.0)
 
 
 def air_density_ratio(alt_amsl_m: float) -> float:

@@ -9,9 +9,9 @@ default (a site's ``uav.max_speed``, ``max_accel``, ``max_jerk``). A few paramet
 model's own, in SI units: ``VEHICLE_SPEED_MAX`` (m/s, every profile) is the vehicle's real top
 speed (default: its speed limit), e.g. 10.4 for ArduPilot's SITL quad; drag and altitude;
 and (``arducopter``, ``px4``) the wind the vehicle flies in, ``WIND_SPEED`` (m/s) from
-``WIND_FROM`` (degrees true; default: the site's ``wind:`` at the flight altitude): the top
-speed then holds in the air, so the ground speed along each leg is what
-:func:`validator.wind.ground_speed_mps` leaves of it.
+``WIND_FROM`` (degrees true) with turbulence ``WIND_TURB`` (m/s; default: the site's
+``wind:`` at the flight altitude): the top speed then holds in the air, so the ground speed
+along each leg is what :func:`validator.wind.ground_speed_mps` leaves of it.
 """
 
 from __future__ import annotations
@@ -47,6 +47,9 @@ _WIND = {
                               "site's wind:)", limit="wind_speed_mps", zero_ok=True),
     "WIND_FROM": model_param("deg", "direction the wind blows from, degrees true",
                              limit="wind_from_deg", zero_ok=True),
+    "WIND_TURB": model_param("m/s", "the wind's turbulence, the gusts' standard deviation "
+                             "(default: the site's wind:)", limit="wind_turbulence_mps",
+                             zero_ok=True),
 }
 PARAM_SPECS: dict[str, dict[str, ParamSpec]] = {
     "ideal": {
@@ -100,11 +103,12 @@ class Profile:
 
 
 def profile_wind(profile: Profile) -> Wind | None:
-    """The wind a profile flies in (WIND_SPEED from WIND_FROM), None in still air."""
+    """The wind a profile flies in (WIND_SPEED from WIND_FROM, WIND_TURB), None in still air."""
     speed = float(profile.params.get("WIND_SPEED", 0.0))
     if speed <= 0.0:
         return None
-    return Wind(speed, float(profile.params["WIND_FROM"]) % 360.0)
+    return Wind(speed, float(profile.params["WIND_FROM"]) % 360.0,
+                float(profile.params.get("WIND_TURB", 0.0)))
 
 
 def make_profile(

@@ -20,6 +20,7 @@ from validator.autopilot.waypoint_radius import radius_params
 from validator.motion.arducopter import (
     ScurveLimits,
     arducopter_top_speed_mps,
+    held_top_speed_mps,
     jerk_ramp_s,
     leg_speeds_mps,
     scurve_limits,
@@ -72,6 +73,18 @@ def cruise_speed_mps(site: Site, autopilot: str = "ardupilot") -> float:
     """The top speed (m/s) flyable plans are made and timed at: the site's V, or the vehicle's
     real top speed (:func:`top_speed_mps`) when that is lower."""
     return min(site.max_speed_mps, top_speed_mps(site, autopilot))
+
+
+def commanded_top_speed_mps(site: Site, autopilot: str = "ardupilot") -> float:
+    """The top airspeed (m/s) plans command in the site's wind: :func:`cruise_speed_mps`, or
+    for ArduCopter in gusts the lower airspeed its lean limit holds through them
+    (:func:`validator.motion.arducopter.held_top_speed_mps`). A wind at or above it is
+    refused."""
+    cruise = cruise_speed_mps(site, autopilot)
+    profile = motion_profile(site, autopilot)
+    if profile.name == "px4":
+        return cruise
+    return min(cruise, held_top_speed_mps(profile))
 
 
 def leg_profiles(site: Site, lengths_m: ArrayLike, speed_mps: float | None = None,
