@@ -193,10 +193,13 @@ def heading_deg(unit: ArrayLike) -> NDArray[np.float64]:
 
 
 def check_flyable(air_speed_mps: float, wind: Wind, where: str,
-                  unit: ArrayLike | None = None, names: list[str] | None = None) -> None:
+                  unit: ArrayLike | None = None, names: list[str] | None = None,
+                  gusts: bool = False) -> None:
     """Refuse (:class:`InputError`, one line) a wind the vehicle cannot fly against: at or
     above its air-speed limit ``air_speed_mps`` it can neither hold a position nor fly upwind.
-    With headings ``unit`` (n, 2) and their ``names`` the first leg it cannot fly is named."""
+    With headings ``unit`` (n, 2) and their ``names`` the first leg it cannot fly is named.
+    ``gusts``: the limit is the airspeed held through the wind's turbulence
+    (:func:`held_air_speed_mps`), and the message says so."""
     w = wind.vector_mps
     if wind.speed_mps < air_speed_mps:
         return
@@ -208,6 +211,7 @@ def check_flyable(air_speed_mps: float, wind: Wind, where: str,
             i = int(bad[0])
             name = names[i] if names else f"leg {i}"
             leg = f"{name} (course {float(heading_deg(unit)[i]):.0f}°) cannot be flown: "
-    raise InputError(f"{where}: {leg}wind {wind.label()} is at or above the vehicle's top "
-                     f"airspeed {air_speed_mps:.2f} m/s; it can neither hold position nor fly "
-                     "upwind")
+    limit = (f"the airspeed the vehicle holds through its gusts, {air_speed_mps:.2f} m/s" if gusts
+             else f"the vehicle's top airspeed {air_speed_mps:.2f} m/s")
+    raise InputError(f"{where}: {leg}wind {wind.label()} is at or above {limit}; it can "
+                     "neither hold position nor fly upwind")

@@ -50,11 +50,13 @@ def plan(
                          f"got {opt.wind_paths!r}")
     wind = site.flight_wind
     if wind is not None:  # a wind the vehicle cannot fly against has no plan
-        from validator.motion.speed_model import commanded_top_speed_mps
+        from validator.motion.speed_model import commanded_top_speed_mps, cruise_speed_mps
 
-        air = site.max_speed_mps if opt.dynamics == "none" else commanded_top_speed_mps(
-            site, opt.autopilot)
-        check_flyable(air, wind, "wind")
+        if opt.dynamics == "none":
+            check_flyable(site.max_speed_mps, wind, "wind")
+        else:
+            air = commanded_top_speed_mps(site, opt.autopilot)
+            check_flyable(air, wind, "wind", gusts=air < cruise_speed_mps(site, opt.autopilot))
     started = time.perf_counter()
     if opt.dynamics == "none":
         return plan_paper(site, scheme, opt, progress, started)

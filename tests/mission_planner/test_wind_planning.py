@@ -97,7 +97,9 @@ def test_plan_refuses_a_wind_beyond_the_top_speed() -> None:
 
 def test_plan_refuses_a_wind_beyond_the_airspeed_held_through_its_gusts() -> None:
     site = load_site(SAMPLE).with_limits(wind=Wind(9.9, 45.0, 2.0))
-    with pytest.raises(InputError, match=r"top airspeed 9\.78 m/s"):
+    with pytest.raises(InputError, match=r"^wind: wind 9.9 m/s from 45°, turbulence 2 m/s is at "
+                                         r"or above the airspeed the vehicle holds through its "
+                                         r"gusts, 9\.78 m/s"):
         plan(site)
 
 
