@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from validator.channel import hover_upper_bound, spectral_efficiency
 from validator.geometry import expanded_radius, leg_clearances
+from validator.motion.speed_model import commanded_top_speed_mps
 from validator.site import Site
 from validator.wind_track import buffer_share
 from validator.zones import path_clearances_m
@@ -176,16 +177,21 @@ class Solution:
             **({"zone_clearance_min_m": self._zone_clearance_min_m()}
                if site.polygon_zones else {}),
             **({"notes": self.timing.as_dict()} if self.timing is not None else {}),
-            **({"wind": wind_report(site)} if site.wind is not None else {}),
+            **({"wind": wind_report(site, self.timing.autopilot if self.timing else None)}
+               if site.wind is not None else {}),
         }
 
 
-def wind_report(site: Site) -> dict[str, object]:
+def wind_report(site: Site, autopilot: str | None = None) -> dict[str, object]:
     """What wind a plan was made for: the site's forecast, its layer at the flight altitude
     (:mod:`validator.wind`) and what it eats of the buffer the plan keeps
-    (:func:`validator.wind_track.buffer_share`)."""
+    (:func:`validator.wind_track.buffer_share`); for a vehicle plan (flown by ``autopilot``)
+    the most airspeed its legs are commanded, held through the gusts
+    (:func:`validator.motion.speed_model.commanded_top_speed_mps`)."""
     assert site.wind is not None
     at = site.wind.at(site.altitude_m)
+    held = ({} if autopilot is None or site.flight_wind is None
+            else {"commanded_airspeed_max_mps": commanded_top_speed_mps(site, autopilot)})
     return {**site.wind.to_dict(), "at_flight_altitude": {
         "speed_mps": at.speed_mps, "from_deg": at.from_deg, "turbulence_mps": at.turbulence_mps},
-        **buffer_share(site.buffer_m, site.flight_wind)}
+        **held, **buffer_share(site.buffer_m, site.flight_wind)}

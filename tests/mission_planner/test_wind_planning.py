@@ -4,6 +4,7 @@ what the plan and report say, refusals, and validate-mission in another wind."""
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -165,6 +166,9 @@ def test_windy_plan_says_its_wind_and_commands_ground_speeds(windy_plan) -> None
                                        "turbulence_mps": 1.5}
     report = json.loads((d / "w.json").read_text())
     assert report["wind"]["speed_mps"] == 6.0
+    # the most airspeed a leg is commanded: what the lean limit holds through 1.5 m/s gusts
+    held = report["wind"]["commanded_airspeed_max_mps"]
+    assert held == pytest.approx(math.sqrt(10.08 ** 2 - 1.5 * 1.5 ** 2), abs=0.01)
     flight = report["flight"]
     assert abs(flight["cycle_ratio"] - 1.0) <= 0.05  # flown in its wind, on time
     # Every cycle leg is commanded at most the ground speed its course leaves of 10 m/s
