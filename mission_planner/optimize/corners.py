@@ -61,12 +61,17 @@ class CycleMotion:
     its end before a stop, to the moment its corner counts as reached before a pass-through.
     ``arrival_lag_s`` (W,): time between the end of the motion into waypoint k and the
     vehicle's arrival there (ArduCopter's stop lag at stops, 0 when passed through).
+    ``flown``: where the model flew each moving leg, as (time from the start of its move (s),
+    distance along it (m)) samples, when that is not its own rest-to-rest motion (ArduCopter:
+    a leg entered through a corner first runs at the speed of the leg before); None to read
+    the rest-to-rest motion.
     """
 
     stops: NDArray[np.bool_]
     offset_s: NDArray[np.float64]
     duration_s: NDArray[np.float64]
     arrival_lag_s: NDArray[np.float64]
+    flown: tuple[tuple[NDArray[np.float64], NDArray[np.float64]] | None, ...] | None = None
 
     @property
     def move_s(self) -> float:
@@ -121,7 +126,24 @@ def blended_motion(
         offset[k], duration[k] = begin, max(finish - begin, 0.0)
         if stops[nxt]:
             lag[nxt] = float(path.reached_s[k] - end[k])
-    return CycleMotion(stops, offset, duration, lag)
+    return CycleMotion(stops, offset, duration, lag,
+                       tuple(_along_leg(path, points_m, k, float(path.start_s[k] + offset[k]),
+                                        float(duration[k])) for k in range(w)))
+
+
+def _along_leg(path: FlownPath, points_m: NDArray[np.float64], leg: int, begin_s: float,
+               duration_s: float) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+    """(time from ``begin_s`` (s), distance along leg ``leg`` (m)) of the flown ``path`` over
+    the leg's move, the vehicle's position projected onto the leg (never back: the slots
+    laid along it run forward); None for a leg that does not move."""
+    start, end = points_m[leg], points_m[(leg + 1) % len(points_m)]
+    length = float(np.hypot(*(end - start)))
+    if length <= 0 or duration_s <= 0:
+        return None
+    sel = (path.t_s >= begin_s - TURN_SAMPLE_S) & (path.t_s <= begin_s + duration_s + TURN_SAMPLE_S)
+    along = (path.xyz_m[sel, :2] - start) @ ((end - start) / length)
+    return (path.t_s[sel] - begin_s,
+            np.maximum.accumulate(np.clip(along, 0.0, length)).astype(float))
 
 
 def px4_motion(

@@ -392,11 +392,11 @@ def resample(
             deltas.extend([d / c] * c)
             points.extend([sk.points_m[k]] * c)
             continue
-        offset = float(motion.offset_s[k])
-        tau = _move_boundaries(profiles, k, offset, d, c)
-        deltas.extend(np.diff(np.r_[0.0, tau]))
-        along, _, _ = profiles.state(np.full(c, k), offset + tau)
         length = float(profiles.length_m[k])
+        pos = _along(motion, profiles, k)
+        tau = _move_boundaries(pos, length, d, c)
+        deltas.extend(np.diff(np.r_[0.0, tau]))
+        along = pos(tau)
         along[-1] = length  # the waypoint itself, reached or passed through
         unit = (nxt[k] - sk.points_m[k]) / length
         points.extend(sk.points_m[k] + along[:, None] * unit[None, :])
@@ -405,21 +405,38 @@ def resample(
     return traj, np.array(deltas)
 
 
+def _along(motion: CycleMotion, profiles: LegMotion, leg: int
+           ) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
+    """Distance (m) along ``leg`` at times (s) from the start of its move: where the cycle's
+    flight put the vehicle (``motion.flown``), else its own rest-to-rest motion from
+    ``motion.offset_s``."""
+    flown = motion.flown[leg] if motion.flown is not None else None
+    if flown is not None:
+        t, s = flown
+        return lambda tau: np.asarray(np.interp(tau, t, s), dtype=float)
+    offset = float(motion.offset_s[leg])
+
+    def own(tau: NDArray[np.float64]) -> NDArray[np.float64]:
+        along, _, _ = profiles.state(np.full(len(tau), leg), offset + tau)
+        return np.asarray(along, dtype=float)
+
+    return own
+
+
 def _move_boundaries(
-    profiles: LegMotion, leg: int, offset_s: float, duration_s: float, count: int
+    pos_at: Callable[[NDArray[np.float64]], NDArray[np.float64]], length: float,
+    duration_s: float, count: int
 ) -> NDArray[np.float64]:
-    """End times (s, from the move's start) of ``count`` slots over the part of a leg's motion
-    from ``offset_s`` lasting ``duration_s``: equal in time, except that every slot moves at
-    least :data:`MIN_SLOT_MOVE_M` (an S-curve starts and ends so slowly that an equal share of
-    time may move less than a hover's wobble, and the exporter would read the slot as a
-    hold)."""
+    """End times (s, from the move's start) of ``count`` slots over a leg's move of
+    ``length`` m lasting ``duration_s`` (``pos_at``: the distance along it at a time): equal
+    in time, except that every slot moves at least :data:`MIN_SLOT_MOVE_M` (an S-curve starts
+    and ends so slowly that an equal share of time may move less than a hover's wobble, and
+    the exporter would read the slot as a hold)."""
     tau = duration_s * np.arange(1, count + 1) / count
-    length = float(profiles.length_m[leg])
     if count < 2 or length < (count + 1) * MIN_SLOT_MOVE_M:
         return np.asarray(tau, dtype=float)
     grid = np.linspace(0.0, duration_s, 4096)
-    pos, _, _ = profiles.state(np.full(grid.size, leg), offset_s + grid)
-    pos = np.maximum.accumulate(pos)
+    pos = np.maximum.accumulate(pos_at(grid))
     step = MIN_SLOT_MOVE_M * 1.01  # a little over, against the grid's interpolation
     ahead = np.interp(step * np.arange(1, count + 1), pos, grid)  # i+1 steps from the start
     behind = np.interp(length - step * np.arange(count - 1, -1, -1), pos, grid)
