@@ -4,9 +4,10 @@ each was made for (``tests/data/arducopter-sitl-wind``): the seventh (plan-missi
 a92f119, ``flights-wind-corners.json``, plans and parameter files in
 ``wind-corners-plans.json.gz``), the eighth (at 13d9dac, with the speed change at a corner:
 ``flights-speed-change.json``, ``speed-change-plans.json.gz``), the ninth (at 7129cd1, the
-berth's probe: ``flights-probe.json``, ``probe-plans.json.gz``) and the eleventh (at 1b07209,
+berth's probe: ``flights-probe.json``, ``probe-plans.json.gz``), the eleventh (at 1b07209,
 legs commanded the airspeed held through the gusts: ``flights-gusts.json``,
-``gusts-plans.json.gz``), as plan-mission wrote them."""
+``gusts-plans.json.gz``) and the twelfth (at 87065f4, slots laid where the model flies each
+leg: ``flights-slots.json``, ``slots-plans.json.gz``), as plan-mission wrote them."""
 
 from __future__ import annotations
 
@@ -33,13 +34,14 @@ SITES = {"realistic": ROOT / "samples" / "realistic.yaml",
 CAMPAIGNS = {"seventh": ("flights-wind-corners.json", "wind-corners-plans.json.gz"),
              "eighth": ("flights-speed-change.json", "speed-change-plans.json.gz"),
              "ninth": ("flights-probe.json", "probe-plans.json.gz"),
-             "eleventh": ("flights-gusts.json", "gusts-plans.json.gz")}
+             "eleventh": ("flights-gusts.json", "gusts-plans.json.gz"),
+             "twelfth": ("flights-slots.json", "slots-plans.json.gz")}
 # Flights whose predicted cycle missed the flown one by over 3 %: orchard in 8 m/s from 45°
 # flew 4.5-4.7 % early in each (README, Wind: corners that shed drag); in the ninth realistic
 # in 7 m/s from 315°, turbulence 2, 3.1 % late (its upwind legs at the air-speed cap flew 6 %
 # slow; the eighth's plan there was 2.5 % late; the eleventh's, commanded the airspeed held
 # through the gusts, 2.0 % late)
-CYCLE_MISSES = {"seventh": 1, "eighth": 1, "ninth": 2, "eleventh": 1}
+CYCLE_MISSES = {"seventh": 1, "eighth": 1, "ninth": 2, "eleventh": 1, "twelfth": 1}
 
 
 def _replayed_against_flown(campaign: str) -> tuple[np.ndarray, np.ndarray]:
@@ -74,8 +76,10 @@ def test_the_predicted_cycle_is_within_3_percent_of_the_flown_one(campaign):
 # Flights whose worst node got less than 0.97 of the report's rate: timing inside the cycle
 # (README, Wind: the speed change at a corner); the seventh campaign's plans had 3 more
 # without the speed change; the eleventh's two are orchard in 8 m/s from 0° and 45°, flown
-# 1.9 % and 4.4 % early (legs entered through a corner ran faster than modelled)
-RATE_MISSES = {"seventh": 1, "eighth": 3, "ninth": 1, "eleventh": 2}
+# 1.9 % and 4.4 % early (legs entered through a corner ran faster than modelled); the
+# twelfth's three those two again and harbour in 7 m/s from 315°, 2.0 % early (a leg
+# commanded 10 m/s after a corner from 5.2 sped up sooner than modelled)
+RATE_MISSES = {"seventh": 1, "eighth": 3, "ninth": 1, "eleventh": 2, "twelfth": 3}
 
 
 @pytest.mark.parametrize("campaign", list(CAMPAIGNS))
