@@ -6,11 +6,13 @@ import numpy as np
 import pytest
 
 from mission_planner.optimize import PlannerOptions, Solution, plan
+from mission_planner.optimize.corners import CycleMotion
 from mission_planner.optimize.retime import (
     MIN_HOLD_S,
     Skeleton,
     cycle_motion,
     fit_holds,
+    resample,
     skeleton,
     started_near,
     time_cycle,
@@ -113,6 +115,32 @@ def test_resample_lays_slots_on_the_s_curves(site: Site) -> None:
     speed = np.linalg.norm(np.diff(q, axis=0), axis=1) / d
     assert np.all(speed <= site.max_speed_mps + 1e-9)
     assert np.allclose(q[:, 1], 0.0)
+
+
+def test_resample_lays_moving_slots_where_the_cycle_flew_the_leg(site: Site) -> None:
+    """A leg entered through a corner first runs at the speed of the leg before, so the
+    vehicle is not where the leg's own S-curve would put it: the slots follow the flight."""
+    sk = Skeleton(np.array([[0.0, 0.0], [100.0, 0.0]]), np.array([4.0, 4.0]))
+    profiles = leg_profiles(site, sk.leg_lengths_m)
+    t = np.linspace(0.0, 20.0, 401)
+    steady = (t, 5.0 * t)  # 100 m at 5 m/s, whatever the S-curve would do
+    motion = CycleMotion(np.array([True, True]), np.zeros(2), np.array([20.0, 20.0]),
+                         np.zeros(2), (steady, steady))
+    out = resample(sk, np.array([4.0, 4.0]), profiles, 12, motion)
+    assert out is not None
+    q, d = out
+    clock = np.r_[0.0, np.cumsum(d)]
+    out_n = int(np.flatnonzero(q[:, 0] > 0)[0])  # the first slot of the outbound move
+    back_n = int(np.flatnonzero(q[:, 0] >= 100.0)[0])  # its last
+    first = np.arange(out_n, back_n + 1)
+    assert len(first) >= 2
+    began = clock[out_n - 1]
+    assert q[first, 0] == pytest.approx(5.0 * (clock[first] - began), abs=1e-6)
+    # read from the S-curve instead, the same slots sit elsewhere along the leg
+    own = resample(sk, np.array([4.0, 4.0]), profiles, 12,
+                   CycleMotion(motion.stops, motion.offset_s, motion.duration_s,
+                               motion.arrival_lag_s))
+    assert own is not None and not np.allclose(own[0][first, 0], q[first, 0], atol=1.0)
 
 
 def test_legs_are_timed_no_faster_than_the_vehicle_flies(site: Site) -> None:
