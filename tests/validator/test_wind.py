@@ -168,7 +168,7 @@ def test_gusts_take_from_the_airspeed_held() -> None:
 
 def test_arducopter_plans_command_what_it_holds_through_the_gusts() -> None:
     """Commanded at its lean limit straight into 7 m/s with turbulence 2 m/s, ArduCopter SITL
-    flew 9.79-9.84 m/s of air: a plan commands the held airspeed, the replay's cap stays the
+    flew 9.79-9.88 m/s of air: a plan commands the held airspeed, the replay's cap stays the
     still-air top speed, so the replay flies the plan's legs as commanded."""
     site = load_site(SAMPLE)
     gusty = make_profile("arducopter", site_limits(site),
