@@ -26,14 +26,21 @@ WIND = Wind(7.0, 315.0, 2.0)
 FASTER = (("realistic-7at315", "site.yaml", 9, 11), ("realistic-7at315", "site.yaml", 23, 25))
 SLOWER = (("harbour-9.3-7at315", "harbour-9.3.yaml", 7, 9),
           ("harbour-9.3-7at315", "harbour-9.3.yaml", 13, 15))
+# a 79 m leg built at 5.2 m/s and commanded 10 after a 123° corner
+RISE = (("harbour-7at315", "../sites/harbour.yaml", 9, 11),)
+# a 74 m leg commanded 2.9 m/s into 8 m/s from 45° after a leg commanded 10: built at 10 m/s
+LEANING = (("orchard-8at45", "../sites/orchard.yaml", 5, 7),)
+# in still air, a 25 m leg commanded 9.4 m/s after a 0.3 m one commanded 0.31
+CRAWL = (("realistic1-none", "realistic1.yaml", 5, 7),)
 
 
-def _leg_times_s(legs: tuple[tuple[str, str, int, int], ...]) -> tuple[np.ndarray, np.ndarray]:
+def _leg_times_s(legs: tuple[tuple[str, str, int, int], ...], wind: Wind = WIND
+                 ) -> tuple[np.ndarray, np.ndarray]:
     """Per leg: the flown and the modelled time (s) from reaching its start to reaching its
     end, the corner at its start flown through."""
     flown_s, model_s = [], []
     for name, site_file, before, after in legs:
-        site = load_site(DATA / site_file).with_limits(wind=WIND)
+        site = load_site(DATA / site_file).with_limits(wind=wind)
         replayed = replay_plan(read_plan(DATA / f"{name}.plan"), site,
                                params=read_params(DATA / f"{name}.param"))
         flight = replayed.flight
@@ -73,6 +80,39 @@ def test_a_slower_leg_after_a_corner_comes_early_by_less(monkeypatch):
     assert np.all(err <= err_without - 0.5), (flown - model, flown - without)
 
 
+def test_a_rise_after_a_corner_is_timed_as_flown():
+    # SITL rose from 5.2 to 8.4 m/s, the change that fits in half the 54 m built at 5.2:
+    # flown 12.8 s; the model without that limit kept 5.2 m/s all along, 16.0 s
+    flown, model = _leg_times_s(RISE)
+    assert np.all(np.abs(flown - model) <= 0.7), flown - model
+
+
+def test_without_half_the_constant_part_a_rise_is_timed_late(monkeypatch):
+    monkeypatch.setattr(arducopter, "change_reach_mps", lambda v1, v2, *limits: v2)
+    flown, model = _leg_times_s(RISE)
+    assert np.all(model - flown > 2.0), flown - model
+
+
+def test_a_leg_built_at_a_crawl_rises_as_far_as_half_its_constant_part_takes_it():
+    # The paper's plan without the vehicle (one waypoint per slot) of tests/golden's
+    # realistic1: flown 8.5 s; the model that kept the built 0.31 m/s where the whole rise did
+    # not fit made it 81 s, and its cycle 1.27x the flown one (now within 0.5 %)
+    flown, model = _leg_times_s(CRAWL, Wind(0.0, 0.0))
+    assert np.all(np.abs(flown - model) <= 1.0), flown - model
+
+
+def test_a_leg_built_faster_than_the_vehicle_flies_it_is_timed_from_that_s_curve():
+    # Built at 10 m/s, the S-curve first runs up to 7 m/s and its 35 m of constant part only
+    # let it slow to 3.9 m/s: faster than the vehicle's lean limit lets it fly across this
+    # wind, so it leans to its limit the whole leg. The model, building the S-curve at what the
+    # vehicle leans to (3.4 m/s) and slowing it to 2.9, made the leg 24.8 s; flown 19.8 s; the
+    # 2.2 s left is SITL's quad, whose drag per body axis lets it lean to more speed across the
+    # wind than the model's (:func:`validator.motion.limits.top_speed_mps`)
+    flown, model = _leg_times_s(LEANING, Wind(8.0, 45.0, 2.0))
+    assert np.all(np.abs(flown - model) <= 2.5), flown - model
+    assert np.all(model > flown), flown - model
+
+
 def test_a_slower_leg_first_reaches_what_its_jerk_phases_gain():
     first = corner_first_speeds_mps(np.array([3.0, 3.0, 8.0]), np.array([10.0, 5.0, 10.0]),
                                     np.array([True, True, True]), np.full(3, 7.0))
@@ -91,20 +131,34 @@ def test_a_leg_not_entered_through_a_corner_runs_at_its_own_speed():
     assert first == pytest.approx([3.0])
 
 
+# Quick enough (m/s², m/s³) that a speed change fits in any room: each test below is one rule
+QUICK = (np.full(2, 100.0), np.full(2, 1000.0))
+
+
 def test_a_leg_with_room_changes_to_its_own_speed():
     # built at 7 m/s with 100 m of constant speed: 12 jerk times of 0.3 s cover 25 m
     cruise = corner_changed_speeds_mps(np.array([7.0, 3.0]), np.array([3.0, 7.0]),
-                                       np.array([100.0, 100.0]), np.full(2, 0.3))
+                                       np.array([100.0, 100.0]), np.full(2, 0.3), *QUICK)
     assert cruise == pytest.approx([3.0, 7.0])
 
 
 def test_a_leg_without_room_keeps_the_speed_it_was_built_at():
     cruise = corner_changed_speeds_mps(np.array([7.0, 3.0]), np.array([3.0, 7.0]),
-                                       np.array([20.0, 10.0]), np.full(2, 0.3))
+                                       np.array([20.0, 10.0]), np.full(2, 0.3), *QUICK)
     assert cruise == pytest.approx([7.0, 3.0])
 
 
 def test_a_rise_goes_only_as_far_as_the_room_allows():
     cruise = corner_changed_speeds_mps(np.array([3.0]), np.array([10.0]), np.array([18.0]),
-                                       np.array([0.3]))
+                                       np.array([0.3]), QUICK[0][:1], QUICK[1][:1])
     assert cruise == pytest.approx([5.0])  # 18 m over 12 x 0.3 s
+
+
+def test_a_change_gets_only_as_far_as_half_the_constant_part_takes_it():
+    # ArduCopter's default limits (2.5 m/s², 1 m/s³, 0.3 s ramps): 5.2 -> 10 m/s takes 33 m,
+    # 10 -> 3 m/s 40 m; with 54 m at the built speed, each gets the change that fits in 27 m
+    cruise = corner_changed_speeds_mps(np.array([5.2, 10.0]), np.array([10.0, 3.0]),
+                                       np.full(2, 54.0), np.full(2, 0.3), np.full(2, 2.5),
+                                       np.ones(2))
+    assert 8.0 < cruise[0] < 9.0
+    assert 3.5 < cruise[1] < 5.5

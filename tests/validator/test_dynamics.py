@@ -18,7 +18,12 @@ from validator.motion.fly import fly
 from validator.motion.limits import air_density_ratio, site_limits, top_speed_mps
 from validator.motion.path import LegGeometry
 from validator.motion.profile import make_profile, parse_param_overrides
-from validator.motion.scurve import SEG_CRUISE, scurve_peak_speed, scurve_rest_to_rest
+from validator.motion.scurve import (
+    SEG_CRUISE,
+    change_reach_mps,
+    scurve_peak_speed,
+    scurve_rest_to_rest,
+)
 from validator.plan_format import Cmd
 
 
@@ -82,6 +87,27 @@ def test_a_leg_too_short_for_its_speed_peaks_with_no_cruise_left():
     cruise_s = scurve_rest_to_rest(L, V, A, J, tj).dur_s[:, SEG_CRUISE]
     assert np.all(cruise_s[short] < 1e-6)
     assert np.all(cruise_s[~short] > 0.0)
+
+
+def test_a_speed_change_with_room_reaches_its_target():
+    # 3 -> 5 m/s at J = 1 without ramps: 2·sqrt(2) s at a mean 4 m/s, 11.3 m; down likewise
+    reach = change_reach_mps(np.array([3.0, 5.0]), np.array([5.0, 3.0]), np.full(2, 11.4),
+                             np.full(2, 2.5), np.ones(2), np.zeros(2))
+    assert reach == pytest.approx([5.0, 3.0])
+
+
+def test_a_speed_change_without_room_goes_as_far_as_its_length_from_the_lower_speed():
+    # 5.66 m from 3 m/s: a gain g with (3 + g/2)·2·sqrt(g) = 5.66 is g = 0.5 (3.25 x 1.41 x 2 / 2)
+    length = (3.0 + 0.25) * 2.0 * math.sqrt(0.5)
+    reach = change_reach_mps(np.array([3.0, 5.0]), np.array([5.0, 3.0]), np.full(2, length),
+                             np.full(2, 2.5), np.ones(2), np.zeros(2))
+    assert reach == pytest.approx([3.5, 4.5], abs=1e-6)
+
+
+def test_a_speed_change_given_no_room_stays_at_its_speed():
+    reach = change_reach_mps(np.array([3.0]), np.array([10.0]), np.array([0.0]),
+                             np.array([2.5]), np.array([1.0]), np.array([0.3]))
+    assert reach == pytest.approx([3.0])
 
 
 def test_corner_overlap_keeps_the_blend_inside_the_waypoint_radius():

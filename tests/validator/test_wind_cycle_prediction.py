@@ -36,12 +36,13 @@ CAMPAIGNS = {"seventh": ("flights-wind-corners.json", "wind-corners-plans.json.g
              "ninth": ("flights-probe.json", "probe-plans.json.gz"),
              "eleventh": ("flights-gusts.json", "gusts-plans.json.gz"),
              "twelfth": ("flights-slots.json", "slots-plans.json.gz")}
-# Flights whose predicted cycle missed the flown one by over 3 %: orchard in 8 m/s from 45°
-# flew 4.5-4.7 % early in each (README, Wind: corners that shed drag); in the ninth realistic
-# in 7 m/s from 315°, turbulence 2, 3.1 % late (its upwind legs at the air-speed cap flew 6 %
-# slow; the eighth's plan there was 2.5 % late; the eleventh's, commanded the airspeed held
-# through the gusts, 2.4 % late and predicted within 2.1 %)
-CYCLE_MISSES = {"seventh": 1, "eighth": 1, "ninth": 2, "eleventh": 1, "twelfth": 1}
+# Flights whose predicted cycle missed the flown one by over 3 %: in the eighth orchard in
+# 8 m/s from 45°, 3.1 % early (a leg across the wind flown at the lean limit, which SITL's quad
+# turns into more speed than the model's: README, Wind), in the ninth realistic in 7 m/s from
+# 315°, turbulence 2, 3.1 % late (its upwind legs at the air-speed cap flew 6 % slow; the
+# eleventh's plan there, commanded the airspeed held through the gusts, was predicted within
+# 2.1 %)
+CYCLE_MISSES = {"seventh": 0, "eighth": 1, "ninth": 1, "eleventh": 0, "twelfth": 0}
 
 
 def _replayed_against_flown(campaign: str) -> tuple[np.ndarray, np.ndarray]:
@@ -75,18 +76,18 @@ def test_the_predicted_cycle_is_within_3_percent_of_the_flown_one(campaign):
 
 # Flights whose worst node got less than 0.97 of the report's rate: timing inside the cycle
 # (README, Wind: the speed change at a corner); the seventh campaign's plans had 3 more
-# without the speed change; the eleventh's two are orchard in 8 m/s from 0° and 45°, flown
-# 1.9 % and 4.4 % early (legs entered through a corner ran faster than modelled); the
-# twelfth's three those two again and harbour in 7 m/s from 315°, 2.0 % early (a leg
-# commanded 10 m/s after a corner from 5.2 sped up sooner than modelled)
-RATE_MISSES = {"seventh": 1, "eighth": 3, "ninth": 1, "eleventh": 2, "twelfth": 3}
+# without the speed change; the eighth's orchard in 8 m/s from 0° and 45° and harbour in
+# 8 m/s from 45°; the ninth's orchard in 8 m/s from 45°; the eleventh's and the twelfth's
+# orchard in 8 m/s from 0°, 1.9-2.1 % early (legs across the wind at the lean limit ran
+# faster than modelled)
+RATE_MISSES = {"seventh": 0, "eighth": 3, "ninth": 1, "eleventh": 1, "twelfth": 1}
 
 
 @pytest.mark.parametrize("campaign", list(CAMPAIGNS))
 def test_the_flown_min_rate_is_at_least_0_97_of_the_reported_one(campaign):
     _, ratio = _replayed_against_flown(campaign)
     assert np.sum(ratio >= 0.97) >= len(ratio) - RATE_MISSES[campaign], np.round(ratio, 3)
-    assert np.min(ratio) >= 0.94, np.round(ratio, 3)
+    assert np.min(ratio) >= 0.95, np.round(ratio, 3)
 
 
 def test_without_the_corner_speed_change_cycle_and_rates_are_predicted_worse(monkeypatch):

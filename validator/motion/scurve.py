@@ -184,6 +184,29 @@ def _change_distance(
     return np.asarray((v1 + v2) / 2.0 * _accel_phase(np.abs(v2 - v1), A, J, tj)[3], dtype=float)
 
 
+def change_reach_mps(
+    from_mps: NDArray[np.float64], to_mps: NDArray[np.float64], length_m: NDArray[np.float64],
+    accel_mps2: NDArray[np.float64], jerk_mps3: NDArray[np.float64],
+    jerk_ramp_s: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """The speed (m/s) a jerk-limited change from ``from_mps`` toward ``to_mps`` reaches when
+    it is given ``length_m`` metres: ``to_mps`` where the whole change fits, else as far as a
+    change of that size starting from the lower of the two speeds fits in ``length_m`` (how
+    ArduCopter's ``SCurve::calculate_path`` shortens a speed change, up or down)."""
+    v1 = np.asarray(from_mps, dtype=float)
+    v2 = np.broadcast_to(np.asarray(to_mps, dtype=float), v1.shape)
+    shape = v1.shape
+    A, J, tj, L = (np.broadcast_to(np.asarray(x, dtype=float), shape)
+                   for x in (accel_mps2, jerk_mps3, jerk_ramp_s, length_m))
+    lower = np.minimum(v1, v2)
+
+    def distance(gap: NDArray[np.float64]) -> NDArray[np.float64]:
+        return _change_distance(lower, lower + gap, A, J, tj)
+
+    gap = _bisect(distance, np.maximum(L, 0.0), np.zeros(shape), np.abs(v2 - v1))
+    return np.asarray(v1 + np.sign(v2 - v1) * gap, dtype=float)
+
+
 def scurve_peak_speed(
     length_m: NDArray[np.float64] | float,
     speed_mps: NDArray[np.float64] | float,
