@@ -6,8 +6,10 @@ a92f119, ``flights-wind-corners.json``, plans and parameter files in
 ``flights-speed-change.json``, ``speed-change-plans.json.gz``), the ninth (at 7129cd1, the
 berth's probe: ``flights-probe.json``, ``probe-plans.json.gz``), the eleventh (at 1b07209,
 legs commanded the airspeed held through the gusts: ``flights-gusts.json``,
-``gusts-plans.json.gz``) and the twelfth (at 87065f4, slots laid where the model flies each
-leg: ``flights-slots.json``, ``slots-plans.json.gz``), as plan-mission wrote them."""
+``gusts-plans.json.gz``), the twelfth (at 87065f4, slots laid where the model flies each
+leg: ``flights-slots.json``, ``slots-plans.json.gz``) and the thirteenth (at 09d47c5, a speed
+change at a corner only as far as half the S-curve's constant part takes it:
+``flights-reach.json``, ``reach-plans.json.gz``), as plan-mission wrote them."""
 
 from __future__ import annotations
 
@@ -35,14 +37,16 @@ CAMPAIGNS = {"seventh": ("flights-wind-corners.json", "wind-corners-plans.json.g
              "eighth": ("flights-speed-change.json", "speed-change-plans.json.gz"),
              "ninth": ("flights-probe.json", "probe-plans.json.gz"),
              "eleventh": ("flights-gusts.json", "gusts-plans.json.gz"),
-             "twelfth": ("flights-slots.json", "slots-plans.json.gz")}
+             "twelfth": ("flights-slots.json", "slots-plans.json.gz"),
+             "thirteenth": ("flights-reach.json", "reach-plans.json.gz")}
 # Flights whose predicted cycle missed the flown one by over 3 %: in the eighth orchard in
 # 8 m/s from 45°, 3.1 % early (a leg across the wind flown at the lean limit, which SITL's quad
 # turns into more speed than the model's: README, Wind), in the ninth realistic in 7 m/s from
 # 315°, turbulence 2, 3.1 % late (its upwind legs at the air-speed cap flew 6 % slow; the
 # eleventh's plan there, commanded the airspeed held through the gusts, was predicted within
-# 2.1 %)
-CYCLE_MISSES = {"seventh": 0, "eighth": 1, "ninth": 1, "eleventh": 0, "twelfth": 0}
+# 2.1 %); in the thirteenth orchard in 8 m/s from 45° again, 3.2 % early
+CYCLE_MISSES = {"seventh": 0, "eighth": 1, "ninth": 1, "eleventh": 0, "twelfth": 0,
+                "thirteenth": 1}
 
 
 def _replayed_against_flown(campaign: str) -> tuple[np.ndarray, np.ndarray]:
@@ -78,9 +82,10 @@ def test_the_predicted_cycle_is_within_3_percent_of_the_flown_one(campaign):
 # (README, Wind: the speed change at a corner); the seventh campaign's plans had 3 more
 # without the speed change; the eighth's orchard in 8 m/s from 0° and 45° and harbour in
 # 8 m/s from 45°; the ninth's orchard in 8 m/s from 45°; the eleventh's and the twelfth's
-# orchard in 8 m/s from 0°, 1.9-2.1 % early (legs across the wind at the lean limit ran
-# faster than modelled)
-RATE_MISSES = {"seventh": 0, "eighth": 3, "ninth": 1, "eleventh": 1, "twelfth": 1}
+# orchard in 8 m/s from 0°, 1.9-2.1 % early, and the thirteenth's in 8 m/s from 45°, 3.2 %
+# early (legs across the wind at the lean limit ran faster than modelled)
+RATE_MISSES = {"seventh": 0, "eighth": 3, "ninth": 1, "eleventh": 1, "twelfth": 1,
+               "thirteenth": 1}
 
 
 @pytest.mark.parametrize("campaign", list(CAMPAIGNS))
