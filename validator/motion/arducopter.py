@@ -242,8 +242,8 @@ def corner_changed_speeds_mps(
     own ``speed_mps``, as ``SCurve::set_speed_max`` allows: only where the constant-speed part
     of the S-curve it was built as (``built_const_m``, m) lasts more than 12 jerk times (the
     jerk ramp ``jerk_ramp_s``, at most 1 s) at the first speed, else it keeps the first speed;
-    a rise only to that part's length over 12 jerk times; and either only as far as the change
-    gets in half that part (:func:`~validator.motion.scurve.change_reach_mps`, at
+    a rise only to that part's length over 12 jerk times; and, up or down, only as far as the
+    change gets in half that part (:func:`~validator.motion.scurve.change_reach_mps`, at
     ``accel_mps2`` and ``jerk_mps3``). Measured on ArduCopter 4.5.6 SITL (harbour site, 7 m/s
     from 315°): a 79 m leg built at 5.2 m/s with 54 m at that speed, commanded 10, rose to
     8.4 m/s (the change that fits in 27 m) and braked for the next corner."""
