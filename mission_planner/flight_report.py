@@ -27,7 +27,7 @@ from validator.motion.fly import REPLAY_STEP_S
 from validator.motion.limits import site_limits
 from validator.motion.profile import Profile, flown_params, make_profile
 from validator.plan_format import Autopilot
-from validator.replay import Track, TrackReport, replay, score_track
+from validator.replay import Track, TrackReport, replay, score_replay
 
 CYCLE_OVERRUN_WARN = 0.10  # warn when the flown cycle is off T by more than this fraction
 
@@ -152,7 +152,7 @@ def replay_mission(
     prof = make_profile(name, site_limits(site), values)
     flight = resolve_flight(mission.plan, site, "mission")
     track = replay(flight, prof, dt_s=dt_s)
-    report = score_track(track, flight, site, mission.plan)
+    report = score_replay(track, flight, site, mission.plan, prof)
     return FlightCheck(prof, values, site.period_s, report, flight, track)
 
 

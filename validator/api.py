@@ -35,7 +35,7 @@ from validator.motion.fly import REPLAY_STEP_S
 from validator.motion.limits import site_limits
 from validator.motion.profile import Profile, ProfileName, flown_params, make_profile
 from validator.plan_format import Autopilot, Plan, read_plan
-from validator.replay import Track, TrackReport, replay, score_track
+from validator.replay import Track, TrackReport, replay, score_replay, score_track
 from validator.site import Site
 from validator.site import load_site as _load_site
 from validator.track_file import RecordedTrack, read_track, write_track
@@ -119,7 +119,7 @@ def replay_plan(
     flight = _flight(plan, site, source)
     prof = flight_profile(plan, site, profile, params)
     track = replay(flight, prof, dt_s=dt_s)
-    return Replayed(prof, flight, track, score_track(track, flight, site, plan))
+    return Replayed(prof, flight, track, score_replay(track, flight, site, plan, prof))
 
 
 @dataclass(frozen=True)

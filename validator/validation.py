@@ -24,7 +24,7 @@ from validator.motion.limits import site_limits
 from validator.motion.profile import Profile, flown_params, make_profile
 from validator.motion.px4_swing import swing_findings
 from validator.plan_format import Autopilot, Plan, read_plan
-from validator.replay import Track, TrackReport, replay, score_track
+from validator.replay import Track, TrackReport, replay, score_replay, score_track
 from validator.site import Site, load_site
 from validator.track_file import RecordedTrack, read_track
 from validator.uas_zones.applicability import AirspaceOptions
@@ -219,7 +219,7 @@ def validate_mission(
         v.profile = prof
         if flight.legs:
             v.replay_track = replay(flight, prof, dt_s=dt_s)
-            v.replay = score_track(v.replay_track, flight, site, plan)
+            v.replay = score_replay(v.replay_track, flight, site, plan, prof)
             if prof.name == "px4":  # the replay rounds a corner PX4 swings out of
                 swing = swing_findings(flight, site, prof.si("NAV_ACC_RAD"),
                                        CLEARANCE_TOLERANCE_M)

@@ -88,7 +88,7 @@ def _entry_speed_mps(steps: list[CycleStep], autopilot: str) -> float | None:
     """The speed the outbound transit must reach the cycle's start at, or None: the first
     leg's, for ArduCopter when the cycle starts with a leg. ArduCopter builds a leg's S-curve
     while the leg before it runs, at that leg's speed, and a DO_CHANGE_SPEED after the corner
-    only partly slows it (:func:`validator.motion.arducopter.corner_first_speeds_mps`):
+    only partly slows it (:func:`validator.motion.corner_speed.corner_first_speeds_mps`):
     entered from a faster transit, the first leg would start fast and the first cycle come
     early. Commanded from a waypoint short of the start, the first leg is built at its own
     speed, and the cycle still starts flying."""

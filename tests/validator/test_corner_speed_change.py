@@ -1,8 +1,9 @@
-"""ArduCopter's speed change at a corner flown through, pinned to real flights in wind: the leg
-after the corner first runs at the speed its S-curve was built at, the leg before's, then
-changes to its own (:func:`validator.motion.arducopter.corner_first_speeds_mps`). Two plans
-made for 7 m/s from 315° (turbulence 2 m/s), flown on ArduCopter 4.5.6 SITL in that wind
-(tests/data/arducopter-sitl-wind/corner-speed)."""
+"""ArduCopter's speed change at a corner flown through, pinned to real flights: the leg after
+the corner first runs at the speed its S-curve was built at, the leg before's, then changes to
+its own as far as half the S-curve's constant part takes it
+(:mod:`validator.motion.corner_speed`). Plans flown on ArduCopter 4.5.6 SITL in the wind each
+was made for, and one in still air (tests/data/arducopter-sitl-wind/corner-speed, its
+README)."""
 
 from __future__ import annotations
 
@@ -13,8 +14,8 @@ import pytest
 
 from validator.api import replay_plan
 from validator.autopilot.param_file import read_params
-from validator.motion import arducopter
-from validator.motion.arducopter import corner_changed_speeds_mps, corner_first_speeds_mps
+from validator.motion import arducopter, corner_speed
+from validator.motion.corner_speed import corner_changed_speeds_mps, corner_first_speeds_mps
 from validator.plan_format import read_plan
 from validator.site import load_site
 from validator.track_file import read_track
@@ -88,7 +89,7 @@ def test_a_rise_after_a_corner_is_timed_as_flown():
 
 
 def test_without_half_the_constant_part_a_rise_is_timed_late(monkeypatch):
-    monkeypatch.setattr(arducopter, "change_reach_mps", lambda v1, v2, *limits: v2)
+    monkeypatch.setattr(corner_speed, "change_reach_mps", lambda v1, v2, *limits: v2)
     flown, model = _leg_times_s(RISE)
     assert np.all(model - flown > 2.0), flown - model
 
@@ -111,6 +112,28 @@ def test_a_leg_built_faster_than_the_vehicle_flies_it_is_timed_from_that_s_curve
     flown, model = _leg_times_s(LEANING, Wind(8.0, 45.0, 2.0))
     assert np.all(np.abs(flown - model) <= 2.5), flown - model
     assert np.all(model > flown), flown - model
+
+
+def _lean_notes(name: str, site_file: str, wind: Wind) -> list[int | None]:
+    """The items the replay's report notes as flown leaning at the lean limit."""
+    site = load_site(DATA / site_file).with_limits(wind=wind)
+    report = replay_plan(read_plan(DATA / f"{name}.plan"), site,
+                         params=read_params(DATA / f"{name}.param")).report
+    return [f.item for f in report.findings
+            if f.severity == "note" and "leaning at the lean limit" in f.message]
+
+
+def test_a_leg_flown_at_the_lean_limit_is_noted_in_the_report():
+    assert _lean_notes("orchard-8at45", "../sites/orchard.yaml", Wind(8.0, 45.0, 2.0)) == [7]
+
+
+def test_a_leg_that_rises_after_a_corner_is_not_noted():
+    assert _lean_notes("harbour-7at315", "../sites/harbour.yaml", WIND) == []
+
+
+def test_in_still_air_no_leg_is_flown_at_the_lean_limit():
+    # the lean limit flies 10 m/s every way, above any speed the plan commands
+    assert _lean_notes("orchard-8at45", "../sites/orchard.yaml", Wind(0.0, 0.0)) == []
 
 
 def test_a_slower_leg_first_reaches_what_its_jerk_phases_gain():

@@ -21,12 +21,12 @@ it). In wind (WIND_SPEED, WIND_FROM) the top speed holds
 in the air: each leg is capped at the ground speed its course leaves
 (:func:`leg_speed_caps_mps`); gusts do not move the modelled track, and a plan commands no
 more than the airspeed the vehicle holds through them (:func:`held_top_speed_mps`, so the
-replay flies its legs as commanded). A leg entered through a
-corner flown through first runs at the speed of the leg before, as ArduCopter builds its
-S-curve then, and changes to its own after (:func:`corner_first_speeds_mps`), as far as half
-the S-curve's constant part takes the change (:func:`corner_changed_speeds_mps`); the S-curve
-is the firmware's whatever the vehicle does, and the vehicle follows it no faster than its
-lean limit lets it fly the leg's course.
+replay flies its legs as commanded). A leg entered through a corner flown through first runs
+at the speed of the leg before, as ArduCopter builds its S-curve then, and changes to its own
+after, as far as half the S-curve's constant part takes the change
+(:mod:`validator.motion.corner_speed`); the S-curve is the firmware's whatever the vehicle
+does, and the vehicle follows it no faster than its lean limit lets it fly the leg's course
+(where it leans to that limit for a whole leg, :func:`lean_limited_findings` notes it).
 """
 
 from __future__ import annotations
@@ -38,7 +38,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from validator.autopilot.rules import stored_hold_s
-from validator.flight import Flight
+from validator.flight import Finding, Flight
+from validator.motion.corner_speed import corner_changed_speeds_mps, corner_first_speeds_mps
 from validator.motion.limits import (
     GRAVITY_MPS2,
     air_density_ratio,
@@ -60,7 +61,6 @@ from validator.motion.scurve import (
     SEG_DECEL_START,
     Profiles1D,
     accel_phase_gain_mps,
-    change_reach_mps,
     rest_to_rest_m,
     scurve_to_touchdown,
 )
@@ -86,6 +86,10 @@ STOP_LAG_S = 0.6
 # (10 m/s: 0.3 s at 100°, 1.05 s at 172°; 6 m/s: 0.15 s and 0.8 s).
 CORNER_LAG_FREE_DEG = 72.0
 CORNER_LAG_S_PER_MPS_DEG = 0.00108
+# A leg flown at the lean limit after a corner gets a note from this long (m) and this much
+# (m/s) above what the lean limit flies: shorter legs pass in a corner's transient
+LEAN_NOTE_MIN_M = 20.0
+LEAN_NOTE_SLACK_MPS = 0.1
 
 
 def arducopter_lean_max_deg(profile: Profile) -> float:
@@ -190,11 +194,27 @@ def leg_speeds_mps(profile: Profile, speed_mps: float, unit_xy: ArrayLike) -> ND
     return np.asarray(np.minimum(float(speed_mps), caps), dtype=float)
 
 
-def _ardu_limits(
-    flight: Flight, profile: Profile, geom: LegGeometry
-) -> tuple[Profiles1D, NDArray[np.float64]]:
-    """Every leg's S-curve (rest to rest; a landing ends at LAND_SPEED below LAND_ALT_LOW), and
-    each leg's speed limit along its track (m/s)."""
+@dataclass(frozen=True)
+class _LegSpeeds:
+    """Per leg (m/s unless said): ``cmd`` the speed commanded (DO_CHANGE_SPEED or WPNAV_SPEED),
+    ``speed`` its limit along the track, ``first`` and ``cruise`` the speeds ArduCopter's
+    S-curve first runs at and then changes to (a leg entered through a corner flown through),
+    ``lean_caps`` the ground speed the lean limit flies on the leg's course; ``accel`` (m/s²),
+    ``jerk`` (m/s³) and ``ramp`` (s) its S-curve limits, ``landing`` the final descents."""
+
+    cmd: NDArray[np.float64]
+    speed: NDArray[np.float64]
+    first: NDArray[np.float64]
+    cruise: NDArray[np.float64]
+    lean_caps: NDArray[np.float64]
+    accel: NDArray[np.float64]
+    jerk: NDArray[np.float64]
+    ramp: NDArray[np.float64]
+    landing: NDArray[np.bool_]
+
+
+def _leg_speeds(flight: Flight, profile: Profile, geom: LegGeometry) -> _LegSpeeds:
+    """Every leg's speeds and S-curve limits as ArduCopter builds them (:class:`_LegSpeeds`)."""
     legs = flight.legs
     lim = scurve_limits(profile)
     cmd = np.array(
@@ -213,8 +233,7 @@ def _ardu_limits(
     # ArduCopter lands at WPNAV_SPEED_DN (never slower than LAND_SPEED) down to LAND_ALT_LOW,
     # then at LAND_SPEED until the ground stops it
     landing = np.array([leg.kind == "land" for leg in legs]) & vertical
-    land_speed = profile.si("LAND_SPEED")
-    speed = np.where(landing, np.maximum(speed, land_speed), speed)
+    speed = np.where(landing, np.maximum(speed, profile.si("LAND_SPEED")), speed)
     ramp = jerk_ramp_s(profile, jerk)
     blend = np.array([False] + [leg.pass_through for leg in legs[:-1]])
     # the S-curve's own speeds: the firmware builds and changes it whatever the vehicle does
@@ -226,56 +245,46 @@ def _ardu_limits(
     # what the vehicle can fly, not what the plan allows (VEHICLE_SPEED_MAX): nothing but the
     # lean limit holds the vehicle back from the speed the S-curve runs at
     lean_caps = leg_speed_caps_mps(profile, unit, top_mps=_lean_top_speed_mps(profile))
-    first, cruise = np.minimum(first, lean_caps), np.minimum(cruise, lean_caps)
-    prof = scurve_to_touchdown(geom.length_m, cruise, accel, jerk, ramp,
-                               np.where(landing, land_speed, 0.0),
-                               np.where(landing, profile.si("LAND_ALT_LOW"), 0.0), first)
-    return prof, speed
+    return _LegSpeeds(cmd, speed, first, cruise, lean_caps, accel, jerk, ramp, landing)
 
 
-def corner_changed_speeds_mps(
-    first_mps: NDArray[np.float64], speed_mps: NDArray[np.float64],
-    built_const_m: NDArray[np.float64], jerk_ramp_s: NDArray[np.float64],
-    accel_mps2: NDArray[np.float64], jerk_mps3: NDArray[np.float64],
-) -> NDArray[np.float64]:
-    """(n,) the speed (m/s) a leg that first runs at ``first_mps`` changes to on the way to its
-    own ``speed_mps``, as ``SCurve::set_speed_max`` allows: only where the constant-speed part
-    of the S-curve it was built as (``built_const_m``, m) lasts more than 12 jerk times (the
-    jerk ramp ``jerk_ramp_s``, at most 1 s) at the first speed, else it keeps the first speed;
-    a rise only to that part's length over 12 jerk times; and, up or down, only as far as the
-    change gets in half that part (:func:`~validator.motion.scurve.change_reach_mps`, at
-    ``accel_mps2`` and ``jerk_mps3``). Measured on ArduCopter 4.5.6 SITL (harbour site, 7 m/s
-    from 315°): a 79 m leg built at 5.2 m/s with 54 m at that speed, commanded 10, rose to
-    8.4 m/s (the change that fits in 27 m) and braked for the next corner."""
-    jerk_time = np.minimum(np.asarray(jerk_ramp_s, dtype=float), 1.0)
-    room = np.asarray(built_const_m, dtype=float) / (12.0 * jerk_time)
-    up = np.minimum(speed_mps, room)
-    changed = np.where(speed_mps > first_mps, up, speed_mps)
-    target = np.where(room > first_mps, changed, first_mps)
-    return change_reach_mps(first_mps, target, np.asarray(built_const_m, dtype=float) / 2.0,
-                            accel_mps2, jerk_mps3, jerk_ramp_s)
+def _ardu_limits(
+    flight: Flight, profile: Profile, geom: LegGeometry
+) -> tuple[Profiles1D, NDArray[np.float64]]:
+    """Every leg's S-curve (rest to rest; a landing ends at LAND_SPEED below LAND_ALT_LOW), and
+    each leg's speed limit along its track (m/s)."""
+    v = _leg_speeds(flight, profile, geom)
+    land_speed = profile.si("LAND_SPEED")
+    prof = scurve_to_touchdown(geom.length_m, np.minimum(v.cruise, v.lean_caps), v.accel,
+                               v.jerk, v.ramp, np.where(v.landing, land_speed, 0.0),
+                               np.where(v.landing, profile.si("LAND_ALT_LOW"), 0.0),
+                               np.minimum(v.first, v.lean_caps))
+    return prof, v.speed
 
 
-def corner_first_speeds_mps(
-    speed_mps: NDArray[np.float64], built_mps: NDArray[np.float64],
-    after_corner: NDArray[np.bool_], jerk_gain_mps: NDArray[np.float64],
-) -> NDArray[np.float64]:
-    """(n,) the speed (m/s) each leg first accelerates to before it changes to its own
-    ``speed_mps``: its own speed, but for a leg entered through a corner flown through
-    (``after_corner``), whose S-curve ArduCopter built while the leg before ran, at that
-    leg's speed (``built_mps``, capped by this leg's top ground speed). Its DO_CHANGE_SPEED
-    runs once the corner's waypoint is reached, when the new leg has started, and
-    ``SCurve::set_speed_max`` can then only shorten the constant-acceleration segment still
-    ahead: a slower leg first reaches the built speed, or at least what the jerk phases alone
-    gain (``jerk_gain_mps``, :func:`~validator.motion.scurve.accel_phase_gain_mps`), then
-    slows; a faster one first reaches the built speed, then speeds up. Measured on ArduCopter
-    4.5.6 SITL in wind (harbour site, 7 m/s from 315°): a leg built at 9.3 m/s and commanded
-    3.57 m/s ran at 5.3 m/s (its top speed in that wind) for 5 s before slowing; one built at
-    3.11 commanded 10 held 3.1 m/s for a second before accelerating again."""
-    slower = built_mps > speed_mps
-    first = np.where(slower, np.minimum(built_mps, np.maximum(speed_mps, jerk_gain_mps)),
-                     built_mps)
-    return np.asarray(np.where(after_corner, first, speed_mps), dtype=float)
+def lean_limited_findings(flight: Flight, profile: Profile) -> list[Finding]:
+    """A note for each leg of at least :data:`LEAN_NOTE_MIN_M` whose S-curve, built at the
+    faster speed of the leg before and entered through a corner flown through, never slows to
+    what the vehicle's lean limit flies along the leg's course (in wind, less upwind) although
+    the leg's own command is within it: the vehicle flies that leg leaning at its limit, with
+    no authority left for gusts and at a speed its drag sets, so the replay's timing there is
+    only as good as the drag model (SITL's quad, whose drag is per body axis, flew such a leg
+    across 8 m/s of wind in 19.8 s where the model says 22.0)."""
+    geom = leg_geometry(flight.legs)
+    v = _leg_speeds(flight, profile, geom)
+    slack = LEAN_NOTE_SLACK_MPS
+    out: list[Finding] = []
+    for k in np.flatnonzero((v.cruise > v.lean_caps + slack) & (v.cmd <= v.lean_caps)
+                            & (geom.length_m >= LEAN_NOTE_MIN_M)):
+        leg = flight.legs[k]
+        out.append(Finding(
+            "note", f"the leg after the corner is flown leaning at the lean limit: "
+            f"ArduCopter builds its S-curve at the leg before's {v.cmd[k - 1]:.1f} m/s and "
+            f"has room to slow it only to {v.cruise[k]:.1f} m/s, more than the "
+            f"{v.lean_caps[k]:.1f} m/s the lean limit flies on this course (commanded "
+            f"{v.cmd[k]:.1f}): the replay's timing here rests on the drag model, and the "
+            f"vehicle has no authority left for gusts", leg.item))
+    return out
 
 
 def jerk_ramp_s(profile: Profile, jerk_mps3: NDArray[np.float64]) -> NDArray[np.float64]:

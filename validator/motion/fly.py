@@ -12,12 +12,12 @@ each leg started, reached its destination and completed. ``ideal``
 from __future__ import annotations
 
 from validator.errors import InputError
-from validator.flight import Flight
+from validator.flight import Finding, Flight
 from validator.motion import arducopter, ideal, px4_mission
 from validator.motion.path import FlownPath
 from validator.motion.profile import Profile
 
-__all__ = ["REPLAY_STEP_S", "fly"]
+__all__ = ["REPLAY_STEP_S", "fly", "model_findings"]
 
 # The replay's sample interval (s), and its coarsest: 20 Hz keeps a sample within
 # 0.05 s x top speed (under 1 m at 20 m/s) of any point the flight passes, finer than the
@@ -36,3 +36,13 @@ def fly(flight: Flight, profile: Profile, *, dt_s: float = REPLAY_STEP_S) -> Flo
     if profile.name == "arducopter":
         return arducopter.fly(flight, profile, dt_s)
     return px4_mission.fly(flight, profile, dt_s)
+
+
+def model_findings(flight: Flight, profile: Profile) -> tuple[Finding, ...]:
+    """What ``profile``'s model knows of its own timing of ``flight`` that no track shows:
+    for ``arducopter``, the legs flown leaning at the lean limit after a corner, where the
+    timing is only as good as the drag model (:func:`~validator.motion.arducopter.
+    lean_limited_findings`); nothing for the others."""
+    if profile.name == "arducopter" and flight.legs:
+        return tuple(arducopter.lean_limited_findings(flight, profile))
+    return ()

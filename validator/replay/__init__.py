@@ -9,7 +9,7 @@ telemetry track are judged the same way:
   mission item per sample, with the flight's legs;
 - :mod:`.score`: :func:`score_track` judges a track against the site and the plan's own
   timing (:class:`TrackReport`: NFZ clearance, fence entries, cycle time, waypoint lag,
-  cross-track deviation);
+  cross-track deviation); :func:`score_replay` adds what a model knows of its own timing;
 - :mod:`.throughput`: the planner's slots matched to the flown track, and the rate each ground
   node gets along it next to the planned one.
 
@@ -21,6 +21,7 @@ from validator.replay.score import (
     CycleTiming,
     NfzPass,
     TrackReport,
+    score_replay,
     score_track,
     track_clearances,
 )
@@ -50,6 +51,7 @@ __all__ = [
     "planned_leg_times",
     "planned_rates",
     "replay",
+    "score_replay",
     "score_track",
     "served_samples",
     "slot_map",

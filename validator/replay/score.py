@@ -13,7 +13,7 @@ Times are seconds, positions metres east/north of the site origin.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TypedDict
 
 import numpy as np
@@ -25,8 +25,9 @@ from validator.audit import CLEARANCE_TOLERANCE_M
 from validator.fence_geometry import local_fence
 from validator.flight import Finding, Flight
 from validator.geometry import segment_point_closest_fraction, segment_point_distance
+from validator.motion.fly import model_findings
 from validator.motion.limits import site_limits
-from validator.motion.profile import make_profile
+from validator.motion.profile import Profile, make_profile
 from validator.plan_format import Plan
 from validator.replay.throughput import Throughput, flown_rates, planned_leg_times
 from validator.replay.track import Track, replay
@@ -323,3 +324,12 @@ def score_track(
         throughput=throughput,
         findings=tuple(findings),
     )
+
+
+def score_replay(track: Track, flight: Flight, site: Site, plan: Plan | None,
+                 profile: Profile) -> TrackReport:
+    """:func:`score_track` of ``profile``'s replay ``track`` of ``flight``, with what the
+    model knows of its own timing that no track shows
+    (:func:`validator.motion.fly.model_findings`)."""
+    report = score_track(track, flight, site, plan)
+    return replace(report, findings=report.findings + model_findings(flight, profile))
