@@ -46,7 +46,8 @@ def corner_first_speeds_mps(
     """(n,) the speed (m/s) each leg first accelerates to before it changes to its own
     ``speed_mps``: its own speed, but for a leg entered through a corner flown through
     (``after_corner``), whose S-curve ArduCopter built while the leg before ran, at that
-    leg's speed (``built_mps``, capped by this leg's top ground speed). Its DO_CHANGE_SPEED
+    leg's speed (``built_mps``, whatever this leg's course lets the vehicle fly: the
+    S-curve's own speed, which the vehicle follows no faster than it can). Its DO_CHANGE_SPEED
     runs once the corner's waypoint is reached, when the new leg has started, and
     ``SCurve::set_speed_max`` can then only shorten the constant-acceleration segment still
     ahead: a slower leg first reaches the built speed, or at least what the jerk phases alone
