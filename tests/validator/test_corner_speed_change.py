@@ -7,6 +7,7 @@ README)."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +15,7 @@ import pytest
 
 from validator.api import replay_plan
 from validator.autopilot.param_file import read_params
+from validator.cli import validate_mission_main
 from validator.motion import arducopter, corner_speed
 from validator.motion.corner_speed import corner_changed_speeds_mps, corner_first_speeds_mps
 from validator.plan_format import read_plan
@@ -134,6 +136,19 @@ def test_a_leg_that_rises_after_a_corner_is_not_noted():
 def test_in_still_air_no_leg_is_flown_at_the_lean_limit():
     # the lean limit flies 10 m/s every way, above any speed the plan commands
     assert _lean_notes("orchard-8at45", "../sites/orchard.yaml", Wind(0.0, 0.0)) == []
+
+
+def test_validate_mission_shows_the_note_and_writes_it_to_its_report(tmp_path, capsys):
+    out = tmp_path / "report.json"
+    status = validate_mission_main([
+        str(DATA / "orchard-8at45.plan"), "--site", str(DATA / "../sites/orchard.yaml"),
+        "--params", str(DATA / "orchard-8at45.param"), "--replay", "--report", str(out),
+        "--quiet"])
+    assert status == 0
+    assert "note      item 7: the leg after the corner is flown leaning" in capsys.readouterr().out
+    notes = [f for f in json.loads(out.read_text())["replay"]["findings"]
+             if "leaning at the lean limit" in f["message"]]
+    assert [(f["severity"], f["item"]) for f in notes] == [("note", 7)]
 
 
 def test_a_slower_leg_first_reaches_what_its_jerk_phases_gain():
