@@ -272,9 +272,8 @@ def lean_limited_findings(flight: Flight, profile: Profile) -> list[Finding]:
     across 8 m/s of wind in 19.8 s where the model says 22.0)."""
     geom = leg_geometry(flight.legs)
     v = _leg_speeds(flight, profile, geom)
-    slack = LEAN_NOTE_SLACK_MPS
     out: list[Finding] = []
-    for k in np.flatnonzero((v.cruise > v.lean_caps + slack) & (v.cmd <= v.lean_caps)
+    for k in np.flatnonzero((v.cruise > v.lean_caps + LEAN_NOTE_SLACK_MPS) & (v.cmd <= v.lean_caps)
                             & (geom.length_m >= LEAN_NOTE_MIN_M)):
         leg = flight.legs[k]
         out.append(Finding(
