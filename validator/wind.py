@@ -179,6 +179,38 @@ def ground_speed_mps(air_speed_mps: float, wind_mps: ArrayLike,
     return np.asarray(np.where((disc >= 0) & (g > 0), g, np.nan), dtype=float)
 
 
+def lean_limit_ground_speed_mps(air_speed_mps: float, wind_mps: ArrayLike, unit: ArrayLike,
+                                linear_share: float) -> NDArray[np.float64]:
+    """The ground speed (m/s) along each horizontal unit course ``unit`` (n, 2) of a multicopter
+    leaning at its limit in the wind ``wind_mps`` (east, north), heading along its course
+    (ArduCopter yaws to the next waypoint), whose drag has a linear part the same every way
+    and a quadratic part per body axis; NaN where it cannot progress.
+
+    With air velocity a along the course and c across it, the drag per unit of the lean
+    limit's horizontal thrust is s·(a, c)/V + (1 − s)·(a·|a|, c·|c|)/V², s = ``linear_share``
+    (the rotors' momentum drag; the rest is the body's), V = ``air_speed_mps``, the airspeed
+    it balances at straight into still air. At the limit the crosswind takes
+    D_c = s·c/V + (1 − s)·c²/V² of it and leaves D_a = sqrt(1 − D_c²) along the course, so
+    a = V·(sqrt(s² + 4·(1 − s)·D_a) − s) / (2·(1 − s)) (V·D_a at s = 1) and g = u·w + a.
+    Crabbing across a wind, such a vehicle holds more air speed than one whose drag is the
+    same every way (s = 1, where g is :func:`ground_speed_mps`'s): its body drag falls off
+    per axis."""
+    if not 0.0 <= linear_share <= 1.0:
+        raise ValueError(f"linear_share must be 0 to 1, got {linear_share}")
+    u = np.atleast_2d(np.asarray(unit, dtype=float))
+    w = np.asarray(wind_mps, dtype=float)
+    s, v = float(linear_share), float(air_speed_mps)
+    c = np.abs(u[:, 0] * w[1] - u[:, 1] * w[0]) / v
+    d_c = s * c + (1.0 - s) * c * c
+    d_a = np.sqrt(np.clip(1.0 - d_c * d_c, 0.0, None))
+    if s >= 1.0:
+        a = d_a
+    else:
+        a = (np.sqrt(s * s + 4.0 * (1.0 - s) * d_a) - s) / (2.0 * (1.0 - s))
+    g = u @ w + v * a
+    return np.asarray(np.where((d_c < 1.0) & (g > 0), g, np.nan), dtype=float)
+
+
 def held_air_speed_mps(top_mps: float, turbulence_mps: float) -> float:
     """The airspeed (m/s) a vehicle whose top airspeed is ``top_mps`` still holds in gusts of
     standard deviation ``turbulence_mps``: sqrt(V² − k·σ²), k = :data:`GUST_KEEP` (module

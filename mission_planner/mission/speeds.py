@@ -32,7 +32,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mission_planner.mission.steps import CycleStep
-from validator.motion.arducopter import STOP_LAG_S, leg_speeds_mps
+from validator.motion.arducopter import STOP_LAG_S
+from validator.motion.arducopter_speed import leg_speeds_mps
 from validator.motion.profile import Profile, profile_wind
 from validator.motion.px4_mission import px4_top_speed_mps
 from validator.motion.speed_model import motion_profile
@@ -82,7 +83,7 @@ def wind_speeds(steps: list[CycleStep], trajectory_m: NDArray[np.float64], site:
     """The steps of a dynamics-aware plan with each S-curve leg's speed set to the ground
     speed it was timed with in the site's wind: ``speed_mps`` (the cruise speed), or less
     where the leg's course leaves less of the vehicle's top airspeed (the planner's own rule,
-    :func:`validator.motion.arducopter.leg_speeds_mps`; PX4's likewise)."""
+    :func:`validator.motion.arducopter_speed.leg_speeds_mps`; PX4's likewise)."""
     profile = motion_profile(site, autopilot, dict(timing_params))
     out: list[CycleStep] = []
     prev = trajectory_m[0]
@@ -103,7 +104,7 @@ def _wind_capped_mps(profile: Profile, speed_mps: float, unit: NDArray[np.float6
                      ) -> NDArray[np.float64]:
     """``speed_mps``, or along each unit course ``unit`` (L, 2) the lower ground speed the
     vehicle's top airspeed leaves in the profile's wind: ArduCopter's rule
-    (:func:`validator.motion.arducopter.leg_speeds_mps`), PX4's likewise."""
+    (:func:`validator.motion.arducopter_speed.leg_speeds_mps`), PX4's likewise."""
     if profile.name != "px4":
         return np.asarray(leg_speeds_mps(profile, speed_mps, unit), dtype=float)
     wind = profile_wind(profile)

@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 
 from validator.flight import Flight, Leg
 from validator.geometry import min_leg_clearance
-from validator.motion.arducopter import leg_speeds_mps
+from validator.motion.arducopter_speed import leg_speeds_mps
 from validator.motion.fly import fly
 from validator.motion.path import FlownPath
 from validator.motion.profile import Profile
@@ -205,7 +205,7 @@ def _fly_cycle(points_m: NDArray[np.float64], stops: NDArray[np.bool_], speed_mp
                profile: Profile) -> FlownPath:
     """One cycle from rest at waypoint 0 back to it, without holds (a stop is a leg that does
     not pass through: :class:`~validator.flight.Leg`'s ``pass_through``), each leg commanded
-    the speed the export will command it (:func:`validator.motion.arducopter.leg_speeds_mps`:
+    the speed the export will command it (:func:`validator.motion.arducopter_speed.leg_speeds_mps`:
     in wind, less where its course leaves less): the leg after a corner first runs at the
     speed commanded before it."""
     w = len(points_m)

@@ -7,6 +7,7 @@ README)."""
 
 from __future__ import annotations
 
+import gzip
 import json
 from pathlib import Path
 
@@ -14,11 +15,11 @@ import numpy as np
 import pytest
 
 from validator.api import replay_plan
-from validator.autopilot.param_file import read_params
+from validator.autopilot.param_file import parse_params, read_params
 from validator.cli import validate_mission_main
-from validator.motion import arducopter, corner_speed
+from validator.motion import arducopter, arducopter_speed, corner_speed
 from validator.motion.corner_speed import corner_changed_speeds_mps, corner_first_speeds_mps
-from validator.plan_format import read_plan
+from validator.plan_format import loads_plan, read_plan
 from validator.site import load_site
 from validator.track_file import read_track
 from validator.wind import Wind
@@ -72,14 +73,14 @@ def test_without_the_speed_change_a_faster_leg_comes_late(monkeypatch):
 
 
 def test_a_slower_leg_after_a_corner_comes_early_by_less(monkeypatch):
-    # The first run-up is capped at the top ground speed the model knows (10.07 m/s of air);
-    # SITL's quad, whose drag is per body axis, made 5.3 m/s of ground speed where the model
-    # says 4.5 on the second leg, so some of its lead stays unexplained.
+    # The first run-up is capped at what the lean limit flies on each course, across the wind
+    # more than the plan commands (SITL's quad's body drag is per axis): within 1 s of the
+    # flown 31.4 s and 100.0 s (with drag the same every way, 1.9 s late on the second)
     flown, model = _leg_times_s(SLOWER)
     _without_the_change(monkeypatch)
     _, without = _leg_times_s(SLOWER)
     err, err_without = np.abs(flown - model), np.abs(flown - without)
-    assert np.all(err <= 2.0), flown - model
+    assert np.all(err <= 1.0), flown - model
     assert np.all(err <= err_without - 0.5), (flown - model, flown - without)
 
 
@@ -104,51 +105,82 @@ def test_a_leg_built_at_a_crawl_rises_as_far_as_half_its_constant_part_takes_it(
     assert np.all(np.abs(flown - model) <= 1.0), flown - model
 
 
-def test_a_leg_built_faster_than_the_vehicle_flies_it_is_timed_from_that_s_curve():
+def test_a_leg_built_faster_than_it_is_commanded_across_the_wind_is_timed_from_that_s_curve():
     # Built at 10 m/s, the S-curve first runs up to 7 m/s and its 35 m of constant part only
-    # let it slow to 3.9 m/s: faster than the vehicle's lean limit lets it fly across this
-    # wind, so it leans to its limit the whole leg. The model, building the S-curve at what the
-    # vehicle leans to (3.4 m/s) and slowing it to 2.9, made the leg 24.8 s; flown 19.8 s; the
-    # 2.2 s left is SITL's quad, whose drag per body axis lets it lean to more speed across the
-    # wind than the model's (:func:`validator.motion.limits.top_speed_mps`)
+    # let it slow to 3.9 m/s, more than the 2.9 commanded: flown 19.8 s. SITL's quad, whose
+    # body drag is per axis, leans to 4.9 m/s on this course across 8 m/s of wind, so it
+    # follows the S-curve; the model whose drag was the same every way held it to 3.4 m/s all
+    # leg (24.8 s, 22.0 s once the S-curve was built at 10)
     flown, model = _leg_times_s(LEANING, Wind(8.0, 45.0, 2.0))
-    assert np.all(np.abs(flown - model) <= 2.5), flown - model
-    assert np.all(model > flown), flown - model
+    assert np.all(np.abs(flown - model) <= 0.8), flown - model
 
 
-def _lean_notes(name: str, site_file: str, wind: Wind) -> list[int | None]:
+def test_with_drag_the_same_every_way_a_leg_across_the_wind_is_timed_late(monkeypatch):
+    monkeypatch.setattr(arducopter_speed, "SITL_QUAD_LINEAR_DRAG_SHARE", 1.0)
+    flown, model = _leg_times_s(LEANING, Wind(8.0, 45.0, 2.0))
+    assert np.all(model - flown > 1.5), flown - model
+
+
+def _reach_plan(key: str) -> tuple[str, str]:
+    """The thirteenth wind campaign's plan and parameter file for ``key`` ("site wind")."""
+    plans = json.loads(gzip.decompress((DATA.parent / "reach-plans.json.gz").read_bytes()))
+    return plans[key]["plan"], plans[key]["param"]
+
+
+def _lean_notes(plan: str, params: str, site_file: str, wind: Wind) -> list[int | None]:
     """The items the replay's report notes as flown leaning at the lean limit."""
     site = load_site(DATA / site_file).with_limits(wind=wind)
-    report = replay_plan(read_plan(DATA / f"{name}.plan"), site,
-                         params=read_params(DATA / f"{name}.param")).report
+    report = replay_plan(loads_plan(plan), site, params=parse_params(params)).report
     return [f.item for f in report.findings
             if f.severity == "note" and "leaning at the lean limit" in f.message]
 
 
+def _flown(name: str) -> tuple[str, str]:
+    return (DATA / f"{name}.plan").read_text(), (DATA / f"{name}.param").read_text()
+
+
+# harbour in 4 m/s from 270°, turbulence 1: a 33 m leg into the wind built at the leg before's
+# 6.4 m/s, where the lean limit flies 6.1
+NOTED = ("harbour 4@270,1", "../sites/harbour.yaml", Wind(4.0, 270.0, 1.0), 15)
+
+
 def test_a_leg_flown_at_the_lean_limit_is_noted_in_the_report():
-    assert _lean_notes("orchard-8at45", "../sites/orchard.yaml", Wind(8.0, 45.0, 2.0)) == [7]
+    key, site_file, wind, item = NOTED
+    assert _lean_notes(*_reach_plan(key), site_file, wind) == [item]
 
 
 def test_a_leg_that_rises_after_a_corner_is_not_noted():
-    assert _lean_notes("harbour-7at315", "../sites/harbour.yaml", WIND) == []
+    assert _lean_notes(*_flown("harbour-7at315"), "../sites/harbour.yaml", WIND) == []
+
+
+def test_a_leg_across_the_wind_within_the_lean_limit_is_not_noted():
+    # orchard's leg of LEANING: its S-curve's 3.9 m/s is within the 4.9 the quad leans to
+    assert _lean_notes(*_flown("orchard-8at45"), "../sites/orchard.yaml",
+                       Wind(8.0, 45.0, 2.0)) == []
 
 
 def test_in_still_air_no_leg_is_flown_at_the_lean_limit():
     # the lean limit flies 10 m/s every way, above any speed the plan commands
-    assert _lean_notes("orchard-8at45", "../sites/orchard.yaml", Wind(0.0, 0.0)) == []
+    key, site_file, _, _ = NOTED
+    assert _lean_notes(*_reach_plan(key), site_file, Wind(0.0, 0.0)) == []
 
 
 def test_validate_mission_shows_the_note_and_writes_it_to_its_report(tmp_path, capsys):
+    key, site_file, wind, item = NOTED
+    plan, params = _reach_plan(key)
+    (tmp_path / "m.plan").write_text(plan)
+    (tmp_path / "m.param").write_text(params)
     out = tmp_path / "report.json"
     status = validate_mission_main([
-        str(DATA / "orchard-8at45.plan"), "--site", str(DATA / "../sites/orchard.yaml"),
-        "--params", str(DATA / "orchard-8at45.param"), "--replay", "--report", str(out),
-        "--quiet"])
+        str(tmp_path / "m.plan"), "--site", str(DATA / site_file),
+        "--params", str(tmp_path / "m.param"), "--wind", "4@270,1", "--replay",
+        "--report", str(out), "--quiet"])
     assert status == 0
-    assert "note      item 7: the leg after the corner is flown leaning" in capsys.readouterr().out
+    assert (f"note      item {item}: the leg after the corner is flown leaning"
+            in capsys.readouterr().out)
     notes = [f for f in json.loads(out.read_text())["replay"]["findings"]
              if "leaning at the lean limit" in f["message"]]
-    assert [(f["severity"], f["item"]) for f in notes] == [("note", 7)]
+    assert [(f["severity"], f["item"]) for f in notes] == [("note", item)]
 
 
 def test_a_slower_leg_first_reaches_what_its_jerk_phases_gain():

@@ -9,9 +9,10 @@ import pytest
 
 from validator.errors import InputError
 from validator.flight import Flight, Leg
-from validator.motion.arducopter import (
+from validator.motion.arducopter_speed import (
     arducopter_top_speed_mps,
     held_top_speed_mps,
+    lean_caps_mps,
     leg_speed_caps_mps,
     leg_speeds_mps,
 )
@@ -28,6 +29,7 @@ from validator.wind import (
     ground_speed_mps,
     heading_deg,
     held_air_speed_mps,
+    lean_limit_ground_speed_mps,
     parse_wind_arg,
     wind_vector_mps,
 )
@@ -168,8 +170,9 @@ def test_gusts_take_from_the_airspeed_held() -> None:
 
 def test_arducopter_plans_command_what_it_holds_through_the_gusts() -> None:
     """Commanded at its lean limit straight into 7 m/s with turbulence 2 m/s, ArduCopter SITL
-    flew 9.79-9.88 m/s of air: a plan commands the held airspeed, the replay's cap stays the
-    still-air top speed, so the replay flies the plan's legs as commanded."""
+    flew 9.79-9.88 m/s of air: a plan commands the held airspeed, and the replay's cap, what
+    the vehicle flies leaning at its limit, is no less on any course, so the replay flies the
+    plan's legs as commanded."""
     site = load_site(SAMPLE)
     gusty = make_profile("arducopter", site_limits(site),
                          {"WIND_SPEED": 7.0, "WIND_FROM": 270.0, "WIND_TURB": 2.0})
@@ -183,9 +186,73 @@ def test_arducopter_plans_command_what_it_holds_through_the_gusts() -> None:
     commanded = leg_speeds_mps(gusty, 10.0, courses)
     air = Wind(7.0, 270.0).vector_mps
     assert commanded == pytest.approx(np.minimum(10.0, ground_speed_mps(held, air, courses)))
-    replay_caps = leg_speed_caps_mps(gusty, np.column_stack([courses, np.zeros(3)]))
-    assert commanded[0] < replay_caps[0] - 0.15 and commanded[2] == 10.0
+    replay_caps = lean_caps_mps(gusty, np.column_stack([courses, np.zeros(3)]), held)
+    assert commanded[0] == pytest.approx(replay_caps[0])  # into the wind: the same cone
+    assert commanded[1] < replay_caps[1] - 0.5 and commanded[2] == 10.0
     assert np.all(leg_speeds_mps(steady, 10.0, courses)[:2] > commanded[:2])
+
+
+def test_the_lean_limit_flies_more_across_a_wind_than_a_plan_commands() -> None:
+    # SITL's quad crabbing across 7 m/s: its body drag is per axis, so it holds more air speed
+    # along the course than one whose drag is the same every way
+    site = load_site(SAMPLE)
+    windy = make_profile("arducopter", site_limits(site), {"WIND_SPEED": 7.0, "WIND_FROM": 0.0})
+    top = arducopter_top_speed_mps(windy)
+    units = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0]])
+    caps = lean_caps_mps(windy, units, top)
+    planned = leg_speed_caps_mps(windy, units, top_mps=top)
+    assert caps[0] > planned[0] + 1.0  # across the wind
+    assert caps[1] == pytest.approx(planned[1]) == pytest.approx(top + 7.0)  # downwind
+    assert caps[2] == top  # a climb: the horizontal cap does not bind
+
+
+def test_a_lean_limit_beyond_the_wind_is_refused_naming_the_leg() -> None:
+    site = load_site(SAMPLE)
+    prof = make_profile("arducopter", site_limits(site), {"WIND_SPEED": 12.0, "WIND_FROM": 0.0})
+    with pytest.raises(InputError, match=r"leg A \(course 0°\) cannot be flown"):
+        lean_caps_mps(prof, np.array([[0.0, 1.0, 0.0]]), 10.0, ["leg A"])
+
+
+# a course along the x axis; (east, north) wind vectors of 6 m/s across it or along it
+ACROSS = np.array([0.0, 6.0])
+ALONG = np.array([-6.0, 0.0])
+EAST = np.array([[1.0, 0.0]])
+
+
+def test_drag_the_same_every_way_leaves_the_cone_s_ground_speed() -> None:
+    for wind in (ACROSS, ALONG, np.array([3.0, -4.0])):
+        assert lean_limit_ground_speed_mps(10.0, wind, EAST, 1.0) == pytest.approx(
+            ground_speed_mps(10.0, wind, EAST))
+
+
+def test_body_drag_per_axis_alone_balances_each_axis_on_its_own() -> None:
+    # (a/V)^4 + (c/V)^4 = 1: across 6 m/s of wind, a = (10^4 - 6^4)^(1/4)
+    assert lean_limit_ground_speed_mps(10.0, ACROSS, EAST, 0.0) == pytest.approx(
+        (10.0**4 - 6.0**4) ** 0.25)
+
+
+def test_along_the_wind_the_drag_s_shape_does_not_matter() -> None:
+    for share in (0.0, 0.47, 1.0):
+        assert lean_limit_ground_speed_mps(10.0, ALONG, EAST, share) == pytest.approx(4.0)
+
+
+def test_across_a_wind_the_less_linear_the_drag_the_more_ground_speed() -> None:
+    speeds = [float(lean_limit_ground_speed_mps(10.0, ACROSS, EAST, s)[0])
+              for s in (1.0, 0.47, 0.0)]
+    assert speeds[0] == pytest.approx(8.0) and speeds[0] < speeds[1] < speeds[2]
+
+
+def test_a_crosswind_at_the_airspeed_leaves_no_ground_speed() -> None:
+    assert np.isnan(lean_limit_ground_speed_mps(10.0, np.array([0.0, 10.0]), EAST, 0.47)[0])
+
+
+def test_into_a_wind_beyond_the_airspeed_there_is_no_ground_speed() -> None:
+    assert np.isnan(lean_limit_ground_speed_mps(10.0, np.array([-11.0, 0.0]), EAST, 0.47)[0])
+
+
+def test_a_linear_share_outside_0_to_1_is_refused() -> None:
+    with pytest.raises(ValueError, match="linear_share"):
+        lean_limit_ground_speed_mps(10.0, ACROSS, EAST, 1.5)
 
 
 def test_px4_flies_slower_upwind_through_its_drag() -> None:

@@ -22,7 +22,7 @@ import pytest
 
 from validator.api import load_site, replay_plan
 from validator.autopilot.param_file import parse_params
-from validator.motion import arducopter
+from validator.motion import arducopter, arducopter_speed
 from validator.plan_format import loads_plan
 from validator.wind import parse_wind_arg
 
@@ -39,14 +39,14 @@ CAMPAIGNS = {"seventh": ("flights-wind-corners.json", "wind-corners-plans.json.g
              "eleventh": ("flights-gusts.json", "gusts-plans.json.gz"),
              "twelfth": ("flights-slots.json", "slots-plans.json.gz"),
              "thirteenth": ("flights-reach.json", "reach-plans.json.gz")}
-# Flights whose predicted cycle missed the flown one by over 3 %: in the eighth orchard in
-# 8 m/s from 45°, 3.1 % early (a leg across the wind flown at the lean limit, which SITL's quad
-# turns into more speed than the model's: README, Wind), in the ninth realistic in 7 m/s from
-# 315°, turbulence 2, 3.1 % late (its upwind legs at the air-speed cap flew 6 % slow; the
-# eleventh's plan there, commanded the airspeed held through the gusts, was predicted within
-# 2.1 %); in the thirteenth orchard in 8 m/s from 45° again, 3.2 % early
-CYCLE_MISSES = {"seventh": 0, "eighth": 1, "ninth": 1, "eleventh": 0, "twelfth": 0,
-                "thirteenth": 1}
+# Flights whose predicted cycle missed the flown one by over 3 %: none since the vehicle leans
+# to its limit with the SITL quad's drag, per body axis (README, Wind, drag per body axis);
+# before, the eighth's and the thirteenth's orchard in 8 m/s from 45° (3.1 and 3.2 % early:
+# a leg across the wind that the model held to less than the quad leans to) and the ninth's
+# realistic in 7 m/s from 315°, turbulence 2 (3.1 % late: upwind legs at the lean limit gave
+# speed to the gusts that the model's lean limit did not)
+CYCLE_MISSES = {"seventh": 0, "eighth": 0, "ninth": 0, "eleventh": 0, "twelfth": 0,
+                "thirteenth": 0}
 
 
 def _replayed_against_flown(campaign: str) -> tuple[np.ndarray, np.ndarray]:
@@ -78,21 +78,19 @@ def test_the_predicted_cycle_is_within_3_percent_of_the_flown_one(campaign):
     assert abs(np.mean(ratio) - 1) <= 0.003, np.round(ratio, 3)  # unbiased
 
 
-# Flights whose worst node got less than 0.97 of the report's rate: timing inside the cycle
-# (README, Wind: the speed change at a corner); the seventh campaign's plans had 3 more
-# without the speed change; the eighth's orchard in 8 m/s from 0° and 45° and harbour in
-# 8 m/s from 45°; the ninth's orchard in 8 m/s from 45°; the eleventh's and the twelfth's
-# orchard in 8 m/s from 0°, 1.9-2.1 % early, and the thirteenth's in 8 m/s from 45°, 3.2 %
-# early (legs across the wind at the lean limit ran faster than modelled)
-RATE_MISSES = {"seventh": 0, "eighth": 3, "ninth": 1, "eleventh": 1, "twelfth": 1,
-               "thirteenth": 1}
+# Flights whose worst node got less than 0.97 of the report's rate: the eighth's and the
+# eleventh's orchard in 8 m/s from 0° (0.969 and 0.968; both flown 1.2-1.3 % early). Before
+# the drag per body axis there were 7 (0.955-0.969) of the 126, the orchard flights in 8 m/s
+# from 0° and 45° and harbour in 8 m/s from 45°, all flown early
+RATE_MISSES = {"seventh": 0, "eighth": 1, "ninth": 0, "eleventh": 1, "twelfth": 0,
+               "thirteenth": 0}
 
 
 @pytest.mark.parametrize("campaign", list(CAMPAIGNS))
 def test_the_flown_min_rate_is_at_least_0_97_of_the_reported_one(campaign):
     _, ratio = _replayed_against_flown(campaign)
     assert np.sum(ratio >= 0.97) >= len(ratio) - RATE_MISSES[campaign], np.round(ratio, 3)
-    assert np.min(ratio) >= 0.95, np.round(ratio, 3)
+    assert np.min(ratio) >= 0.965, np.round(ratio, 3)
 
 
 def test_without_the_corner_speed_change_cycle_and_rates_are_predicted_worse(monkeypatch):
@@ -100,5 +98,15 @@ def test_without_the_corner_speed_change_cycle_and_rates_are_predicted_worse(mon
                         lambda speed, built, after, gain: speed)
     cycle, rate = _replayed_against_flown("seventh")
     assert np.mean(cycle) - 1 < -0.005, np.round(cycle, 3)
+    assert np.max(np.abs(cycle - 1)) > 0.03, np.round(cycle, 3)
+    assert np.sum(np.abs(cycle - 1) <= 0.02) <= len(cycle) - 3, np.round(cycle, 3)
+    assert np.sum(rate >= 0.97) <= len(rate) - 2, np.round(rate, 3)
+
+
+def test_with_drag_the_same_every_way_cycles_are_predicted_late(monkeypatch):
+    # the lean limit held through the gusts, but the quad's drag as if it were round: legs
+    # across the wind at the lean limit come out slower than SITL flies them
+    monkeypatch.setattr(arducopter_speed, "SITL_QUAD_LINEAR_DRAG_SHARE", 1.0)
+    cycle, _ = _replayed_against_flown("seventh")
+    assert np.mean(cycle) - 1 > 0.01, np.round(cycle, 3)
     assert np.sum(np.abs(cycle - 1) <= 0.03) <= len(cycle) - 3, np.round(cycle, 3)
-    assert np.sum(rate >= 0.97) <= len(rate) - 3, np.round(rate, 3)

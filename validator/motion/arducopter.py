@@ -18,10 +18,12 @@ STOP_LAG_S after the S-curve ends (all three fitted to ArduCopter 4.5.6 SITL fli
 ``../shared/data/arducopter-sitl-2``), and a corner flown through sharper than
 CORNER_LAG_FREE_DEG lags its blend by :func:`corner_lag_s` (the target's clock slows through
 it). In wind (WIND_SPEED, WIND_FROM) the top speed holds
-in the air: each leg is capped at the ground speed its course leaves
-(:func:`leg_speed_caps_mps`); gusts do not move the modelled track, and a plan commands no
-more than the airspeed the vehicle holds through them (:func:`held_top_speed_mps`, so the
-replay flies its legs as commanded). A leg entered through a corner flown through first runs
+in the air, less what the gusts take: each leg is capped at the ground speed its course leaves
+the vehicle leaning at its limit, with the drag of ArduPilot's SITL quad, per body axis
+(:func:`validator.motion.arducopter_speed.lean_caps_mps`); gusts do not move the modelled
+track, and a plan commands no more than any multicopter of that airspeed holds on the course
+(:func:`validator.motion.arducopter_speed.leg_speeds_mps`, so the replay flies its legs as
+commanded). A leg entered through a corner flown through first runs
 at the speed of the leg before, as ArduCopter builds its S-curve then, and changes to its own
 after, as far as half the S-curve's constant part takes the change
 (:mod:`validator.motion.corner_speed`); the S-curve is the firmware's whatever the vehicle
@@ -39,13 +41,15 @@ from numpy.typing import ArrayLike, NDArray
 
 from validator.autopilot.rules import stored_hold_s
 from validator.flight import Finding, Flight
-from validator.motion.corner_speed import corner_changed_speeds_mps, corner_first_speeds_mps
-from validator.motion.limits import (
-    GRAVITY_MPS2,
-    air_density_ratio,
-    lean_angle_max_deg,
-    top_speed_mps,
+from validator.motion.arducopter_speed import (
+    arducopter_accel_mps2,
+    arducopter_top_speed_mps,
+    held_lean_top_speed_mps,
+    held_top_speed_mps,
+    lean_caps_mps,
 )
+from validator.motion.corner_speed import corner_changed_speeds_mps, corner_first_speeds_mps
+from validator.motion.limits import GRAVITY_MPS2
 from validator.motion.path import (
     FlownPath,
     LegGeometry,
@@ -55,7 +59,7 @@ from validator.motion.path import (
     superpose,
     time_grid,
 )
-from validator.motion.profile import Profile, profile_wind
+from validator.motion.profile import Profile
 from validator.motion.scurve import (
     SEG_CHANGE_START,
     SEG_DECEL_START,
@@ -64,7 +68,6 @@ from validator.motion.scurve import (
     rest_to_rest_m,
     scurve_to_touchdown,
 )
-from validator.wind import check_flyable, ground_speed_mps, held_air_speed_mps
 
 CORNER_SEARCH_STEP_S = 0.0025  # ArduCopter checks the corner condition at its 400 Hz loop rate
 # Arming to the start of the climb: the arming delay, motor spool-up and throttle slew until
@@ -92,52 +95,6 @@ LEAN_NOTE_MIN_M = 20.0
 LEAN_NOTE_SLACK_MPS = 0.1
 
 
-def arducopter_lean_max_deg(profile: Profile) -> float:
-    """The lean limit (degrees) of an ``arducopter`` profile."""
-    return lean_angle_max_deg(float(profile.params["ANGLE_MAX"]),
-                              float(profile.params["PSC_ANGLE_MAX"]))
-
-
-def arducopter_accel_mps2(profile: Profile) -> float:
-    """The horizontal acceleration (m/s²) an ``arducopter`` profile's legs use: WPNAV_ACCEL,
-    capped by what its lean limit allows (g·tan θ)."""
-    lean = math.radians(arducopter_lean_max_deg(profile))
-    return min(profile.si("WPNAV_ACCEL"), GRAVITY_MPS2 * math.tan(lean))
-
-
-def arducopter_top_speed_mps(profile: Profile) -> float:
-    """The fastest an ``arducopter`` profile's vehicle flies (m/s), whatever WPNAV_SPEED says:
-    its lean-limited top speed (:func:`top_speed_mps` at the profile's air density), capped by
-    VEHICLE_SPEED_MAX."""
-    return min(_lean_top_speed_mps(profile), profile.si("VEHICLE_SPEED_MAX"))
-
-
-def held_top_speed_mps(profile: Profile) -> float:
-    """The top airspeed (m/s) a plan commands an ``arducopter`` profile's vehicle in its wind:
-    what the lean limit holds through the wind's gusts (WIND_TURB,
-    :func:`validator.wind.held_air_speed_mps`), capped by VEHICLE_SPEED_MAX; in still air
-    :func:`arducopter_top_speed_mps`. Commanded more, a vehicle at its lean limit gives up
-    the speed to the gusts: ArduCopter SITL flew legs straight into 7-8 m/s of wind with
-    turbulence 2 m/s at 9.79-9.88 m/s of air, 3-7 % late over the ground."""
-    wind = profile_wind(profile)
-    if wind is None or wind.turbulence_mps <= 0.0:
-        return arducopter_top_speed_mps(profile)
-    return min(held_air_speed_mps(_lean_top_speed_mps(profile), wind.turbulence_mps),
-               profile.si("VEHICLE_SPEED_MAX"))
-
-
-def _lean_top_speed_mps(profile: Profile) -> float:
-    """What the lean limit alone lets an ``arducopter`` profile's vehicle fly (m/s), in still
-    air (:func:`top_speed_mps` at the profile's drag and air density)."""
-    return top_speed_mps(arducopter_lean_max_deg(profile), _drag_per_m(profile))
-
-
-def _drag_per_m(profile: Profile) -> float:
-    """The drag deceleration over airspeed² (1/m) of an ``arducopter`` profile's vehicle:
-    VEHICLE_DRAG at the air density of ALT_AMSL."""
-    return profile.si("VEHICLE_DRAG") * air_density_ratio(profile.si("ALT_AMSL"))
-
-
 @dataclass(frozen=True)
 class ScurveLimits:
     """What ArduCopter's horizontal S-curves are planned with: the speed of a leg without
@@ -156,42 +113,6 @@ def scurve_limits(profile: Profile) -> ScurveLimits:
     replay and the planner's flyable timing share)."""
     return ScurveLimits(profile.si("WPNAV_SPEED"), arducopter_top_speed_mps(profile),
                         arducopter_accel_mps2(profile), profile.si("WPNAV_JERK"))
-
-
-def leg_speed_caps_mps(profile: Profile, unit: NDArray[np.float64],
-                       names: list[str] | None = None,
-                       top_mps: float | None = None) -> NDArray[np.float64]:
-    """(n,) the fastest ground speed (m/s) an ``arducopter`` profile's vehicle holds along
-    each leg's direction ``unit`` (n, 3): its top speed (``top_mps``, by default
-    :func:`arducopter_top_speed_mps`), which in wind (WIND_SPEED, WIND_FROM) holds in the air,
-    so less upwind and more downwind (:func:`validator.wind.ground_speed_mps`). A wind at or
-    above the top speed is refused (:class:`InputError` naming the first leg, of ``names``, it
-    cannot fly)."""
-    top = arducopter_top_speed_mps(profile) if top_mps is None else top_mps
-    wind = profile_wind(profile)
-    if wind is None:
-        return np.full(len(unit), top)
-    horiz = np.hypot(unit[:, 0], unit[:, 1])
-    flat = horiz > 1e-9
-    u = np.divide(unit[:, :2], horiz[:, None], out=np.zeros((len(unit), 2)),
-                  where=flat[:, None])
-    check_flyable(top, wind, "wind", u[flat], [n for n, f in zip(names or [], flat,
-                                                                   strict=False) if f] or None)
-    return np.asarray(np.where(flat, ground_speed_mps(top, wind.vector_mps, u), top),
-                      dtype=float)
-
-
-def leg_speeds_mps(profile: Profile, speed_mps: float, unit_xy: ArrayLike) -> NDArray[np.float64]:
-    """(n,) the ground speed (m/s) a plan commands an ``arducopter`` profile's legs along
-    ``unit_xy`` (n, 2) at, and times them with, for a cruise speed ``speed_mps``: that speed,
-    or in wind the lower ground speed the course leaves of the airspeed the vehicle holds
-    through the gusts (:func:`held_top_speed_mps`; the replay's cap,
-    :func:`leg_speed_caps_mps`, is the still-air top speed, so it flies them as commanded).
-    A wind at or above that airspeed is refused."""
-    unit = np.atleast_2d(np.asarray(unit_xy, dtype=float))
-    caps = leg_speed_caps_mps(profile, np.column_stack([unit, np.zeros(len(unit))]),
-                              top_mps=held_top_speed_mps(profile))
-    return np.asarray(np.minimum(float(speed_mps), caps), dtype=float)
 
 
 @dataclass(frozen=True)
@@ -223,7 +144,10 @@ def _leg_speeds(flight: Flight, profile: Profile, geom: LegGeometry) -> _LegSpee
         dtype=float,
     )
     unit = geom.unit
-    caps = leg_speed_caps_mps(profile, unit, [f"mission item {leg.item}" for leg in legs])
+    # what the vehicle flies at its lean limit, held through the gusts (the plan's commands
+    # are within it); capped by what the plan allows (VEHICLE_SPEED_MAX)
+    caps = lean_caps_mps(profile, unit, held_top_speed_mps(profile),
+                         [f"mission item {leg.item}" for leg in legs], held=True)
     speed = kinematic_limit(unit, np.minimum(cmd, caps),
                             profile.si("WPNAV_SPEED_UP"), profile.si("WPNAV_SPEED_DN"))
     a_z = profile.si("WPNAV_ACCEL_Z")
@@ -244,7 +168,7 @@ def _leg_speeds(flight: Flight, profile: Profile, geom: LegGeometry) -> _LegSpee
     cruise = corner_changed_speeds_mps(first, speed, built_const_m, ramp, accel, jerk)
     # what the vehicle can fly, not what the plan allows (VEHICLE_SPEED_MAX): nothing but the
     # lean limit holds the vehicle back from the speed the S-curve runs at
-    lean_caps = leg_speed_caps_mps(profile, unit, top_mps=_lean_top_speed_mps(profile))
+    lean_caps = lean_caps_mps(profile, unit, held_lean_top_speed_mps(profile), held=True)
     return _LegSpeeds(cmd, speed, first, cruise, lean_caps, accel, jerk, ramp, landing)
 
 
@@ -268,8 +192,8 @@ def lean_limited_findings(flight: Flight, profile: Profile) -> list[Finding]:
     what the vehicle's lean limit flies along the leg's course (in wind, less upwind) although
     the leg's own command is within it: the vehicle flies that leg leaning at its limit, with
     no authority left for gusts and at a speed its drag sets, so the replay's timing there is
-    only as good as the drag model (SITL's quad, whose drag is per body axis, flew such a leg
-    across 8 m/s of wind in 19.8 s where the model says 22.0)."""
+    only as good as the drag model (:func:`validator.motion.arducopter_speed.lean_caps_mps`,
+    fitted to SITL's quad)."""
     geom = leg_geometry(flight.legs)
     v = _leg_speeds(flight, profile, geom)
     out: list[Finding] = []

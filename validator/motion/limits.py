@@ -12,6 +12,13 @@ GRAVITY_MPS2 = 9.80665
 # Fitted to ArduCopter 4.5.6 SITL (quad, `+` frame; ../shared/data/arducopter-sitl-2): level
 # top speed 10.03 m/s at 40 m AMSL and 10.37 m/s at 584 m, both at the 30° lean limit.
 SITL_QUAD_DRAG_PER_M = 0.0561
+# The share of that drag, at that top speed, that is the rotors' momentum drag: linear in the
+# airspeed and the same every way; the rest is the body's, quadratic per body axis (SITL's
+# quad, SIM_Motor.cpp and SIM_Frame.cpp at 4.5.6: mdrag_coef·sqrt(ρ·disc_area·T)·v, with
+# mdrag_coef 0.2, disc_area 0.385 m², T = m·g / cos 30°, m 3 kg, against m·g·tan 30°: 8.0 N
+# of 17.0 at 10.03 m/s and 40 m AMSL, 0.475 at 584 m). It sets how much more air speed the
+# quad holds crabbing across a wind (:func:`validator.wind.lean_limit_ground_speed_mps`).
+SITL_QUAD_LINEAR_DRAG_SHARE = 0.47
 
 
 @dataclass(frozen=True)

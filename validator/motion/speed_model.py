@@ -17,13 +17,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from validator.autopilot.waypoint_radius import radius_params
-from validator.motion.arducopter import (
-    ScurveLimits,
+from validator.motion.arducopter import ScurveLimits, jerk_ramp_s, scurve_limits
+from validator.motion.arducopter_speed import (
     arducopter_top_speed_mps,
     held_top_speed_mps,
-    jerk_ramp_s,
     leg_speeds_mps,
-    scurve_limits,
 )
 from validator.motion.limits import site_limits
 from validator.motion.profile import Profile, flown_params, make_profile
@@ -78,7 +76,7 @@ def cruise_speed_mps(site: Site, autopilot: str = "ardupilot") -> float:
 def commanded_top_speed_mps(site: Site, autopilot: str = "ardupilot") -> float:
     """The top airspeed (m/s) plans command in the site's wind: :func:`cruise_speed_mps`, or
     for ArduCopter in gusts the lower airspeed its lean limit holds through them
-    (:func:`validator.motion.arducopter.held_top_speed_mps`). A wind at or above it is
+    (:func:`validator.motion.arducopter_speed.held_top_speed_mps`). A wind at or above it is
     refused."""
     cruise = cruise_speed_mps(site, autopilot)
     profile = motion_profile(site, autopilot)
