@@ -7,9 +7,12 @@ a92f119, ``flights-wind-corners.json``, plans and parameter files in
 berth's probe: ``flights-probe.json``, ``probe-plans.json.gz``), the eleventh (at 1b07209,
 legs commanded the airspeed held through the gusts: ``flights-gusts.json``,
 ``gusts-plans.json.gz``), the twelfth (at 87065f4, slots laid where the model flies each
-leg: ``flights-slots.json``, ``slots-plans.json.gz``) and the thirteenth (at 09d47c5, a speed
+leg: ``flights-slots.json``, ``slots-plans.json.gz``), the thirteenth (at 09d47c5, a speed
 change at a corner only as far as half the S-curve's constant part takes it:
-``flights-reach.json``, ``reach-plans.json.gz``), as plan-mission wrote them."""
+``flights-reach.json``, ``reach-plans.json.gz``) and the fourteenth (at 0aec2f3, the lean
+limit with the SITL quad's drag per body axis: ``flights-drag.json``, ``drag-plans.json.gz``,
+which also holds each site's still-air plan, ``"SITE still"``, flown in every wind: the
+what-if of a plan flown in a wind it was not made for), as plan-mission wrote them."""
 
 from __future__ import annotations
 
@@ -38,7 +41,8 @@ CAMPAIGNS = {"seventh": ("flights-wind-corners.json", "wind-corners-plans.json.g
              "ninth": ("flights-probe.json", "probe-plans.json.gz"),
              "eleventh": ("flights-gusts.json", "gusts-plans.json.gz"),
              "twelfth": ("flights-slots.json", "slots-plans.json.gz"),
-             "thirteenth": ("flights-reach.json", "reach-plans.json.gz")}
+             "thirteenth": ("flights-reach.json", "reach-plans.json.gz"),
+             "fourteenth": ("flights-drag.json", "drag-plans.json.gz")}
 # Flights whose predicted cycle missed the flown one by over 3 %: none since the vehicle leans
 # to its limit with the SITL quad's drag, per body axis (README, Wind, drag per body axis);
 # before, the eighth's and the thirteenth's orchard in 8 m/s from 45° (3.1 and 3.2 % early:
@@ -46,7 +50,7 @@ CAMPAIGNS = {"seventh": ("flights-wind-corners.json", "wind-corners-plans.json.g
 # realistic in 7 m/s from 315°, turbulence 2 (3.1 % late: upwind legs at the lean limit gave
 # speed to the gusts that the model's lean limit did not)
 CYCLE_MISSES = {"seventh": 0, "eighth": 0, "ninth": 0, "eleventh": 0, "twelfth": 0,
-                "thirteenth": 0}
+                "thirteenth": 0, "fourteenth": 0}
 
 
 def _replayed_against_flown(campaign: str) -> tuple[np.ndarray, np.ndarray]:
@@ -83,7 +87,7 @@ def test_the_predicted_cycle_is_within_3_percent_of_the_flown_one(campaign):
 # the drag per body axis there were 7 (0.955-0.969) of the 126, the orchard flights in 8 m/s
 # from 0° and 45° and harbour in 8 m/s from 45°, all flown early
 RATE_MISSES = {"seventh": 0, "eighth": 1, "ninth": 0, "eleventh": 1, "twelfth": 0,
-               "thirteenth": 0}
+               "thirteenth": 0, "fourteenth": 0}
 
 
 @pytest.mark.parametrize("campaign", list(CAMPAIGNS))
@@ -110,3 +114,42 @@ def test_with_drag_the_same_every_way_cycles_are_predicted_late(monkeypatch):
     cycle, _ = _replayed_against_flown("seventh")
     assert np.mean(cycle) - 1 > 0.01, np.round(cycle, 3)
     assert np.sum(np.abs(cycle - 1) <= 0.03) <= len(cycle) - 3, np.round(cycle, 3)
+
+
+# Still-air plans flown in wind predicted more than 3 % off: orchard in 8 m/s from 45° (1.047,
+# its home at 584 m AMSL; every orchard flight came out 1-5 % late)
+WHAT_IF_MISSES = 1
+
+
+def _what_if_against_flown() -> np.ndarray:
+    """Per flight of the fourteenth campaign's still-air plans in wind: the cycle the replay
+    predicts in the wind flown over the flown one."""
+    flights_file, plans_file = CAMPAIGNS["fourteenth"]
+    plans = json.loads(gzip.decompress((DATA / plans_file).read_bytes()))
+    flights = json.loads((DATA / flights_file).read_text())
+    ratio = []
+    for f in flights:
+        if f["plan"] != "blind":
+            continue
+        files = plans[f"{f['site']} still"]
+        site = load_site(SITES[f["site"]]).with_limits(wind=parse_wind_arg(f["wind"]))
+        replayed = replay_plan(loads_plan(files["plan"]), site,
+                               params=parse_params(files["param"]))
+        assert replayed.report.cycle is not None
+        ratio.append(replayed.report.cycle.flown_cycle_s / f["flown_cycle_s"])
+    return np.array(ratio)
+
+
+def test_a_still_air_plan_flown_in_wind_is_predicted_within_3_percent():
+    # commanded 10 m/s on every leg, the plan is overdriven on every leg into or across the
+    # wind: the vehicle leans to its limit there, and the replay times it as SITL's quad flies
+    ratio = _what_if_against_flown()
+    assert len(ratio) >= 20
+    assert np.sum(np.abs(ratio - 1) <= 0.03) >= len(ratio) - WHAT_IF_MISSES, np.round(ratio, 3)
+
+
+def test_with_drag_the_same_every_way_the_what_if_comes_out_late(monkeypatch):
+    monkeypatch.setattr(arducopter_speed, "SITL_QUAD_LINEAR_DRAG_SHARE", 1.0)
+    ratio = _what_if_against_flown()
+    assert np.max(ratio) > 1.08, np.round(ratio, 3)
+    assert np.sum(np.abs(ratio - 1) <= 0.03) <= len(ratio) - 5, np.round(ratio, 3)
