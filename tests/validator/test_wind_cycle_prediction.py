@@ -18,12 +18,13 @@ from __future__ import annotations
 
 import gzip
 import json
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from validator.api import load_site, replay_plan
+from validator.api import Replayed, load_site, replay_plan
 from validator.autopilot.param_file import parse_params
 from validator.motion import arducopter, arducopter_speed
 from validator.plan_format import loads_plan
@@ -53,20 +54,26 @@ CYCLE_MISSES = {"seventh": 0, "eighth": 0, "ninth": 0, "eleventh": 0, "twelfth":
                 "thirteenth": 0, "fourteenth": 0}
 
 
-def _replayed_against_flown(campaign: str) -> tuple[np.ndarray, np.ndarray]:
-    """Per windy flight of a plan made for its wind: the replayed cycle over the flown one, and
-    the flown min rate over the replayed one (the report's)."""
+def _replays(campaign: str, kind: str) -> Iterator[tuple[dict, Replayed]]:
+    """Each windy flight of ``campaign`` flying a plan of ``kind`` ("aware": made for its
+    wind; "blind": the site's still-air plan, pinned as "SITE still"), with that plan's
+    replay in the wind flown."""
     flights_file, plans_file = CAMPAIGNS[campaign]
     plans = json.loads(gzip.decompress((DATA / plans_file).read_bytes()))
     flights = json.loads((DATA / flights_file).read_text())
-    cycles, rates = [], []
     for f in flights:
-        if f["plan"] != "aware" or f["wind_speed_mps"] <= 0:
+        if f["plan"] != kind or f["wind_speed_mps"] <= 0:
             continue
-        files = plans[f"{f['site']} {f['wind']}"]
+        files = plans[f"{f['site']} {f['wind'] if kind == 'aware' else 'still'}"]
         site = load_site(SITES[f["site"]]).with_limits(wind=parse_wind_arg(f["wind"]))
-        replayed = replay_plan(loads_plan(files["plan"]), site,
-                               params=parse_params(files["param"]))
+        yield f, replay_plan(loads_plan(files["plan"]), site, params=parse_params(files["param"]))
+
+
+def _replayed_against_flown(campaign: str) -> tuple[np.ndarray, np.ndarray]:
+    """Per windy flight of a plan made for its wind: the replayed cycle over the flown one, and
+    the flown min rate over the replayed one (the report's)."""
+    cycles, rates = [], []
+    for f, replayed in _replays(campaign, "aware"):
         assert replayed.report.cycle is not None and replayed.report.throughput is not None
         cycles.append(replayed.report.cycle.flown_cycle_s / f["flown_cycle_s"])
         rates.append(f["flown_min_rate_bps_hz"] / replayed.report.throughput.flown_min)
@@ -124,17 +131,8 @@ WHAT_IF_MISSES = 1
 def _what_if_against_flown() -> np.ndarray:
     """Per flight of the fourteenth campaign's still-air plans in wind: the cycle the replay
     predicts in the wind flown over the flown one."""
-    flights_file, plans_file = CAMPAIGNS["fourteenth"]
-    plans = json.loads(gzip.decompress((DATA / plans_file).read_bytes()))
-    flights = json.loads((DATA / flights_file).read_text())
     ratio = []
-    for f in flights:
-        if f["plan"] != "blind":
-            continue
-        files = plans[f"{f['site']} still"]
-        site = load_site(SITES[f["site"]]).with_limits(wind=parse_wind_arg(f["wind"]))
-        replayed = replay_plan(loads_plan(files["plan"]), site,
-                               params=parse_params(files["param"]))
+    for f, replayed in _replays("fourteenth", "blind"):
         assert replayed.report.cycle is not None
         ratio.append(replayed.report.cycle.flown_cycle_s / f["flown_cycle_s"])
     return np.array(ratio)
