@@ -11,7 +11,10 @@ ArduCopter (names, units and documented ranges: :mod:`validator.autopilot.ardupi
   lean-limited with drag), whichever is lower: the speed the vehicle will reach. Rounded up to
   a whole cm/s, so a leg without a speed change is never flown slower;
 - ``WPNAV_ACCEL``: the site's ``uav.max_accel``; ``WPNAV_JERK``: its ``uav.max_jerk``;
-- ``WPNAV_RADIUS``: :func:`waypoint_radius_m`.
+- ``WPNAV_RADIUS``: :func:`waypoint_radius_m`;
+- ``WP_YAW_BEHAVIOR``: 2, facing the next waypoint, as the wind's timing takes it
+  (:data:`validator.motion.arducopter_speed.PLAN_YAW_BEHAVIOR`): ArduCopter's default, set so
+  that a vehicle configured otherwise flies the yaw the plan was timed with.
 
 PX4 (:mod:`validator.autopilot.px4`)
 
@@ -53,6 +56,7 @@ from validator.autopilot.tables import param_table, range_notes
 from validator.autopilot.waypoint_radius import radius_params
 from validator.failsafe import smartrtl_points_needed
 from validator.flight import resolve_flight
+from validator.motion.arducopter_speed import PLAN_YAW_BEHAVIOR
 from validator.motion.speed_model import top_speed_mps
 from validator.plan_format import Cmd
 
@@ -109,6 +113,7 @@ def recommended_params(mission: Mission) -> AutopilotParams:
             "WPNAV_SPEED": _ceil(table["WPNAV_SPEED"].from_si(speed), 1.0),
             "WPNAV_ACCEL": round(table["WPNAV_ACCEL"].from_si(site.max_accel_mps2), 6),
             "WPNAV_JERK": table["WPNAV_JERK"].from_si(site.max_jerk_mps3),
+            "WP_YAW_BEHAVIOR": PLAN_YAW_BEHAVIOR,
         }
     values.update(radius_params(site, autopilot, mission.fence_margin_m))
     srtl = None

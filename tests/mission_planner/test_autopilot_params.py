@@ -51,6 +51,7 @@ def test_ardupilot_params_come_from_the_fastest_leg_and_the_site_limits():
     assert fastest_leg_mps(m) == pytest.approx(100.0 / 12.0)
     assert p.values == {"WPNAV_SPEED": 834.0,  # 833.3 cm/s rounded up to a whole cm/s
                         "WPNAV_ACCEL": 400.0, "WPNAV_JERK": 3.0, "WPNAV_RADIUS": 100.0,
+                        "WP_YAW_BEHAVIOR": 2.0,  # facing the course, as the wind's timing
                         **SAFE_ARDUPILOT_FAILSAFES, "SRTL_POINTS": 300.0,
                         "FENCE_TYPE": 4.0, "FENCE_ACTION": 5.0, "FENCE_ENABLE": 1.0}
     assert p.notes == ()
@@ -126,7 +127,8 @@ def test_ardupilot_file_is_name_value_lines_px4_file_is_qgc_format():
     ap_lines = [ln for ln in ap.splitlines() if not ln.startswith("#")]
     px_lines = [ln for ln in px.splitlines() if not ln.startswith("#")]
     assert [ln.split()[0] for ln in ap_lines] == [
-        "WPNAV_SPEED", "WPNAV_ACCEL", "WPNAV_JERK", "WPNAV_RADIUS", *SAFE_ARDUPILOT_FAILSAFES,
+        "WPNAV_SPEED", "WPNAV_ACCEL", "WPNAV_JERK", "WP_YAW_BEHAVIOR", "WPNAV_RADIUS",
+        *SAFE_ARDUPILOT_FAILSAFES,
         "SRTL_POINTS", "FENCE_TYPE", "FENCE_ACTION", "FENCE_ENABLE"]
     assert all(len(ln.split()) == 2 for ln in ap_lines)
     for ln in px_lines:

@@ -299,7 +299,8 @@ def test_param_file_is_written_beside_the_mission(tmp_path, capsys, square_plann
     assert code == 0, err
     params = parse_params((tmp_path / "m.param").read_text())
     assert params == {"WPNAV_SPEED": 1000.0, "WPNAV_ACCEL": 250.0, "WPNAV_JERK": 1.0,
-                      "WPNAV_RADIUS": 100.0, **recommended_failsafes("ardupilot", 300.0),
+                      "WP_YAW_BEHAVIOR": 2.0, "WPNAV_RADIUS": 100.0,
+                      **recommended_failsafes("ardupilot", 300.0),
                       "FENCE_TYPE": 4.0, "FENCE_ACTION": 5.0, "FENCE_ENABLE": 1.0}
     assert list(params)[-1] == "FENCE_ENABLE"  # switched on after the rest is set
 

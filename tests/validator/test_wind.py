@@ -10,11 +10,14 @@ import pytest
 from validator.errors import InputError
 from validator.flight import Flight, Leg
 from validator.motion.arducopter_speed import (
+    PLAN_YAW_BEHAVIOR,
     arducopter_top_speed_mps,
+    faces_course,
     held_top_speed_mps,
     lean_caps_mps,
     leg_speed_caps_mps,
     leg_speeds_mps,
+    yaw_findings,
 )
 from validator.motion.limits import site_limits
 from validator.motion.profile import make_profile, profile_wind
@@ -211,6 +214,30 @@ def test_a_lean_limit_beyond_the_wind_is_refused_naming_the_leg() -> None:
     prof = make_profile("arducopter", site_limits(site), {"WIND_SPEED": 12.0, "WIND_FROM": 0.0})
     with pytest.raises(InputError, match=r"leg A \(course 0°\) cannot be flown"):
         lean_caps_mps(prof, np.array([[0.0, 1.0, 0.0]]), 10.0, ["leg A"])
+
+
+@pytest.mark.parametrize("yaw", [1.0, 2.0, 3.0])
+def test_a_vehicle_turning_toward_its_waypoints_faces_its_course(yaw: float) -> None:
+    prof = make_profile("arducopter", site_limits(load_site(SAMPLE)), {"WP_YAW_BEHAVIOR": yaw})
+    assert faces_course(prof)
+
+
+def test_arducopter_faces_its_course_by_default_as_the_plan_sets_it() -> None:
+    prof = make_profile("arducopter", site_limits(load_site(SAMPLE)))
+    assert prof.params["WP_YAW_BEHAVIOR"] == PLAN_YAW_BEHAVIOR and faces_course(prof)
+
+
+def test_a_kept_yaw_in_wind_is_warned_of() -> None:
+    # the drag per body axis is a vehicle facing along its course: at 0 it is not
+    prof = make_profile("arducopter", site_limits(load_site(SAMPLE)),
+                        {"WP_YAW_BEHAVIOR": 0, "WIND_SPEED": 6.0, "WIND_FROM": 90.0})
+    (finding,) = yaw_findings(prof)
+    assert finding.severity == "warning" and "WP_YAW_BEHAVIOR 0" in finding.message
+
+
+def test_a_kept_yaw_in_still_air_is_not_warned_of() -> None:
+    prof = make_profile("arducopter", site_limits(load_site(SAMPLE)), {"WP_YAW_BEHAVIOR": 0})
+    assert yaw_findings(prof) == []
 
 
 # a course along the x axis; (east, north) wind vectors of 6 m/s across it or along it

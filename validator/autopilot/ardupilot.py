@@ -43,6 +43,9 @@ PARAMS: dict[str, ParamSpec] = {
                                "hover over home before landing", _I32, zero_ok=True),
     "PSC_ANGLE_MAX": ParamSpec("deg", 1.0, 0.0, 0.0, 45.0,
                                "position controller lean limit, 0 = ANGLE_MAX", zero_ok=True),
+    "WP_YAW_BEHAVIOR": ParamSpec("enum", 1.0, 2.0, 0.0, 3.0, "yaw on mission legs: 0 kept, "
+                                 "1 toward the next waypoint, 2 the same but not in RTL, 3 "
+                                 "along the course over the ground", _I8, zero_ok=True),
     "LAND_SPEED": ParamSpec("cm/s", 0.01, 50.0, 30.0, 200.0,
                             "final descent speed below LAND_ALT_LOW", _I16),
     "LAND_ALT_LOW": ParamSpec("cm", 0.01, 1000.0, 100.0, 10000.0,

@@ -12,6 +12,7 @@ from functools import partial
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from validator.flight import Finding
 from validator.motion.limits import (
     GRAVITY_MPS2,
     SITL_QUAD_LINEAR_DRAG_SHARE,
@@ -26,6 +27,15 @@ from validator.wind import (
     held_air_speed_mps,
     lean_limit_ground_speed_mps,
 )
+
+# WP_YAW_BEHAVIOR values under which ArduCopter faces along its course on a mission leg (1
+# toward the next waypoint, 2 the same but not in RTL, 3 along its course over the ground), as
+# the drag per body axis takes it: crabbing across a wind, the body meets the air at the crab
+# angle. At 0 the vehicle keeps its yaw and meets a crosswind at whatever angle that leaves.
+YAW_ALONG_COURSE = (1.0, 2.0, 3.0)
+# ... and the one a plan sets: ArduCopter's own default for a multicopter (config.h), written
+# so that the vehicle flies the yaw its timing was made with whatever it was set to before.
+PLAN_YAW_BEHAVIOR = 2.0
 
 
 def arducopter_lean_max_deg(profile: Profile) -> float:
@@ -137,3 +147,22 @@ def leg_speeds_mps(profile: Profile, speed_mps: float, unit_xy: ArrayLike) -> ND
     caps = leg_speed_caps_mps(profile, np.column_stack([unit, np.zeros(len(unit))]),
                               top_mps=held_top_speed_mps(profile))
     return np.asarray(np.minimum(float(speed_mps), caps), dtype=float)
+
+
+def faces_course(profile: Profile) -> bool:
+    """Whether an ``arducopter`` profile's vehicle faces along its course on mission legs
+    (WP_YAW_BEHAVIOR in :data:`YAW_ALONG_COURSE`), as :func:`lean_caps_mps` takes it."""
+    return float(profile.params["WP_YAW_BEHAVIOR"]) in YAW_ALONG_COURSE
+
+
+def yaw_findings(profile: Profile) -> list[Finding]:
+    """In wind, a warning when an ``arducopter`` profile's vehicle does not face along its
+    course (:func:`faces_course`): the replay times its legs with the drag per body axis of a
+    vehicle that does, so a crosswind leg flown at the lean limit may take another time."""
+    if profile_wind(profile) is None or faces_course(profile):
+        return []
+    return [Finding("warning", f"WP_YAW_BEHAVIOR {profile.params['WP_YAW_BEHAVIOR']:g} keeps "
+                    f"the vehicle's yaw on mission legs, but the replay times legs in wind for "
+                    f"a vehicle facing along its course (WP_YAW_BEHAVIOR "
+                    f"{PLAN_YAW_BEHAVIOR:g}, as the plan's parameters set it): legs across the "
+                    f"wind at the lean limit may be flown at another speed")]

@@ -14,6 +14,7 @@ from __future__ import annotations
 from validator.errors import InputError
 from validator.flight import Finding, Flight
 from validator.motion import arducopter, ideal, px4_mission
+from validator.motion.arducopter_speed import yaw_findings
 from validator.motion.path import FlownPath
 from validator.motion.profile import Profile
 
@@ -42,7 +43,8 @@ def model_findings(flight: Flight, profile: Profile) -> tuple[Finding, ...]:
     """What ``profile``'s model knows of its own timing of ``flight`` that no track shows:
     for ``arducopter``, the legs flown leaning at the lean limit after a corner, where the
     timing is only as good as the drag model (:func:`~validator.motion.arducopter.
-    lean_limited_findings`); nothing for the others."""
+    lean_limited_findings`), and in wind a yaw the drag model does not fly
+    (:func:`~validator.motion.arducopter_speed.yaw_findings`); nothing for the others."""
     if profile.name == "arducopter" and flight.legs:
-        return tuple(arducopter.lean_limited_findings(flight, profile))
+        return (*yaw_findings(profile), *arducopter.lean_limited_findings(flight, profile))
     return ()

@@ -34,7 +34,7 @@ PROFILES: tuple[ProfileName, ...] = ("ideal", "arducopter", "px4")
 ARDUCOPTER_FLOWN = ("WPNAV_SPEED", "WPNAV_ACCEL", "WPNAV_JERK", "WPNAV_RADIUS", "WPNAV_ACCEL_C",
                     "WPNAV_SPEED_UP", "WPNAV_SPEED_DN", "WPNAV_ACCEL_Z", "PSC_JERK_Z",
                     "ANGLE_MAX", "ATC_INPUT_TC", "ATC_ACCEL_R_MAX", "RTL_LOIT_TIME",
-                    "PSC_ANGLE_MAX", "LAND_SPEED", "LAND_ALT_LOW")
+                    "PSC_ANGLE_MAX", "LAND_SPEED", "LAND_ALT_LOW", "WP_YAW_BEHAVIOR")
 PX4_FLOWN = tuple(n for n in px4.PARAMS if n != "GF_ACTION")
 
 # Our model's own parameters, in SI units (no autopilot has them)
@@ -118,8 +118,8 @@ def make_profile(
     units); a site's vehicle is :func:`~validator.motion.limits.site_limits` of it.
 
     Raises :class:`InputError` for an unknown profile or parameter, or a value that is not a
-    finite number > 0 (>= 0 where 0 is a setting: WPNAV_ACCEL_C, RTL_LOIT_TIME, PSC_ANGLE_MAX,
-    VEHICLE_DRAG and ALT_AMSL).
+    finite number > 0 (>= 0 where 0 is a setting, ``ParamSpec.zero_ok``: WPNAV_ACCEL_C,
+    RTL_LOIT_TIME, PSC_ANGLE_MAX, WP_YAW_BEHAVIOR, VEHICLE_DRAG, ALT_AMSL, the wind's).
     """
     if name not in PROFILES:
         raise InputError(f"--profile: unknown profile {name!r} (choose from {', '.join(PROFILES)})")
