@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -247,3 +248,24 @@ def check_flyable(air_speed_mps: float, wind: Wind, where: str,
              else f"the vehicle's top airspeed {air_speed_mps:.2f} m/s")
     raise InputError(f"{where}: {leg}wind {wind.label()} is at or above {limit}; it can "
                      "neither hold position nor fly upwind")
+
+
+def course_speeds_mps(air_speed_mps: float, wind: Wind, heading: ArrayLike,
+                      names: list[str] | None = None, *, gusts: bool = False,
+                      along: Callable[[float, ArrayLike, ArrayLike], NDArray[np.float64]]
+                      = ground_speed_mps) -> NDArray[np.float64]:
+    """(n,) the ground speed (m/s) a vehicle of top airspeed ``air_speed_mps`` makes in
+    ``wind`` along each leg's horizontal ``heading`` (n, 2 or more; any length; the first two
+    are east, north): ``along(air_speed_mps, wind vector, unit course)``, by default
+    :func:`ground_speed_mps` (the cone), and ``air_speed_mps`` on a leg with no horizontal
+    heading (a climb). A wind at or above ``air_speed_mps`` is refused by
+    :func:`check_flyable`, naming the first leg of ``names`` it cannot fly (``gusts`` as
+    there): the one course rule of every flight model."""
+    h = np.atleast_2d(np.asarray(heading, dtype=float))[:, :2]
+    norm = np.hypot(h[:, 0], h[:, 1])
+    flat = norm > 1e-9
+    u = np.divide(h, norm[:, None], out=np.zeros_like(h), where=flat[:, None])
+    named = [n for n, f in zip(names or [], flat, strict=False) if f] or None
+    check_flyable(air_speed_mps, wind, "wind", u[flat], named, gusts=gusts)
+    return np.asarray(np.where(flat, along(air_speed_mps, wind.vector_mps, u), air_speed_mps),
+                      dtype=float)

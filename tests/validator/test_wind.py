@@ -29,6 +29,7 @@ from validator.wind import (
     GUST_KEEP,
     Wind,
     check_flyable,
+    course_speeds_mps,
     ground_speed_mps,
     heading_deg,
     held_air_speed_mps,
@@ -238,6 +239,17 @@ def test_a_kept_yaw_in_wind_is_warned_of() -> None:
 def test_a_kept_yaw_in_still_air_is_not_warned_of() -> None:
     prof = make_profile("arducopter", site_limits(load_site(SAMPLE)), {"WP_YAW_BEHAVIOR": 0})
     assert yaw_findings(prof) == []
+
+
+def test_a_leg_with_no_course_keeps_the_airspeed() -> None:
+    # a climb has no course over the ground for the wind to take from
+    speeds = course_speeds_mps(10.0, Wind(6.0, 90.0), [[0.0, 0.0, 5.0], [20.0, 0.0, 0.0]])
+    assert speeds == pytest.approx([10.0, 4.0])  # east, into a wind from the east: 10 − 6
+
+
+def test_a_course_refusal_names_the_first_horizontal_leg_it_cannot_fly() -> None:
+    with pytest.raises(InputError, match=r"item 3 \(course 0°\) cannot be flown"):
+        course_speeds_mps(8.0, Wind(9.0, 0.0), [[0.0, 0.0], [0.0, 30.0]], ["item 2", "item 3"])
 
 
 # a course along the x axis; (east, north) wind vectors of 6 m/s across it or along it

@@ -22,7 +22,7 @@ from validator.motion.limits import (
 )
 from validator.motion.profile import Profile, profile_wind
 from validator.wind import (
-    check_flyable,
+    course_speeds_mps,
     ground_speed_mps,
     held_air_speed_mps,
     lean_limit_ground_speed_mps,
@@ -119,21 +119,14 @@ def _course_caps_mps(profile: Profile, unit: NDArray[np.float64], top_mps: float
                      names: list[str] | None,
                      along: Callable[[float, ArrayLike, ArrayLike], NDArray[np.float64]],
                      held: bool = False) -> NDArray[np.float64]:
-    """(n,) ``along(top_mps, wind, courses)`` on each leg with a horizontal course in the
-    profile's wind, ``top_mps`` on the others and in still air; a wind at or above
-    ``top_mps`` refused (:func:`validator.wind.check_flyable`; ``held``: an airspeed held
-    through the gusts, as the refusal says)."""
+    """(n,) :func:`validator.wind.course_speeds_mps` of ``top_mps`` along each leg's ``unit``
+    in the profile's wind (``held``: an airspeed held through the gusts, as a refusal says),
+    ``top_mps`` in still air."""
     wind = profile_wind(profile)
     if wind is None:
         return np.full(len(unit), top_mps)
-    horiz = np.hypot(unit[:, 0], unit[:, 1])
-    flat = horiz > 1e-9
-    u = np.divide(unit[:, :2], horiz[:, None], out=np.zeros((len(unit), 2)),
-                  where=flat[:, None])
-    named = [n for n, f in zip(names or [], flat, strict=False) if f] or None
-    check_flyable(top_mps, wind, "wind", u[flat], named,
-                  gusts=held and wind.turbulence_mps > 0)
-    return np.asarray(np.where(flat, along(top_mps, wind.vector_mps, u), top_mps), dtype=float)
+    return course_speeds_mps(top_mps, wind, unit, names, along=along,
+                             gusts=held and wind.turbulence_mps > 0)
 
 
 def leg_speeds_mps(profile: Profile, speed_mps: float, unit_xy: ArrayLike) -> NDArray[np.float64]:

@@ -31,7 +31,7 @@ from validator.motion import px4
 from validator.motion.limits import GRAVITY_MPS2
 from validator.motion.path import FlownPath, active_leg, leg_geometry, time_grid
 from validator.motion.profile import Profile, profile_wind
-from validator.wind import check_flyable, ground_speed_mps
+from validator.wind import course_speeds_mps
 
 # PX4 v1.15 SIH (quad x), measured on flights of our plans: arming to the start of the climb
 # (spool-up and the MPC_TKO_RAMP_T takeoff ramp), and touchdown to disarm (land detector, then
@@ -282,19 +282,14 @@ def _leg_speeds_mps(profile: Profile, speed_mps: float, heading: NDArray[np.floa
                     ) -> NDArray[np.float64]:
     """(n,) the speed (m/s) each leg along ``heading`` (n, 2) is flown at: ``speed_mps``
     capped by :func:`px4_top_speed_mps` and, in the profile's wind, by the ground speed the
-    leg's course leaves (:func:`validator.wind.ground_speed_mps`; a wind too strong refused)."""
+    leg's course leaves (:func:`validator.wind.course_speeds_mps`; a wind too strong refused)."""
     top = px4_top_speed_mps(profile)
     h = np.atleast_2d(np.asarray(heading, dtype=float))
-    speed = np.full(len(h), min(speed_mps, top))
+    cap = min(speed_mps, top)
     wind = profile_wind(profile)
     if wind is None:
-        return speed
-    px4_check_wind(profile, h)
-    norm = np.hypot(h[:, 0], h[:, 1])
-    moving = norm > 1e-9
-    unit = h[moving] / norm[moving, None]
-    speed[moving] = np.minimum(ground_speed_mps(top, wind.vector_mps, unit), speed[moving])
-    return speed
+        return np.full(len(h), cap)
+    return np.minimum(course_speeds_mps(top, wind, h), cap)
 
 
 def _tracking(profile: Profile, heading: ArrayLike | None = None) -> px4.Tracking:
@@ -318,15 +313,10 @@ def _tracking(profile: Profile, heading: ArrayLike | None = None) -> px4.Trackin
 def px4_check_wind(profile: Profile, headings: NDArray[np.float64],
                    names: list[str] | None = None) -> None:
     """Refuse a wind at or above the ``px4`` profile's top airspeed
-    (:func:`validator.wind.check_flyable`; ``headings`` (n, 2) of the legs, ``names``)."""
+    (:func:`validator.wind.course_speeds_mps`; ``headings`` (n, 2) of the legs, ``names``)."""
     wind = profile_wind(profile)
-    if wind is None:
-        return
-    h = np.atleast_2d(np.asarray(headings, dtype=float))
-    norm = np.hypot(h[:, 0], h[:, 1])
-    flat = norm > 1e-9
-    named = [n for n, f in zip(names, flat, strict=True) if f] if names else None
-    check_flyable(px4_top_speed_mps(profile), wind, "wind", h[flat] / norm[flat, None], named)
+    if wind is not None:
+        course_speeds_mps(px4_top_speed_mps(profile), wind, headings, names)
 
 
 def _land_schedule(profile: Profile, alt_m: float) -> tuple[NDArray[np.float64],
