@@ -23,8 +23,9 @@ The target (issue 26): planning time in wind within 1.2x of still air.
 really flies in it (its replayed cycle) and prints that plan's replayed cycle / its period
 and min rate: the two plans compared over the same flown seconds. Held to T, the plan for
 the wind spends the wind's extra move time out of its hovers, while the blind plan flown
-late keeps them (README, *Wind*: per flown second the late plan wins wherever hovering
-serves best); at the same period the comparison is the planner's alone.
+late keeps them (README, *Wind: where it stands*: per flown second the late plan wins wherever
+that time serves the worst node best); at the same period the comparison is the planner's
+alone.
 """
 
 from __future__ import annotations

@@ -45,7 +45,8 @@ CAMPAIGNS = {"seventh": ("flights-wind-corners.json", "wind-corners-plans.json.g
              "thirteenth": ("flights-reach.json", "reach-plans.json.gz"),
              "fourteenth": ("flights-drag.json", "drag-plans.json.gz")}
 # Flights whose predicted cycle missed the flown one by over 3 %: none since the vehicle leans
-# to its limit with the SITL quad's drag, per body axis (README, Wind, drag per body axis);
+# to its limit with the SITL quad's drag, per body axis (docs/wind-campaigns.md, *Wind, drag
+# per body axis*);
 # before, the eighth's and the thirteenth's orchard in 8 m/s from 45° (3.1 and 3.2 % early:
 # a leg across the wind that the model held to less than the quad leans to) and the ninth's
 # realistic in 7 m/s from 315°, turbulence 2 (3.1 % late: upwind legs at the lean limit gave
