@@ -233,7 +233,7 @@ def test_a_kept_yaw_in_wind_is_warned_of() -> None:
     prof = make_profile("arducopter", site_limits(load_site(SAMPLE)),
                         {"WP_YAW_BEHAVIOR": 0, "WIND_SPEED": 6.0, "WIND_FROM": 90.0})
     (finding,) = yaw_findings(prof)
-    assert finding.severity == "warning" and "WP_YAW_BEHAVIOR 0" in finding.message
+    assert finding.severity == "warning" and "WP_YAW_BEHAVIOR 0 does not turn" in finding.message
 
 
 def test_a_kept_yaw_in_still_air_is_not_warned_of() -> None:

@@ -154,8 +154,9 @@ def yaw_findings(profile: Profile) -> list[Finding]:
     vehicle that does, so a crosswind leg flown at the lean limit may take another time."""
     if profile_wind(profile) is None or faces_course(profile):
         return []
-    return [Finding("warning", f"WP_YAW_BEHAVIOR {profile.params['WP_YAW_BEHAVIOR']:g} keeps "
-                    f"the vehicle's yaw on mission legs, but the replay times legs in wind for "
-                    f"a vehicle facing along its course (WP_YAW_BEHAVIOR "
-                    f"{PLAN_YAW_BEHAVIOR:g}, as the plan's parameters set it): legs across the "
-                    f"wind at the lean limit may be flown at another speed")]
+    return [Finding("warning", f"WP_YAW_BEHAVIOR {profile.params['WP_YAW_BEHAVIOR']:g} does "
+                    f"not turn the vehicle along its course on mission legs (1-3 do, 0 keeps "
+                    f"its yaw), but the replay times legs in wind for a vehicle that does "
+                    f"(WP_YAW_BEHAVIOR {PLAN_YAW_BEHAVIOR:g}, as the plan's parameters set "
+                    f"it): legs across the wind at the lean limit may be flown at another "
+                    f"speed")]
