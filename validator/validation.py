@@ -15,14 +15,13 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from validator.audit import CLEARANCE_TOLERANCE_M, AuditReport, audit
+from validator.audit import AuditReport, audit
 from validator.errors import InputError
 from validator.failsafe import FailsafeReport, audit_failsafes
 from validator.flight import Finding, Flight, Severity, resolve_flight
 from validator.motion.fly import REPLAY_STEP_S
 from validator.motion.limits import site_limits
 from validator.motion.profile import Profile, flown_params, make_profile
-from validator.motion.px4_swing import swing_findings
 from validator.plan_format import Autopilot, Plan, read_plan
 from validator.replay import Track, TrackReport, replay, score_replay, score_track
 from validator.site import Site, load_site
@@ -220,10 +219,6 @@ def validate_mission(
         if flight.legs:
             v.replay_track = replay(flight, prof, dt_s=dt_s)
             v.replay = score_replay(v.replay_track, flight, site, plan, prof)
-            if prof.name == "px4":  # the replay rounds a corner PX4 swings out of
-                swing = swing_findings(flight, site, prof.si("NAV_ACC_RAD"),
-                                       CLEARANCE_TOLERANCE_M)
-                v.replay = replace(v.replay, findings=v.replay.findings + tuple(swing))
     if flown_track is not None:
         v.recorded = read_track(flown_track)
         track = v.recorded.track(flight, site, source=f"recorded:{Path(flown_track).name}")

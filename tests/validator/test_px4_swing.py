@@ -108,3 +108,15 @@ def test_validate_mission_lists_the_swing_of_waypoints_flown_through() -> None:
     swings = [f for f in v.replay.findings if "may swing" in f.message]
     assert [f.item for f in swings] == [2, 3, 4, 13, 14]
     assert all(f.severity == "warning" and "NFZ3" in f.message for f in swings)
+
+
+def test_the_python_replay_lists_the_same_swings() -> None:
+    # validator.api.replay_plan (and plan-mission's report) scores a replay as validate-mission
+    # does: the swings a PX4 replay cannot show are its findings too
+    from validator.api import replay_plan
+    from validator.plan_format import read_plan
+    from validator.site import load_site
+
+    folder = px4_corners.DATA / "realistic-sharp"
+    report = replay_plan(read_plan(folder / "mission.plan"), load_site(folder / "site.yaml")).report
+    assert [f.item for f in report.findings if "may swing" in f.message] == [2, 3, 4, 13, 14]

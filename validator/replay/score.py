@@ -28,6 +28,7 @@ from validator.geometry import segment_point_closest_fraction, segment_point_dis
 from validator.motion.fly import model_findings
 from validator.motion.limits import site_limits
 from validator.motion.profile import Profile, make_profile
+from validator.motion.px4_swing import swing_findings
 from validator.plan_format import Plan
 from validator.replay.throughput import Throughput, flown_rates, planned_leg_times
 from validator.replay.track import Track, replay
@@ -329,7 +330,12 @@ def score_track(
 def score_replay(track: Track, flight: Flight, site: Site, plan: Plan | None,
                  profile: Profile) -> TrackReport:
     """:func:`score_track` of ``profile``'s replay ``track`` of ``flight``, with what the
-    model knows of its own timing that no track shows
-    (:func:`validator.motion.fly.model_findings`)."""
+    model knows that its track does not show: of its own timing
+    (:func:`validator.motion.fly.model_findings`) and, for ``px4``, the corners PX4 swings out
+    of where the replay rounds them inside (:func:`validator.motion.px4_swing.swing_findings`)."""
     report = score_track(track, flight, site, plan)
-    return replace(report, findings=report.findings + model_findings(flight, profile))
+    found = model_findings(flight, profile)
+    if profile.name == "px4":
+        found += tuple(swing_findings(flight, site, profile.si("NAV_ACC_RAD"),
+                                      CLEARANCE_TOLERANCE_M))
+    return replace(report, findings=report.findings + found)
