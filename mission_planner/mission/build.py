@@ -35,10 +35,13 @@ from mission_planner.mission.steps import (
 )
 from mission_planner.optimize.solution import Solution
 from validator.autopilot.rules import programmed_holds_s
+from validator.autopilot.waypoint_radius import radius_params
 from validator.errors import InputError
+from validator.motion.px4_swing import swing_keeps_buffer
 from validator.motion.speed_model import cruise_speed_mps
 from validator.plan_format import Cmd, Frame, MissionItem, Plan
 from validator.position_loss import Berth
+from validator.site import Site
 
 _NAN = math.nan
 
@@ -82,6 +85,9 @@ class Mission:
 # The outbound transit's last stretch (m) flown at the service cycle's first speed, where that
 # is slower (_entry_speed_mps)
 APPROACH_M = 20.0
+# A PX4 transit point whose swing would reach a zone's buffer holds this long (s): a stop, as
+# the cycle's corners stop where theirs would (mission_planner.optimize.corners)
+TRANSIT_STOP_S = 1.0
 
 
 def _entry_speed_mps(steps: list[CycleStep], autopilot: str) -> float | None:
@@ -127,6 +133,21 @@ class _Cycle:
     merge_offset_m: float
     merged_waypoints: int
     problems: list[str]
+
+
+def _swing_stops(path: NDArray[np.float64], site: Site, opt: MissionOptions
+                 ) -> NDArray[np.float64]:
+    """(P,) the hold (s) of each point of a PX4 transit ``path`` (P, 2): :data:`TRANSIT_STOP_S`
+    at an inner point whose swing region, at the NAV_ACC_RAD the parameter file sets, reaches
+    into a zone's buffer (:func:`validator.motion.px4_swing.swing_keeps_buffer`), else 0, so
+    PX4 stops there rather than flying through. A transit hugs the buffer round a zone, and
+    on SIH PX4 swung out of such corners: 2.60 m from NFZ3 with a 3 m buffer."""
+    acceptance_m = radius_params(site, "px4", fence_margin_for(site, opt))["NAV_ACC_RAD"]
+    holds = np.zeros(len(path))
+    for j in range(1, len(path) - 1):
+        if not swing_keeps_buffer(path[j - 1], path[j], path[j + 1], acceptance_m, site):
+            holds[j] = TRANSIT_STOP_S
+    return holds
 
 
 def timed_for(solution: Solution, opt: MissionOptions) -> tuple[str, dict[str, float]]:
@@ -233,12 +254,14 @@ def build_mission(solution: Solution, options: MissionOptions | None = None) -> 
                 cut = path[-1] - last / length * min(APPROACH_M, length / 2.0)
                 path = np.vstack([path[:-1], cut, path[-1:]])
                 speeds = np.append(speeds, approach_mps)
+        stops = _swing_stops(path, site, opt) if autopilot == "px4" else np.zeros(len(path))
         for k, v in enumerate(speeds):
             if current is None or abs(v - current) > opt.speed_tol_mps:
                 items.append(_speed(float(v)))
                 current = float(v)
             if not (to_land and k == len(path) - 2):
-                items.append(_nav(Cmd.NAV_WAYPOINT, *latlon(path[k + 1]), alt))
+                items.append(_nav(Cmd.NAV_WAYPOINT, *latlon(path[k + 1]), alt,
+                                  p1=float(stops[k + 1])))
         if current is None:  # no leg at all (home is the cycle's end point)
             items.append(_speed(transit_speed))
 

@@ -24,7 +24,7 @@ from mission_planner.mission import (
     service_steps,
     whole_second_holds,
 )
-from mission_planner.mission.build import APPROACH_M
+from mission_planner.mission.build import APPROACH_M, TRANSIT_STOP_S
 from tests.mission_planner.solutions import (
     NUDGED_LEG_SLACK_M,
     circle_points,
@@ -33,12 +33,14 @@ from tests.mission_planner.solutions import (
     solution_for,
     subdivided,
 )
+from validator.autopilot.waypoint_radius import radius_params
 from validator.errors import InputError
 from validator.flight import resolve_flight
 from validator.geometry import min_leg_clearance, segment_point_distance
 from validator.item_lists import GLOBAL_FRAMES
 from validator.motion.limits import site_limits
 from validator.motion.profile import make_profile
+from validator.motion.px4_swing import swing_findings
 from validator.plan_format import EXTRA_KEY, Cmd, Frame, dumps_plan, loads_plan
 from validator.replay import replay, score_track
 
@@ -208,6 +210,32 @@ def test_transit_bends_around_an_nfz_between_home_and_the_cycle():
     xy = site.frame.to_local([it.lat_deg for it in m.plan.items[2:first]],
                              [it.lon_deg for it in m.plan.items[2:first]])
     assert np.max(np.abs(xy[:, 1])) > 20
+
+
+def _round_the_wall(autopilot: str):
+    site = make_site(no_fly_zones=[{"name": "WALL", "x": 100.0, "y": 0.0, "radius": 30.0}],
+                     ground_nodes=[{"name": "GN1", "x": 250.0, "y": 0.0}])
+    sol = solution_for(site, circle_points((250.0, 0.0), 40.0, site.slots, phase_rad=math.pi))
+    mission = build_mission(sol, MissionOptions(autopilot=autopilot))
+    first, _ = mission.cycle_items
+    holds = [it.params[0] for it in mission.plan.items[1:first] if it.command == Cmd.NAV_WAYPOINT]
+    return site, mission, holds
+
+
+def test_a_px4_transit_stops_where_its_swing_would_reach_the_buffer():
+    # the transit round WALL hugs its buffer: flown through, PX4's swing region (NAV_ACC_RAD
+    # either side of both legs) would reach into it, so the points there hold, and PX4 stops
+    site, mission, holds = _round_the_wall("px4")
+    assert TRANSIT_STOP_S in holds
+    acceptance = radius_params(site, "px4", mission.fence_margin_m)["NAV_ACC_RAD"]
+    flight = resolve_flight(mission.plan, site, "px4 transit")
+    assert swing_findings(flight, site, acceptance, 0.0) == []
+
+
+def test_an_ardupilot_transit_flies_through_round_a_zone():
+    # ArduCopter blends its corners inside the turn, not out of it: no stop is needed
+    _, _, holds = _round_the_wall("ardupilot")
+    assert set(holds) == {0.0}
 
 
 def test_the_mission_duration_flies_the_transits_at_what_the_wind_leaves():

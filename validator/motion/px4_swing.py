@@ -83,6 +83,16 @@ def swing_clearance_m(
     return float(np.min(c)) if c.size else float("inf")
 
 
+def swing_keeps_buffer(before_m: ArrayLike, corner_m: ArrayLike, after_m: ArrayLike,
+                       acceptance_m: float, site: Site) -> bool:
+    """Whether PX4 may fly through the corner at ``corner_m`` (NAV_ACC_RAD ``acceptance_m``)
+    with its swing region outside every zone's safety buffer: where it may not,
+    :func:`swing_findings` lists the corner, and a plan stops there instead."""
+    return swing_clearance_m(before_m, corner_m, after_m, acceptance_m, site.nfz_xy_m,
+                             np.asarray(site.nfz_radius_m, dtype=float) + site.buffer_m,
+                             site.polygon_zones, site.buffer_m) >= 0.0
+
+
 def swing_findings(flight: Flight, site: Site, acceptance_m: float,
                    tolerance_m: float) -> list[Finding]:
     """Every waypoint of ``flight`` a PX4 vehicle flies through whose swing region (NAV_ACC_RAD
