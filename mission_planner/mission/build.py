@@ -135,14 +135,13 @@ class _Cycle:
     problems: list[str]
 
 
-def _swing_stops(path: NDArray[np.float64], site: Site, opt: MissionOptions
+def _swing_stops(path: NDArray[np.float64], site: Site, acceptance_m: float
                  ) -> NDArray[np.float64]:
     """(P,) the hold (s) of each point of a PX4 transit ``path`` (P, 2): :data:`TRANSIT_STOP_S`
-    at an inner point whose swing region, at the NAV_ACC_RAD the parameter file sets, reaches
-    into a zone's buffer (:func:`validator.motion.px4_swing.swing_keeps_buffer`), else 0, so
-    PX4 stops there rather than flying through. A transit hugs the buffer round a zone, and
-    on SIH PX4 swung out of such corners: 2.60 m from NFZ3 with a 3 m buffer."""
-    acceptance_m = radius_params(site, "px4", fence_margin_for(site, opt))["NAV_ACC_RAD"]
+    at an inner point whose swing region, at NAV_ACC_RAD ``acceptance_m``, reaches into a
+    zone's buffer (:func:`validator.motion.px4_swing.swing_keeps_buffer`), else 0, so PX4
+    stops there rather than flying through. A transit hugs the buffer round a zone, and on
+    SIH PX4 swung out of such corners: 2.60 m from NFZ3 with a 3 m buffer."""
     holds = np.zeros(len(path))
     for j in range(1, len(path) - 1):
         if not swing_keeps_buffer(path[j - 1], path[j], path[j + 1], acceptance_m, site):
@@ -237,6 +236,10 @@ def build_mission(solution: Solution, options: MissionOptions | None = None) -> 
         return float(lat), float(lon)
 
     autopilot, timing_params = timed_for(solution, opt)
+    margin = fence_margin_for(site, opt)
+    # the NAV_ACC_RAD the parameter file sets (autopilot_params), which PX4 swings by
+    acceptance_m = (radius_params(site, "px4", margin)["NAV_ACC_RAD"] if autopilot == "px4"
+                    else None)
 
     def transit(path: NDArray[np.float64], to_land: bool,
                 approach_mps: float | None = None) -> None:
@@ -254,7 +257,8 @@ def build_mission(solution: Solution, options: MissionOptions | None = None) -> 
                 cut = path[-1] - last / length * min(APPROACH_M, length / 2.0)
                 path = np.vstack([path[:-1], cut, path[-1:]])
                 speeds = np.append(speeds, approach_mps)
-        stops = _swing_stops(path, site, opt) if autopilot == "px4" else np.zeros(len(path))
+        stops = (np.zeros(len(path)) if acceptance_m is None
+                 else _swing_stops(path, site, acceptance_m))
         for k, v in enumerate(speeds):
             if current is None or abs(v - current) > opt.speed_tol_mps:
                 items.append(_speed(float(v)))
@@ -282,7 +286,6 @@ def build_mission(solution: Solution, options: MissionOptions | None = None) -> 
     transit(back, True)
     items.append(_nav(Cmd.NAV_LAND, *latlon(home), 0.0))
 
-    margin = fence_margin_for(site, opt)
     fence = Geofence.around(site, margin, np.vstack([outbound, q, back]), opt.operating_area,
                             opt.operating_area_margin_m, ardupilot=opt.autopilot == "ardupilot")
     home_ll = latlon(home)

@@ -193,12 +193,20 @@ def test_slow_leg_flies_at_min_speed_and_holds_the_rest(site):
     assert planned_cycle_s(m.plan, site) == pytest.approx(site.period_s)
 
 
-def test_transit_bends_around_an_nfz_between_home_and_the_cycle():
+def _round_the_wall(autopilot: str = "ardupilot"):
+    """A cycle round GN1 with WALL between it and home, and the holds of its outbound transit."""
     site = make_site(no_fly_zones=[{"name": "WALL", "x": 100.0, "y": 0.0, "radius": 30.0}],
                      ground_nodes=[{"name": "GN1", "x": 250.0, "y": 0.0}])
     sol = solution_for(site, circle_points((250.0, 0.0), 40.0, site.slots, phase_rad=math.pi))
-    straight = float(np.linalg.norm(sol.trajectory_m[0] - site.home_xy_m))
-    m = build_mission(sol)
+    mission = build_mission(sol, MissionOptions(autopilot=autopilot))
+    first, _ = mission.cycle_items
+    holds = [it.params[0] for it in mission.plan.items[1:first] if it.command == Cmd.NAV_WAYPOINT]
+    return site, mission, holds
+
+
+def test_transit_bends_around_an_nfz_between_home_and_the_cycle():
+    site, m, _ = _round_the_wall()
+    straight = float(np.linalg.norm(m.solution.trajectory_m[0] - site.home_xy_m))
     assert not m.problems
     assert len(m.outbound_m) > 2 and len(m.return_m) > 2
     for path in (m.outbound_m, m.return_m):
@@ -210,16 +218,6 @@ def test_transit_bends_around_an_nfz_between_home_and_the_cycle():
     xy = site.frame.to_local([it.lat_deg for it in m.plan.items[2:first]],
                              [it.lon_deg for it in m.plan.items[2:first]])
     assert np.max(np.abs(xy[:, 1])) > 20
-
-
-def _round_the_wall(autopilot: str):
-    site = make_site(no_fly_zones=[{"name": "WALL", "x": 100.0, "y": 0.0, "radius": 30.0}],
-                     ground_nodes=[{"name": "GN1", "x": 250.0, "y": 0.0}])
-    sol = solution_for(site, circle_points((250.0, 0.0), 40.0, site.slots, phase_rad=math.pi))
-    mission = build_mission(sol, MissionOptions(autopilot=autopilot))
-    first, _ = mission.cycle_items
-    holds = [it.params[0] for it in mission.plan.items[1:first] if it.command == Cmd.NAV_WAYPOINT]
-    return site, mission, holds
 
 
 def test_a_px4_transit_stops_where_its_swing_would_reach_the_buffer():

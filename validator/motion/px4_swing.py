@@ -89,8 +89,7 @@ def swing_keeps_buffer(before_m: ArrayLike, corner_m: ArrayLike, after_m: ArrayL
     with its swing region outside every zone's safety buffer: where it may not,
     :func:`swing_findings` lists the corner, and a plan stops there instead."""
     return swing_clearance_m(before_m, corner_m, after_m, acceptance_m, site.nfz_xy_m,
-                             np.asarray(site.nfz_radius_m, dtype=float) + site.buffer_m,
-                             site.polygon_zones, site.buffer_m) >= 0.0
+                             site.planning_radius_m, site.polygon_zones, site.buffer_m) >= 0.0
 
 
 def swing_findings(flight: Flight, site: Site, acceptance_m: float,
