@@ -70,10 +70,13 @@ class PlannerOptions:
     (:data:`START_SCHEDULES`) and the best min rate is kept (with dynamics "vehicle", the best
     after re-timing); the schedule a start gives locks in early (once power equalises the
     rates, no slot can change GN alone), so a second start finds better optima on some sites
-    at twice the CPU time. ``overrelax``: each accepted (P3-2) step is followed by a line search
-    along it on the exact objective (:mod:`.overrelax`): the surrogate bends down in δ, so a
-    step stops short of where the exact rate still rises. It applies to the paper's model
-    ("none"); the "vehicle" search plans its candidates without it.
+    at twice the CPU time. With one start, in wind, the still-air family of the "vehicle"
+    search tries the other start's first candidate too and goes on from it where that one
+    is clearly better (:func:`.flyable._still_start`). ``overrelax``: each accepted (P3-2)
+    step is followed by a line search along it on the exact objective (:mod:`.overrelax`):
+    the surrogate bends down in δ, so a step stops short of where the exact rate still
+    rises. It applies to the paper's model ("none"); the "vehicle" search plans its
+    candidates without it.
     ``search_ahead``: the "vehicle" search evaluates its likely next candidate in a spare
     thread while the current one runs (:mod:`.flyable`); the plan is the same either way.
     ``wind_paths``: in wind (the site's ``wind``), the "vehicle" search plans these families

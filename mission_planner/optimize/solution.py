@@ -69,10 +69,13 @@ class VehicleTiming:
     move_s: float
     # in wind, which path won: "air-frame" (the cone's) or "still-air" (re-timed in the wind)
     wind_path: str | None = None
+    # in wind, the start schedule Algorithm 1 ran from for the winning path ("nearest", "shares")
+    start_schedule: str | None = None
 
     def as_dict(self) -> dict[str, object]:
         """The report's ``notes`` object (its keys predate this record)."""
-        wind = {"wind_path": self.wind_path} if self.wind_path is not None else {}
+        wind = {} if self.wind_path is None else {"wind_path": self.wind_path,
+                                                   "start_schedule": self.start_schedule}
         return {
             "dynamics": "vehicle",
             "autopilot": self.autopilot,

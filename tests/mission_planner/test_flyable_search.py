@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from mission_planner.optimize import PlannerOptions, flyable, plan
-from mission_planner.optimize.flyable import _Ahead, _Cancelled, _Search
+from mission_planner.optimize.flyable import _Ahead, _Cancelled, _clearly_better, _Search
 from mission_planner.study.sites import random_site
 
 
@@ -45,6 +45,32 @@ def test_between_a_fit_and_an_overrun_the_search_bisects() -> None:
     search.record(10.0, None)
     search.record(6.0, _Fit(1.0))  # type: ignore[arg-type]
     assert search.next_speed(6.0, 0.9) == pytest.approx(8.0)
+
+
+def test_another_start_that_fits_where_the_own_overruns_is_clearly_better() -> None:
+    assert _clearly_better((_Fit(1.0), 1.2), (None, 1.1))  # type: ignore[arg-type]
+    assert not _clearly_better((None, 1.0), (_Fit(1.0), 1.2))  # type: ignore[arg-type]
+
+
+def test_another_start_that_fits_is_clearly_better_only_by_the_margin() -> None:
+    margin = 1 + flyable.START_MARGIN
+    assert _clearly_better((_Fit(margin + 1e-9), 1.0), (_Fit(1.0), 1.0))  # type: ignore[arg-type]
+    assert not _clearly_better((_Fit(margin - 1e-9), 1.0), (_Fit(1.0), 1.0))  # type: ignore[arg-type]
+
+
+def test_where_neither_start_fits_the_shorter_moves_are_clearly_better_by_the_margin() -> None:
+    margin = 1 - flyable.START_MARGIN
+    assert _clearly_better((None, 1.1 * margin - 1e-9), (None, 1.1))
+    assert not _clearly_better((None, 1.1 * margin + 1e-9), (None, 1.1))
+
+
+@pytest.mark.parametrize("options", [PlannerOptions(start_schedules=("nearest", "shares")),
+                                     PlannerOptions(first_fit=True)])
+def test_no_start_is_chosen_with_two_starts_or_for_a_plan_only_looked_at(
+    options: PlannerOptions
+) -> None:
+    site = random_site(2, slots=24)
+    assert flyable._still_start(site, "proposed", options, 5.0) == (options, None)
 
 
 def test_a_guess_is_exactly_the_speed_the_search_tries_after_the_guessed_outcome() -> None:

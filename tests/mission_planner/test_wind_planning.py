@@ -288,6 +288,28 @@ def test_a_wind_plan_is_not_worse_than_the_still_air_path_retimed_in_the_wind() 
     assert float(np.sum(both.delta_s)) == pytest.approx(site.period_s)  # within T
 
 
+def test_in_wind_the_still_air_path_searches_from_the_start_that_fits_better(
+    monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """realistic.yaml at 6 m/s from 135°: the still-air family's first candidate from the 1/K
+    shares start overruns T by less than the nearest-GN start's, so the search goes on from
+    it, plans more than from the nearest start alone, and the report says which start."""
+    import math
+
+    from mission_planner.optimize import PlannerOptions, flyable
+    from validator.autopilot.waypoint_radius import radius_params
+
+    site = load_site(SAMPLE).with_limits(wind=Wind(6.0, 135.0, 1.5))
+    opt = PlannerOptions(timing_params=radius_params(site, "ardupilot"), search_ahead=False)
+    chosen = plan(site, options=opt)
+    monkeypatch.setattr(flyable, "START_MARGIN", math.inf)  # the nearest start, as before
+    nearest = plan(site, options=opt)
+    assert chosen.timing is not None and nearest.timing is not None
+    assert (chosen.timing.start_schedule, nearest.timing.start_schedule) == ("shares", "nearest")
+    assert chosen.timing.as_dict()["start_schedule"] == "shares"
+    assert chosen.min_rate_bps_hz > 1.01 * nearest.min_rate_bps_hz
+
+
 def test_every_node_gets_in_the_replay_what_the_planner_gave_it_in_wind() -> None:
     """In wind most corners change speed, and a leg entered through one first runs at the
     speed of the leg before: the planner lays its slots where the model flies the legs, so
