@@ -137,8 +137,8 @@ def main() -> None:
     args = ap.parse_args()
     # The search runs ahead, and in wind its path families side by side, only while the load
     # average leaves a core idle (flyable._spare_core); the bench's own plans raise that load,
-    # which turned both off part-way through a run and moved the still-air figures by up to
-    # 40 % between runs (realistic.yaml 6.7-9.9 s). Timed as an idle machine plans.
+    # which turned both off part-way through a run: realistic.yaml's still-air plan took
+    # 6.7-9.9 s CPU between runs. Timed as an idle machine plans.
     flyable._spare_core = lambda: (os.cpu_count() or 1) >= 2
     if args.cone:
         _cone(args.sites, args.winds, args.repeat)

@@ -377,9 +377,10 @@ def _wind_searches(site: Site, scheme: str, opt: PlannerOptions, progress: Progr
     at a lower planning speed flies better on some sites, and worse on others (module
     docstring of :mod:`mission_planner.optimize.bcd`, ``wind_paths``). The still-air search
     starts where a straight there-and-back along the wind takes as long as in still air,
-    (V² − w²)/V: the speed it ends at, not V. With a core spare the families run side by
-    side (Clarabel releases the GIL), each then without its guess ahead; the plan is the same
-    either way."""
+    (V² − w²)/V: the speed it ends at, not V; and from the start schedule whose first
+    candidate there is clearly better (:func:`_still_start`). With a core spare the families
+    run side by side (Clarabel releases the GIL), each then without its guess ahead; the plan
+    is the same either way."""
     families = [family == "still-air" for family in opt.wind_paths]
     cruise = cruise_speed_mps(site, opt.autopilot)
     wind = site.wind.speed_mps if site.wind is not None else 0.0
