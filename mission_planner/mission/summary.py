@@ -59,6 +59,9 @@ def mission_summary(mission: Mission) -> dict[str, object]:
     planned_hold = float(sum(s.hold_s for s in mission.steps))
     written_hold = float(sum(plan.items[i].params[0] for i in range(first, last + 1)
                              if plan.items[i].command == Cmd.NAV_WAYPOINT))
+    # the transits' holds as written: PX4's stops where a swing would reach a buffer
+    transit_hold = float(sum(it.params[0] for i, it in enumerate(plan.items)
+                             if it.command == Cmd.NAV_WAYPOINT and not first <= i <= last))
     exp = (expanded_radius(site.planning_radius_m[None, :],
                            (site.max_speed_mps * sol.delta_s)[:, None])
            if site.num_nfzs else np.zeros((0, 0)))
@@ -95,10 +98,11 @@ def mission_summary(mission: Mission) -> dict[str, object]:
         "transit_out_waypoints": len(mission.outbound_m) - 1,
         "transit_return_m": ret_len,
         "transit_return_waypoints": len(mission.return_m) - 1,
+        "transit_hold_s": transit_hold,
         # nominal: no take-off, landing or accelerations (the replay's replayed_mission_s has)
         "mission_duration_s": (mission.options.cycles * cycle_s
                                + transit_s(mission, mission.outbound_m)
-                               + transit_s(mission, mission.return_m)),
+                               + transit_s(mission, mission.return_m) + transit_hold),
         "fence_margin_m": mission.fence_margin_m,
         "fence_radii_m": {n: float(r + mission.fence_margin_m)
                           for n, r in zip(site.nfz_names, site.nfz_radius_m, strict=True)},

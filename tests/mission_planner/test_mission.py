@@ -230,6 +230,23 @@ def test_a_px4_transit_stops_where_its_swing_would_reach_the_buffer():
     assert swing_findings(flight, site, acceptance, 0.0) == []
 
 
+def test_the_mission_duration_counts_the_px4_transits_stops():
+    from mission_planner.mission.summary import mission_summary, transit_s
+
+    # both transits pass WALL and stop there: out (the helper's holds) and back
+    _, mission, out_holds = _round_the_wall("px4")
+    _, last = mission.cycle_items
+    back_holds = [it.params[0] for it in mission.plan.items[last + 1:]
+                  if it.command == Cmd.NAV_WAYPOINT]
+    stops_s = sum(out_holds) + sum(back_holds)
+    assert sum(out_holds) > 0 and sum(back_holds) > 0
+    summary = mission_summary(mission)
+    assert summary["transit_hold_s"] == pytest.approx(stops_s)
+    moving = (mission.options.cycles * summary["cycle_duration_s"]
+              + transit_s(mission, mission.outbound_m) + transit_s(mission, mission.return_m))
+    assert summary["mission_duration_s"] == pytest.approx(moving + stops_s)
+
+
 def test_an_ardupilot_transit_flies_through_round_a_zone():
     # ArduCopter blends its corners inside the turn, not out of it: no stop is needed
     _, _, holds = _round_the_wall("ardupilot")
