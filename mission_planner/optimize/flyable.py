@@ -387,12 +387,11 @@ def _wind_searches(site: Site, scheme: str, opt: PlannerOptions, progress: Progr
     still_first = max(cruise * 0.2, (cruise ** 2 - wind ** 2) / cruise)
 
     def run(i: int, still: bool, ahead: bool) -> tuple[_Search, int]:
-        family = replace(opt, search_ahead=ahead)
-        if not still:
-            return _search(site, scheme, family, progress if i == 0 else None, still_path=False)
-        family, first = _still_start(site, scheme, family, still_first)
-        return _search(site, scheme, family, progress if i == 0 else None, still_path=True,
-                       first_mps=still_first, first=first)
+        family, first = replace(opt, search_ahead=ahead), None
+        if still:
+            family, first = _still_start(site, scheme, family, still_first)
+        return _search(site, scheme, family, progress if i == 0 else None, still_path=still,
+                       first_mps=still_first if still else None, first=first)
 
     if len(families) > 1 and opt.search_ahead and _spare_core():
         with ThreadPoolExecutor(max_workers=len(families)) as pool:
