@@ -210,9 +210,11 @@ class _Search:
     """The top-speed search's state (module docstring): what was tried and what it gave."""
 
     start: float  # the first speed: the site's V or the vehicle's real top speed
-    # the search ends at the first speed that fits: PX4's (see _as_calibrated), and a probe's
-    # (PlannerOptions.first_fit)
-    first_fit: bool
+    # a path that fits is planned again faster (not PX4's calibrated search, _as_calibrated)
+    raises: bool
+    # a probe's search (PlannerOptions.first_fit) ends at the first speed that fits, where
+    # another would bisect towards the speed that overran
+    first_fit: bool = False
     fits_at: float | None = None  # the fastest speed whose moves fit T
     over_at: float | None = None  # the slowest speed whose moves overran T
     tried: set[float] = field(default_factory=set)
@@ -235,8 +237,10 @@ class _Search:
         paper's; None when the search is over, or (``overrun`` None) when it depends on that."""
         if self.fits_at is None:
             return None if overrun is None else speed * float(np.clip(0.9 / overrun, 0.2, 0.9))
+        if self.first_fit:
+            return None
         if self.over_at is None:
-            if self.first_fit:
+            if not self.raises:
                 return None
             # The vehicle flies this path within T with time to spare: planning for a faster
             # UAV than it is (a path reaching further, or hovering longer) may still fit.
@@ -458,7 +462,7 @@ def _search(site: Site, scheme: str, opt: PlannerOptions, progress: Progress | N
     """The top-speed search (module docstring), from ``first_mps`` if given (else the start),
     and how many speeds it tried; ``first``: the first speed's candidate, already made."""
     search = _Search(cruise_speed_mps(site, opt.autopilot),
-                     _as_calibrated(opt) or opt.first_fit)
+                     raises=not _as_calibrated(opt), first_fit=opt.first_fit)
     speed = search.start if first_mps is None else first_mps
     tries = 0
 

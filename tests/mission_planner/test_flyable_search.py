@@ -22,26 +22,40 @@ class _Fit:
 
 
 def test_after_an_overrun_with_no_fit_yet_the_speed_falls_by_the_overrun() -> None:
-    search = _Search(10.0, first_fit=False)
+    search = _Search(10.0, raises=True)
     search.record(10.0, None)
     assert search.next_speed(10.0, 1.5) == pytest.approx(10.0 * 0.6)
     assert search.next_speed(10.0, None) is None  # it depends on the overrun
 
 
 def test_a_path_that_fits_at_the_start_is_planned_again_faster() -> None:
-    search = _Search(10.0, first_fit=False)
+    search = _Search(10.0, raises=True)
     search.record(10.0, _Fit(1.0))  # type: ignore[arg-type]
     assert search.next_speed(10.0, 0.8) == pytest.approx(12.5)
 
 
-def test_a_first_fit_search_px4s_or_a_probes_ends_at_the_first_speed_that_fits() -> None:
-    search = _Search(10.0, first_fit=True)
+def test_px4s_search_plans_no_faster_than_the_start() -> None:
+    search = _Search(10.0, raises=False)
     search.record(10.0, _Fit(1.0))  # type: ignore[arg-type]
     assert search.next_speed(10.0, 0.8) is None
 
 
+def test_px4s_search_bisects_after_an_overrun() -> None:
+    search = _Search(10.0, raises=False)
+    search.record(10.0, None)
+    search.record(6.0, _Fit(1.0))  # type: ignore[arg-type]
+    assert search.next_speed(6.0, 0.9) == pytest.approx(8.0)
+
+
+def test_a_probes_search_ends_at_the_first_speed_that_fits_without_bisecting() -> None:
+    search = _Search(10.0, raises=False, first_fit=True)
+    search.record(10.0, None)
+    search.record(6.0, _Fit(1.0))  # type: ignore[arg-type]
+    assert search.next_speed(6.0, 0.9) is None
+
+
 def test_between_a_fit_and_an_overrun_the_search_bisects() -> None:
-    search = _Search(10.0, first_fit=False)
+    search = _Search(10.0, raises=True)
     search.record(10.0, None)
     search.record(6.0, _Fit(1.0))  # type: ignore[arg-type]
     assert search.next_speed(6.0, 0.9) == pytest.approx(8.0)
@@ -79,7 +93,7 @@ def test_a_guess_is_exactly_the_speed_the_search_tries_after_the_guessed_outcome
     checked = 0
     for seed in range(50):
         rng = np.random.default_rng(seed)
-        search = _Search(10.0, first_fit=bool(seed % 5 == 0))
+        search = _Search(10.0, raises=seed % 5 != 0, first_fit=seed % 7 == 0)
         speed: float | None = 10.0
         while speed is not None:
             guess = search.likely_next(speed)
