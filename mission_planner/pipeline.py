@@ -291,7 +291,7 @@ def plan_and_build(
     # coast's findings, never flown, so one family and the first speed that fits will do, and
     # the searches are spent on the plan that is kept (bench_wind: planning CPU in wind
     # 1.49 -> 1.13 x for one family; no raise: 9 % less CPU again, 21 of 23 plans the same; no
-    # bisection either, 1-2 candidates where 4-6: 11 % less again over 42 site-wind pairs, the
+    # bisection either, 1-3 candidates where 4-6: 11 % less again over 42 site-wind pairs, the
     # berth the same on 31, min rates -0.3 % to +1.9 %).
     probing = site.flight_wind is not None
     mission = made(site, False, probe=probing)

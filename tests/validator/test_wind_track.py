@@ -89,7 +89,7 @@ def test_the_buffer_grows_by_the_deviation_and_the_reports_say_its_share() -> No
                                       "flights-speed-change.json", "flights-probe.json",
                                       "flights-gusts.json", "flights-slots.json",
                                       "flights-reach.json", "flights-drag.json",
-                                      "flights-starts.json"])
+                                      "flights-starts.json", "flights-first-fit.json"])
 def test_the_model_covers_the_flights_it_was_not_fitted_to(campaign: str) -> None:
     """The campaigns flown after the fit (the third: plans with the 0.99 buffer and the
     still-path check; the fourth: plan-mission's plans with the GPS-loss berth, issue 27; the
@@ -99,7 +99,8 @@ def test_the_model_covers_the_flights_it_was_not_fitted_to(campaign: str) -> Non
     through the gusts; the twelfth: slots laid where the model flies each leg; the thirteenth:
     a speed change at a corner as far as half the S-curve's constant part takes it; the
     fourteenth: the lean limit with the SITL quad's drag per body axis; the fifteenth: the
-    still-air path searched from the start that fits better): no
+    still-air path searched from the start that fits better; the sixteenth: the berth's probe
+    ending at its first fit): no
     flown point of a plan made for its wind came inside the site's buffer, and no track
     deviated more than the model says."""
     aware = [f for f in _aware(_flights((campaign,))) if f["wind_speed_mps"] > 0]
