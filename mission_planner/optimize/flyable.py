@@ -210,11 +210,8 @@ class _Search:
     """The top-speed search's state (module docstring): what was tried and what it gave."""
 
     start: float  # the first speed: the site's V or the vehicle's real top speed
-    # a path that fits is planned again faster (not PX4's calibrated search, _as_calibrated)
-    raises: bool
-    # a probe's search (PlannerOptions.first_fit) ends at the first speed that fits, where
-    # another would bisect towards the speed that overran
-    first_fit: bool = False
+    raises: bool  # a path that fits is planned again faster (not PX4's: _as_calibrated)
+    first_fit: bool = False  # a probe's (PlannerOptions.first_fit): no bisection after a fit
     fits_at: float | None = None  # the fastest speed whose moves fit T
     over_at: float | None = None  # the slowest speed whose moves overran T
     tried: set[float] = field(default_factory=set)

@@ -40,13 +40,6 @@ def test_px4s_search_plans_no_faster_than_the_start() -> None:
     assert search.next_speed(10.0, 0.8) is None
 
 
-def test_px4s_search_bisects_after_an_overrun() -> None:
-    search = _Search(10.0, raises=False)
-    search.record(10.0, None)
-    search.record(6.0, _Fit(1.0))  # type: ignore[arg-type]
-    assert search.next_speed(6.0, 0.9) == pytest.approx(8.0)
-
-
 def test_a_probes_search_ends_at_the_first_speed_that_fits_without_bisecting() -> None:
     search = _Search(10.0, raises=False, first_fit=True)
     search.record(10.0, None)
@@ -54,8 +47,9 @@ def test_a_probes_search_ends_at_the_first_speed_that_fits_without_bisecting() -
     assert search.next_speed(6.0, 0.9) is None
 
 
-def test_between_a_fit_and_an_overrun_the_search_bisects() -> None:
-    search = _Search(10.0, raises=True)
+@pytest.mark.parametrize("raises", [True, False])  # PX4's search too
+def test_between_a_fit_and_an_overrun_the_search_bisects(raises: bool) -> None:
+    search = _Search(10.0, raises=raises)
     search.record(10.0, None)
     search.record(6.0, _Fit(1.0))  # type: ignore[arg-type]
     assert search.next_speed(6.0, 0.9) == pytest.approx(8.0)
