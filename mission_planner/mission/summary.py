@@ -57,11 +57,10 @@ def mission_summary(mission: Mission) -> dict[str, object]:
     speeds = [it.params[1] for it in plan.items if it.command == Cmd.DO_CHANGE_SPEED]
     service_speeds = [s.speed_mps for s in mission.steps if s.speed_mps is not None]
     planned_hold = float(sum(s.hold_s for s in mission.steps))
-    written_hold = float(sum(plan.items[i].params[0] for i in range(first, last + 1)
-                             if plan.items[i].command == Cmd.NAV_WAYPOINT))
+    holds = [it.params[0] if it.command == Cmd.NAV_WAYPOINT else 0.0 for it in plan.items]
+    written_hold = float(sum(holds[first:last + 1]))
     # the transits' holds as written: PX4's stops where a swing would reach a buffer
-    transit_hold = float(sum(it.params[0] for i, it in enumerate(plan.items)
-                             if it.command == Cmd.NAV_WAYPOINT and not first <= i <= last))
+    transit_hold = float(sum(holds[:first]) + sum(holds[last + 1:]))
     exp = (expanded_radius(site.planning_radius_m[None, :],
                            (site.max_speed_mps * sol.delta_s)[:, None])
            if site.num_nfzs else np.zeros((0, 0)))
