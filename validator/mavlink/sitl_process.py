@@ -63,7 +63,8 @@ DEFAULTS_RELATIVE = ("Tools", "autotest", "default_params", "copter.parm")
 
 def find_binary(path: str | None, px4: bool = False) -> Path | None:
     """The SITL binary to run: ``path``, else ``$ARDUPILOT_SITL`` (``$PX4_SITL`` for a PX4
-    plan), else None (no autopilot available: the caller flies the built-in model)."""
+    plan), else None (no autopilot available: the caller flies the built-in model); an
+    absolute path, as a path relative to here means nothing in the simulator's directory."""
     env = PX4_BINARY_ENV if px4 else BINARY_ENV
     chosen = path or os.environ.get(env) or None
     if chosen is None:
@@ -72,19 +73,20 @@ def find_binary(path: str | None, px4: bool = False) -> Path | None:
     if not p.is_file() or not os.access(p, os.X_OK):
         source = "--sitl-binary" if path else f"${env}"
         raise InputError(f"{source} {chosen}: not an executable file")
-    return p
+    return p.absolute()  # the simulator runs in a working directory of its own
 
 
 def find_defaults(binary: Path, path: str | None = None) -> Path:
     """The SITL's default parameter file: ``path``, ``$ARDUPILOT_SITL_DEFAULTS``, or
     ``copter.parm`` in the ArduPilot source tree the binary was built in (``build/sitl/bin/``
-    under it) or beside the binary."""
+    under it) or beside the binary; an absolute path (a relative one given here had the
+    simulator, in its own directory, start without it and never answer)."""
     given = path or os.environ.get(DEFAULTS_ENV)
     if given:
         p = Path(given).expanduser()
         if not p.is_file():
             raise InputError(f"--sitl-defaults {given}: no such file")
-        return p
+        return p.absolute()  # read by the simulator, which runs in a directory of its own
     real = binary.resolve()
     candidates = [real.parents[3].joinpath(*DEFAULTS_RELATIVE)] if len(real.parents) > 3 else []
     candidates += [binary.parent / "copter.parm", real.parent / "copter.parm"]
