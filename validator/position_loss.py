@@ -38,6 +38,17 @@ there). No buffer keeps such a drift clear and no leg speed shortens it, so the 
 against the still-air coast (``audit_position_loss(..., drift=False)``), and the drift is a
 warning that names the wind, how far, and the zones.
 
+**Dead reckoning** (EKF3 drag fusion: any of EK3_DRAG_BCOEF_X/Y, EK3_DRAG_MCOEF above 0, a
+vehicle's own calibration) changes who acts but not how far it goes. EKF3 then keeps a
+position from the drag and its wind estimate (``posRetryTimeUseVel_ms`` 10000: the failsafe
+fires after 10.3-10.5 s), the dead-reckoning failsafe (FS_DR_ENABLE, ours Land) lands on that
+estimate, and the estimate's error carries the vehicle instead of the wind. On the same SITL
+in 6 m/s from 270° with turbulence 1 (``tests/data/failsafe/gps-loss-dead-reckoning.json``,
+the simulator's suggested coefficients and ArduPilot's autotest's, FS_DR_TIMEOUT 60) it slid
+84 and 89 m *upwind* over a 41-42 s landing, 1.38 m from NFZ1, where the free drift of the
+model ran 251 m downwind. So with drag fusion the still-air region is swept by the drift's
+length in every direction (:func:`dead_reckons`): an error no larger than the wind.
+
 The region is judged against the zones themselves, not their buffers: the buffer is the
 margin of the planned path, and the coast is what the vehicle does when that path is lost
 (the model already holds the measured worst case). The speed of a leg is one rule
@@ -66,6 +77,8 @@ from validator.site import Site
 from validator.zones import point_clearance_m, polyline_clearance_m
 
 DETECTION_DELAY_S = 8.2  # from the GPS loss to the EKF failsafe's mode change (measured)
+# ... to the dead-reckoning failsafe's with drag fusion (posRetryTimeUseVel_ms; measured 10.3-10.45)
+DEAD_RECKONING_DELAY_S = 10.4
 COAST_S = 2.6  # the coast reaches this many seconds of the speed ahead (fitted, measured)
 WANDER_M = 12.0  # ... give or take this much in any direction (measured up to 11.3 m)
 CORNER_STEPS = 8  # directions sampled between two legs' at a corner
@@ -88,6 +101,7 @@ class PositionLossFinding:
     buffer_m: float
     speed_cap_mps: float | None
     drift_m: float = 0.0
+    dead_reckoning: bool = False  # the drift is the dead-reckoned estimate's, in any direction
 
     @property
     def message(self) -> str:
@@ -100,15 +114,22 @@ class PositionLossFinding:
         else:
             fix = (f"no speed keeps it out (the {WANDER_M:g} m wander alone reaches it): the "
                    f"leg needs a wider berth (a site buffer over the {WANDER_M:g} m wander)")
-        drift = f", drifting {self.drift_m:.0f} m as it lands," if self.drift_m > 0 else ""
+        if self.dead_reckoning:
+            after = "the dead-reckoning failsafe (Land on EKF3's drag-fused estimate)"
+            drift = (f", sliding up to {self.drift_m:.0f} m any way as it lands,"
+                     if self.drift_m > 0 else "")
+        else:
+            after = "the EKF failsafe (Land without a position)"
+            drift = f", drifting {self.drift_m:.0f} m as it lands," if self.drift_m > 0 else ""
         return (f"GPS loss: from the leg to item {self.item} at {self.speed_mps:.1f} m/s the "
-                f"coast after the EKF failsafe (Land without a position){drift} {where}; {fix}")
+                f"coast after {after}{drift} {where}; {fix}")
 
     def as_dict(self) -> dict[str, Any]:
         return {"zone": self.zone, "leg": self.leg, "item": self.item,
                 "speed_mps": self.speed_mps, "clearance_m": self.clearance_m,
                 "buffer_m": self.buffer_m, "speed_cap_mps": self.speed_cap_mps,
-                "drift_m": self.drift_m, "message": self.message}
+                "drift_m": self.drift_m, "dead_reckoning": self.dead_reckoning,
+                "message": self.message}
 
 
 def _unit(v: NDArray[np.float64]) -> NDArray[np.float64] | None:
@@ -134,13 +155,23 @@ def drift_xy_m(site: Site, altitude_m: float, params: Mapping[str, float] | None
     return np.asarray(wind.vector_mps * failsafe_land_s(altitude_m, params), dtype=float)
 
 
+def dead_reckons(params: Mapping[str, float] | None) -> bool:
+    """Whether ArduCopter at ``params`` dead reckons through a GPS loss: EKF3 fuses drag (any
+    of EK3_DRAG_BCOEF_X, EK3_DRAG_BCOEF_Y, EK3_DRAG_MCOEF above 0; all 0 by default)."""
+    return any(float((params or {}).get(name, 0.0)) > 0.0
+               for name in ("EK3_DRAG_BCOEF_X", "EK3_DRAG_BCOEF_Y", "EK3_DRAG_MCOEF"))
+
+
 def coast_region(start: NDArray[np.float64], end: NDArray[np.float64], speed_mps: float,
                  next_end: NDArray[np.float64] | None = None,
-                 drift_m: NDArray[np.float64] | None = None) -> shapely.Geometry:
+                 drift_m: NDArray[np.float64] | None = None,
+                 any_direction: bool = False) -> shapely.Geometry:
     """Where a position loss on the leg start→end, flown at ``speed_mps``, can take the
     vehicle; with ``next_end``, the corner at ``end`` into the next leg too; with
     ``drift_m`` (east, north m, :func:`drift_xy_m`), swept that far downwind (each convex
-    part with its copy moved by the drift: their hull is the sum with the drift's segment)."""
+    part with its copy moved by the drift: their hull is the sum with the drift's segment),
+    or with ``any_direction`` (a dead-reckoning vehicle, :func:`dead_reckons`) its length
+    in every direction."""
     start, end = np.asarray(start, float), np.asarray(end, float)
     u = _unit(end - start)
     reach = COAST_S * speed_mps
@@ -158,7 +189,10 @@ def coast_region(start: NDArray[np.float64], end: NDArray[np.float64], speed_mps
                                               math.sin(a0 + turn * k / CORNER_STEPS)]))
                 for k in range(CORNER_STEPS + 1)]
             parts.append(shapely.convex_hull(shapely.union_all(fan)))
-    if drift_m is not None and float(np.hypot(*drift_m)) > 0.0:
+    if drift_m is not None and any_direction and float(np.hypot(*drift_m)) > 0.0:
+        reach_m = float(np.hypot(*drift_m))
+        parts = [shapely.buffer(part, reach_m, quad_segs=16) for part in parts]
+    elif drift_m is not None and float(np.hypot(*drift_m)) > 0.0:
         dx, dy = float(drift_m[0]), float(drift_m[1])
         parts = [shapely.convex_hull(shapely.union(
             part, shapely.transform(part, lambda xy: xy + (dx, dy)))) for part in parts]
@@ -187,10 +221,11 @@ def _leg_speed_mps(leg: Leg, default_speed_mps: float) -> float:
 
 
 def _leg_region(flight: Flight, k: int, speed_mps: float,
-                drift_m: NDArray[np.float64] | None = None) -> shapely.Geometry:
+                drift_m: NDArray[np.float64] | None = None,
+                any_direction: bool = False) -> shapely.Geometry:
     leg = flight.legs[k]
     nxt = flight.legs[k + 1].end_xy_m if k + 1 < len(flight.legs) and leg.pass_through else None
-    return coast_region(leg.start_xy_m, leg.end_xy_m, speed_mps, nxt, drift_m)
+    return coast_region(leg.start_xy_m, leg.end_xy_m, speed_mps, nxt, drift_m, any_direction)
 
 
 def _leg_drift_m(flight: Flight, k: int, site: Site, params: Mapping[str, float] | None
@@ -200,14 +235,16 @@ def _leg_drift_m(flight: Flight, k: int, site: Site, params: Mapping[str, float]
 
 
 def position_loss_speed_cap_mps(flight: Flight, k: int, site: Site, speed_mps: float,
-                                drift_m: NDArray[np.float64] | None = None) -> float | None:
+                                drift_m: NDArray[np.float64] | None = None,
+                                any_direction: bool = False) -> float | None:
     """The fastest speed, up to ``speed_mps``, at which a position loss on leg ``k`` (drifting
-    ``drift_m`` while it lands) stays out of every zone (to 0.1 m/s); None when none at or
+    ``drift_m`` while it lands, in ``any_direction`` when it dead reckons: :func:`coast_region`)
+    stays out of every zone (to 0.1 m/s); None when none at or
     above :data:`MIN_SPEED_MPS` does (the wander, or the drift, alone reaches a zone). The
     one speed rule of position loss: the exporter writes it, the audit checks it."""
     def clear(v: float) -> bool:
         return not site.zone_names or bool(np.all(
-            region_clearances(site, _leg_region(flight, k, v, drift_m)) >= 0.0))
+            region_clearances(site, _leg_region(flight, k, v, drift_m, any_direction)) >= 0.0))
 
     if clear(speed_mps):
         return speed_mps
@@ -226,36 +263,47 @@ def audit_position_loss(flight: Flight, site: Site, params: Mapping[str, float] 
     ``params`` (a leg without a commanded speed flies WPNAV_SPEED; the landing's length sets
     the drift). ``drift``: in the site's wind, the region drifts downwind for the whole
     failsafe landing (:func:`drift_xy_m`); without it, the coast as in still air (what a
-    wider buffer can keep clear: :func:`berth_buffer_m`)."""
+    wider buffer can keep clear: :func:`berth_buffer_m`). A vehicle that dead reckons
+    (:func:`dead_reckons`) may slide the drift's length any way instead."""
     out: list[PositionLossFinding] = []
     if not site.zone_names:
         return out
     default = default_speed_mps(params)
+    reckons = dead_reckons(params)
     for k, leg in enumerate(flight.legs):
         v = _leg_speed_mps(leg, default)
         d = _leg_drift_m(flight, k, site, params) if drift else None
-        clr = region_clearances(site, _leg_region(flight, k, v, d))
+        clr = region_clearances(site, _leg_region(flight, k, v, d, reckons))
         bad = [m for m in range(len(clr)) if clr[m] < 0.0]
         if not bad:
             continue
-        cap = position_loss_speed_cap_mps(flight, k, site, v, d)
+        cap = position_loss_speed_cap_mps(flight, k, site, v, d, reckons)
         drift_m = 0.0 if d is None else float(np.hypot(*d))
         for m in bad:
             out.append(PositionLossFinding(site.zone_names[m], k, leg.item, v, float(clr[m]),
-                                           site.buffer_m, cap, drift_m))
+                                           site.buffer_m, cap, drift_m, reckons))
     return out
 
 
 def _sampled_leg_clearance_m(site: Site, start: NDArray[np.float64], end: NDArray[np.float64],
-                             speed_mps: float, step_m: float, drift_m: NDArray[np.float64]
+                             speed_mps: float, step_m: float, drift_m: NDArray[np.float64],
+                             any_direction: bool = False
                              ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Points every ``step_m`` along a leg and, for each, the least clearance (m) from any zone
-    of the coast's wander disc ahead of it, carried ``drift_m`` downwind (negative: how
-    deep)."""
+    of the coast's wander disc ahead of it, carried ``drift_m`` downwind, or its length any
+    way (``any_direction``) (negative: how deep)."""
     u = _unit(end - start)
     n = max(2, int(math.ceil(float(np.hypot(*(end - start))) / step_m)) + 1)
     pts = start + np.linspace(0.0, 1.0, n)[:, None] * (end - start)
     centres = pts + (COAST_S * speed_mps * u if u is not None else 0.0)
+    if any_direction:
+        reach_m = WANDER_M + float(np.hypot(*drift_m))
+        clr = np.full(n, np.inf)
+        for c, r in zip(site.nfz_xy_m, site.nfz_radius_m, strict=True):
+            clr = np.minimum(clr, np.hypot(*(centres - c).T) - float(r) - reach_m)
+        for z in site.polygon_zones:
+            clr = np.minimum(clr, point_clearance_m(z, centres) - reach_m)
+        return pts, clr
     drifted = centres + drift_m
     clr = np.full(n, np.inf)
     for c, r in zip(site.nfz_xy_m, site.nfz_radius_m, strict=True):
@@ -271,7 +319,8 @@ def worst_position_loss_point(flight: Flight, site: Site, params: Mapping[str, f
                               step_m: float = 1.0) -> tuple[NDArray[np.float64], float] | None:
     """Where to lose the position for the coast (drifting downwind in the site's wind while it
     lands) to come closest to a zone, and that least clearance (m) of the wander disc: the
-    failsafe fires :data:`DETECTION_DELAY_S` after the loss, so the point is that much flying
+    failsafe fires :data:`DETECTION_DELAY_S` after the loss (a dead-reckoning one
+    :data:`DEAD_RECKONING_DELAY_S`), so the point is that much flying
     (and holding) before the worst place for the coast to start, along the mission's legs.
     None without a zone or a horizontal leg."""
     if not site.zone_names:
@@ -283,14 +332,15 @@ def worst_position_loss_point(flight: Flight, site: Site, params: Mapping[str, f
             continue
         v = _leg_speed_mps(leg, default)
         pts, clr = _sampled_leg_clearance_m(site, leg.start_xy_m, leg.end_xy_m, v, step_m,
-                                            _leg_drift_m(flight, k, site, params))
+                                            _leg_drift_m(flight, k, site, params),
+                                            dead_reckons(params))
         i = int(np.argmin(clr))
         if best is None or clr[i] < best[0]:
             best = (float(clr[i]), k, pts[i])
     if best is None:
         return None
     clearance, k, p = best
-    left_s = DETECTION_DELAY_S
+    left_s = DEAD_RECKONING_DELAY_S if dead_reckons(params) else DETECTION_DELAY_S
     while True:
         leg = flight.legs[k]
         v = _leg_speed_mps(leg, default)

@@ -17,12 +17,14 @@ from validator.mavlink.faults import measure_coast
 from validator.position_loss import (
     BERTH_MARGIN_M,
     COAST_S,
+    DEAD_RECKONING_DELAY_S,
     DETECTION_DELAY_S,
     WANDER_M,
     _leg_region,
     audit_position_loss,
     berth_buffer_m,
     coast_region,
+    dead_reckons,
     drift_xy_m,
     position_loss_speed_cap_mps,
     region_clearances,
@@ -241,3 +243,62 @@ def test_each_gps_loss_flown_in_sitl_wind_ends_inside_the_modelled_region(flight
     assert not coast_region(start, p, speed).contains(end)
     assert flight["landing_s"] == pytest.approx(failsafe_land_s(flight["altitude_m"], None),
                                                 abs=1.0)
+
+
+DEAD_RECKONING_FLIGHTS = REPO / "tests" / "data" / "failsafe" / "gps-loss-dead-reckoning.json"
+DRAG = {"EK3_DRAG_BCOEF_X": 9.5, "EK3_DRAG_BCOEF_Y": 9.5, "EK3_DRAG_MCOEF": 0.082}
+
+
+@pytest.mark.parametrize("params, reckons", [
+    (None, False), ({"EK3_DRAG_BCOEF_X": 0.0, "EK3_DRAG_MCOEF": 0.0}, False),
+    ({"EK3_DRAG_MCOEF": 0.082}, True), ({"EK3_DRAG_BCOEF_Y": 16.3}, True)])
+def test_only_drag_fusion_makes_the_ekf_dead_reckon(params, reckons):
+    assert dead_reckons(params) is reckons
+
+
+@pytest.mark.parametrize("flight", json.loads(DEAD_RECKONING_FLIGHTS.read_text())["flights"],
+                         ids=lambda f: f"MCOEF {f['params']['EK3_DRAG_MCOEF']:g}")
+def test_each_dead_reckoned_gps_loss_flown_in_sitl_ends_inside_the_any_way_region(flight):
+    """ArduCopter 4.5.6 SITL with EKF3 drag fusion: the dead-reckoning failsafe landed on an
+    estimate that slid upwind, outside the downwind region of a free drift and inside the one
+    swept the drift's length any way; it fired later than the EKF failsafe does."""
+    site = load_site(REPO / flight["site"]).with_limits(wind=Wind(
+        flight["wind"]["speed_mps"], flight["wind"]["from_deg"], flight["wind"]["turbulence_mps"]))
+    assert dead_reckons(flight["params"])
+    p = np.array(flight["failsafe_xy_m"])
+    v = np.array(flight["velocity_mps"])
+    start, speed = p - v, float(np.hypot(*v))
+    end = shapely.Point(flight["end_xy_m"])
+    drift = drift_xy_m(site, flight["altitude_m"], flight["params"])
+    assert coast_region(start, p, speed, drift_m=drift, any_direction=True).contains(end)
+    assert not coast_region(start, p, speed, drift_m=drift).contains(end)
+    assert flight["delay_s"] == pytest.approx(DEAD_RECKONING_DELAY_S, abs=0.3)
+    assert flight["delay_s"] > DETECTION_DELAY_S + 1.5
+    assert flight["landing_s"] == pytest.approx(failsafe_land_s(flight["altitude_m"], None),
+                                                abs=1.0)
+
+
+def test_a_zone_upwind_of_a_leg_is_reached_only_by_a_dead_reckoning_vehicle():
+    # the leg runs east 130 m north of a zone's edge, the wind blowing north (from the south):
+    # a free drift carries the vehicle away from it, a dead-reckoned estimate may slide to it
+    site = make_site(nfz=((100.0, -150.0, 20.0),), gns=((0.0, 0.0), (200.0, 0.0)))
+    windy = site.with_limits(wind=Wind(4.0, 180.0))
+    plan = _flight(site, [(0.0, 0.0), (200.0, 0.0)], 5.0)
+    assert audit_position_loss(plan, windy, _wpnav(5.0)) == []
+    found = audit_position_loss(plan, windy, {**_wpnav(5.0), **DRAG})
+    assert found and {f.zone for f in found} == {"NFZ1"}
+    assert all(f.dead_reckoning for f in found)
+    assert "dead-reckoning failsafe" in found[0].message and "any way" in found[0].message
+    assert found[0].as_dict()["dead_reckoning"] is True
+    # still air: no drift to slide, the same coast as without drag fusion
+    assert audit_position_loss(plan, site, {**_wpnav(5.0), **DRAG}) == []
+
+
+def test_a_dead_reckoning_gps_loss_is_aimed_at_the_upwind_zone():
+    site = make_site(nfz=((100.0, -150.0, 20.0),), gns=((0.0, 0.0), (200.0, 0.0)))
+    windy = site.with_limits(wind=Wind(4.0, 180.0))
+    plan = _flight(site, [(0.0, 0.0), (200.0, 0.0)], 5.0)
+    free = worst_position_loss_point(plan, windy, _wpnav(5.0))
+    reckoned = worst_position_loss_point(plan, windy, {**_wpnav(5.0), **DRAG})
+    assert free is not None and reckoned is not None
+    assert free[1] > 0.0 > reckoned[1]

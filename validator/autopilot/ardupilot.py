@@ -78,6 +78,15 @@ PARAMS: dict[str, ParamSpec] = {
     "FS_EKF_ACTION": ParamSpec("enum", 1.0, 1.0, 1.0, 3.0, "EKF failsafe action", _I8),
     "FS_DR_ENABLE": ParamSpec("enum", 1.0, 2.0, 0.0, 6.0, "dead-reckoning failsafe action", _I8,
                               zero_ok=True),
+    # a vehicle's own calibration, never written by the planner: with any of them above 0,
+    # EKF3 fuses drag, estimates the wind and dead reckons through a GPS loss
+    # (validator.position_loss.dead_reckons)
+    "EK3_DRAG_BCOEF_X": ParamSpec("kg/m/m", 1.0, 0.0, 0.0, 1000.0, "EKF3 ballistic coefficient "
+                                  "along the body's X axis (0 = no drag fusion)", zero_ok=True),
+    "EK3_DRAG_BCOEF_Y": ParamSpec("kg/m/m", 1.0, 0.0, 0.0, 1000.0, "EKF3 ballistic coefficient "
+                                  "along the body's Y axis (0 = no drag fusion)", zero_ok=True),
+    "EK3_DRAG_MCOEF": ParamSpec("1/s", 1.0, 0.0, 0.0, 1.0, "EKF3 rotor momentum drag "
+                                "coefficient (0 = no drag fusion)", zero_ok=True),
     "SRTL_POINTS": ParamSpec("count", 1.0, 300.0, 0.0, 500.0, "SmartRTL path points (0 = off; "
                              "after a reboot)", _I16, zero_ok=True),
     "SRTL_ACCURACY": ParamSpec("m", 1.0, 2.0, 0.0, 10.0, "SmartRTL point spacing", zero_ok=True),
