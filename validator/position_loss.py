@@ -45,9 +45,10 @@ fires after 10.3-10.5 s), the dead-reckoning failsafe (FS_DR_ENABLE, ours Land) 
 estimate, and the estimate's error carries the vehicle instead of the wind. On the same SITL
 in 6 m/s from 270° with turbulence 1 (``tests/data/failsafe/gps-loss-dead-reckoning.json``,
 the simulator's suggested coefficients and ArduPilot's autotest's, FS_DR_TIMEOUT 60) it slid
-84 and 89 m *upwind* over a 41-42 s landing, 1.38 m from NFZ1, where the free drift of the
-model ran 251 m downwind. So with drag fusion the still-air region is swept by the drift's
-length in every direction (:func:`dead_reckons`): an error no larger than the wind.
+84, 89 and 114 m *upwind* over a 41-42 s landing, the last (aimed here) 17.5 m into NFZ1,
+where the free drift of the model ran 251 m downwind. So with drag fusion the still-air
+region is swept by the drift's length in every direction (:func:`dead_reckons`): an error no
+larger than the wind.
 
 The region is judged against the zones themselves, not their buffers: the buffer is the
 margin of the planned path, and the coast is what the vehicle does when that path is lost
