@@ -41,6 +41,7 @@ from validator.api import (
     Flown,
     Replayed,
     VehicleChoice,
+    Wind,
     audit_plan,
     choose_vehicle,
     fly_plan,
@@ -54,7 +55,7 @@ from validator.site import Site
 
 __all__ = [
     "AutopilotParams", "FlightCheck", "Flown", "Mission", "MissionOptions", "Replayed",
-    "Solution", "UnsafeMission", "VehicleChoice", "Written", "audit_plan", "build_mission",
+    "Solution", "UnsafeMission", "VehicleChoice", "Wind", "Written", "audit_plan", "build_mission",
     "choose_vehicle", "fly_plan", "load_site", "plan_mission", "plan_solution", "read_plan",
     "recommended_params", "replay_mission", "replay_plan", "score_recorded", "write_mission",
     "write_track",
@@ -93,7 +94,7 @@ def plan_mission(
     ``pass_through_corners`` False stops at every waypoint; ``second_start`` also starts the
     optimiser from equal schedule shares and keeps the better plan (twice the time).
     ``progress(iteration, objective)`` is called after each iteration. In wind (``site.wind``,
-    or ``site.with_limits(wind=Wind(...))`` for a forecast; :mod:`validator.wind`) the plan
+    or ``load_site(path, wind="7@300")`` for a forecast; :mod:`validator.wind`) the plan
     keeps the top speed in the air, and with ``wind_buffer`` its buffer grows by how much
     closer the flown track comes in that wind. With ``position_loss_berth`` an ArduCopter
     plan from which a GPS loss could coast into a zone is planned again with a buffer wide

@@ -206,12 +206,9 @@ def _plan(args: argparse.Namespace) -> int:
         merge_legs=not args.no_merge,
     )
 
-    def forecast(site: Site) -> Site:
-        """The site in the day's forecast, which overrides the site's own wind."""
-        return site if wind is None else site.with_limits(wind=None if wind.calm else wind)
-
     def made(site: Site) -> tuple[Mission, AutopilotParams, FlightCheck]:
-        mission = plan_and_build(forecast(site), args.scheme, options, dynamics=args.dynamics,
+        mission = plan_and_build(site.with_forecast(wind), args.scheme, options,
+                                 dynamics=args.dynamics,
                                  progress=progress if progress.shown else None,
                                  pass_through_corners=not args.stop_at_every_waypoint,
                                  second_start=args.second_start,
@@ -224,7 +221,7 @@ def _plan(args: argparse.Namespace) -> int:
         site, (mission, autopilot_params, flight) = plan_for_time(
             args.site, airspace, args.cycles, made, lambda m: m[2].report.duration_s,
             args.buffer_m)
-    site = forecast(site)
+    site = site.with_forecast(wind)
     for line in site.airspace.lines():
         print(f"plan-mission: {line}", file=sys.stderr)
     if args.at and not site.airspace.uas and not args.quiet:

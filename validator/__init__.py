@@ -17,6 +17,7 @@ if TYPE_CHECKING:
         Flown,
         Replayed,
         VehicleChoice,
+        Wind,
         audit_plan,
         choose_vehicle,
         flight_profile,
@@ -28,8 +29,8 @@ if TYPE_CHECKING:
         write_track,
     )
 
-__all__ = ["Flown", "Replayed", "VehicleChoice", "audit_plan", "choose_vehicle", "flight_profile",
-           "fly_plan", "load_site", "read_plan", "replay_plan", "score_recorded",
+__all__ = ["Flown", "Replayed", "VehicleChoice", "Wind", "audit_plan", "choose_vehicle",
+           "flight_profile", "fly_plan", "load_site", "read_plan", "replay_plan", "score_recorded",
            "write_track"]
 
 

@@ -40,11 +40,13 @@ from validator.site import Site
 from validator.site import load_site as _load_site
 from validator.track_file import RecordedTrack, read_track, write_track
 from validator.uas_zones.applicability import AirspaceOptions
+from validator.wind import Wind, parse_wind_arg
 
 if TYPE_CHECKING:
     from validator.mavlink.telemetry import Telemetry
 
-__all__ = ["Flown", "Replayed", "VehicleChoice", "audit_plan", "choose_vehicle", "flight_profile",
+__all__ = ["Flown", "Replayed", "VehicleChoice", "Wind", "audit_plan", "choose_vehicle",
+           "flight_profile",
            "fly_plan", "load_site", "read_plan", "replay_plan", "score_recorded",
            "write_track"]
 
@@ -57,17 +59,25 @@ def load_site(
     duration_s: float = 0.0,
     authorised: Iterable[str] = (),
     buffer_m: float | None = None,
+    wind: Wind | str | None = None,
 ) -> Site:
     """Read, validate and resolve a site YAML file.
 
     ``at`` (time-zone aware) is when the mission starts and ``duration_s`` how long it flies:
     the UAS zones of the site's ``airspace:`` (ED-269, ED-318) that apply in that window are
     kept, less those in ``authorised`` (zone identifiers); without ``at`` every zone is
-    taken as active. ``buffer_m`` replaces the site's safety buffer (m).
+    taken as active. ``buffer_m`` replaces the site's safety buffer (m). ``wind``, the day's
+    forecast as plan-mission's ``--wind`` takes it (a :class:`~validator.wind.Wind`, or
+    ``"7@300"``: m/s and the degrees it blows from, ``"6@135,1.5"`` with turbulence, ``"0"``
+    for still air), replaces the site's ``wind:``; the site's wind is the air every call
+    below plans, replays and flies in.
     """
     options = AirspaceOptions(at, duration_s=duration_s, authorised=frozenset(authorised),
                               buffer_m=buffer_m)
     site = _load_site(path, options)
+    if isinstance(wind, str):
+        wind = parse_wind_arg(wind, "wind")
+    site = site.with_forecast(wind)
     return site if buffer_m is None else site.with_buffer(buffer_m)
 
 
@@ -112,8 +122,9 @@ def replay_plan(
     dt_s: float = REPLAY_STEP_S,
     source: str = "plan",
 ) -> Replayed:
-    """Fly ``plan`` with the validator's model of its autopilot (:func:`flight_profile`),
-    sampled every ``dt_s`` seconds, and score the track against ``site``."""
+    """Fly ``plan`` with the validator's model of its autopilot (:func:`flight_profile`) in the
+    site's wind, sampled every ``dt_s`` seconds, and score the track against ``site``. What
+    if the wind is other than planned: ``site.with_forecast(Wind(9, 300))``."""
     if not (0 < dt_s <= REPLAY_STEP_S):
         raise InputError(f"dt_s: must be > 0 and <= {REPLAY_STEP_S} s, got {dt_s}")
     flight = _flight(plan, site, source)
@@ -127,7 +138,8 @@ class Flown:
     """A flight on a vehicle: its scored ``report`` (as a replay's), the ``recorded`` track
     (to write with :func:`validator.track_file.write_track` and score again later), the raw
     ``telemetry``, which ``vehicle`` answered ("ArduPilot system 1"), its ``kind``, how the
-    ``upload`` went and the parameters set on it before the flight."""
+    ``upload`` went, the parameters set on it before the flight, and a note on the air it
+    flew in when that is not the site's wind (an external vehicle, PX4's SIH)."""
 
     report: TrackReport
     recorded: RecordedTrack
@@ -136,6 +148,7 @@ class Flown:
     kind: VehicleKind
     upload: str
     params_set: dict[str, float] = field(default_factory=dict)
+    wind_note: str | None = None
 
 
 def fly_plan(
@@ -155,11 +168,14 @@ def fly_plan(
     ``vehicle`` is :func:`choose_vehicle`'s choice (default: ``$ARDUPILOT_SITL`` or
     ``$PX4_SITL`` if set, else the built-in model vehicle, which flies ``profile`` at
     ``params`` like :func:`replay_plan`). ``params`` (autopilot names and units: a parameter
-    file's values) are set on the vehicle and read back before the mission.
+    file's values) are set on the vehicle and read back before the mission, with what a
+    sped-up SITL needs (validate-mission's: its link timeout, and ArduPilot SITL's wind, the
+    site's at the flight altitude; PX4's SIH has none, ``Flown.wind_note`` says so).
     ``time_limit_s`` bounds the mission in vehicle seconds (default: twice the replayed
     mission plus two minutes); ``timeout_s`` is how long the vehicle may stay silent.
     """
     from validator.mavlink.driver import default_time_limit_s, fly_and_score  # pymavlink
+    from validator.mavlink.sitl_check import flight_params
 
     flight = _flight(plan, site, source)
     if not flight.legs:
@@ -167,14 +183,14 @@ def fly_plan(
     choice = vehicle or choose_vehicle(plan)
     prof = flight_profile(plan, site, profile, params)
     limit = time_limit_s or default_time_limit_s(flight, prof)
-    sent = dict(params or {})
+    sent, wind_note = flight_params(choice, params or {}, site.flight_wind)
     with start_vehicle(choice, plan, prof) as running:
         result = fly_and_score(plan, site, flight, running.url, time_limit_s=limit,
                                timeout_s=timeout_s, sysid=choice.sysid, params=sent or None,
                                progress=progress, wait_ready=running.wait_ready,
                                signing_key=choice.signing_key)
     return Flown(result.report, result.recorded(), result.telemetry, result.vehicle,
-                 choice.kind, result.upload_summary, sent)
+                 choice.kind, result.upload_summary, sent, wind_note)
 
 
 def score_recorded(plan: Plan, site: Site, track: str | Path | RecordedTrack, *,

@@ -155,12 +155,12 @@ def format_report(v: Validation) -> str:
                   f"{wind_label(v.flown_wind)}"
                   + ("" if v.wind_as_planned else " (NOT the plan's wind: the cycle, clearance "
                      "and rates below are for the flown wind)")]
-        share = buffer_share(site.buffer_m, v.flown_wind)
+        share = buffer_share(site.buffer_m, v.flight_wind)
         lines.append(f"  the flown wind eats {share['track_deviation_m']:.2f} m of the "
                      f"{site.buffer_m:g} m buffer ({share['share_of_buffer']:.0%}; the flown "
                      f"track's extra closeness at the {share['deviation_quantile']:.0%} quantile "
                      "of SITL flights)")
-        guessed = extrapolation_warning(v.flown_wind)
+        guessed = extrapolation_warning(v.flight_wind)
         if guessed:
             lines.append(f"  warning: {guessed}")
     if v.replay is not None and v.profile is not None:

@@ -261,6 +261,13 @@ class Site:
         """The same site with other UAV or radio numbers (``dataclasses.replace`` fields)."""
         return dataclasses.replace(self, **changes)
 
+    def with_forecast(self, wind: Wind | None) -> Site:
+        """The site in the day's forecast ``wind``, which overrides its own ``wind:`` (a calm
+        one: still air); None keeps the site's (plan-mission's ``--wind``)."""
+        if wind is None:
+            return self
+        return self.with_limits(wind=None if wind.calm else wind)
+
 
 def dbm_to_w(dbm: float) -> float:
     return float(10.0 ** ((dbm - 30.0) / 10.0))

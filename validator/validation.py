@@ -61,6 +61,12 @@ class Validation:
     flown_wind: Wind | None = None  # the wind it is replayed (and flown in SITL) in
 
     @property
+    def flight_wind(self) -> Wind | None:
+        """The layer of ``flown_wind`` at the flight altitude: the air the vehicle flies in
+        (what SITL simulates and the buffer's share is judged by); None in still air."""
+        return self.site.flight_wind
+
+    @property
     def wind_as_planned(self) -> bool:
         """Whether the flight's wind is the one the plan was made for."""
         return _same_wind(self.planned_wind, self.flown_wind)
@@ -114,7 +120,7 @@ class Validation:
             "wind": {"planned_for": _wind_dict(self.planned_wind),
                      "flown_in": _wind_dict(self.flown_wind),
                      "as_planned": self.wind_as_planned,
-                     **buffer_share(self.site.buffer_m, self.flown_wind)},
+                     **buffer_share(self.site.buffer_m, self.flight_wind)},
             **self.extra,
         })
 

@@ -119,9 +119,15 @@ class Wind:
         return wind_vector_mps(self.speed_mps, self.from_deg)
 
     def label(self) -> str:
-        """``7 m/s from 300°`` (and its turbulence)."""
-        turb = f", turbulence {self.turbulence_mps:g} m/s" if self.turbulence_mps else ""
-        return f"{self.speed_mps:g} m/s from {self.from_deg:g}°{turb}"
+        """``7 m/s from 300°`` (and its turbulence); a layered wind names each layer and the
+        height (m above ground) it starts at: ``2 m/s from 270° at the ground, 6 m/s from
+        270°, turbulence 1 m/s from 20 m``."""
+        ground = _layer_label(self.speed_mps, self.from_deg, self.turbulence_mps)
+        if not self.layers:
+            return ground
+        return ", ".join([f"{ground} at the ground"] + [
+            f"{_layer_label(a.speed_mps, a.from_deg, a.turbulence_mps)} from {a.above_m:g} m"
+            for a in self.layers])
 
     def to_dict(self) -> dict[str, object]:
         """The ``wind:`` mapping :class:`WindModel` reads back."""
@@ -132,6 +138,11 @@ class Wind:
                               "from_deg": a.from_deg, "turbulence_mps": a.turbulence_mps}
                              for a in self.layers]
         return out
+
+
+def _layer_label(speed_mps: float, from_deg: float, turbulence_mps: float) -> str:
+    turb = f", turbulence {turbulence_mps:g} m/s" if turbulence_mps else ""
+    return f"{speed_mps:g} m/s from {from_deg:g}°{turb}"
 
 
 def wind_vector_mps(speed_mps: float, from_deg: float) -> NDArray[np.float64]:

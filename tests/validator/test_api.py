@@ -85,6 +85,25 @@ def test_buffer_override(files):
     assert api.load_site(site_path, buffer_m=7.5).buffer_m == 7.5
 
 
+def test_the_days_forecast_overrides_the_sites_wind(files):
+    site_path, _ = files
+    site = api.load_site(site_path, wind="6@135,1.5")
+    assert site.wind == api.Wind(6.0, 135.0, 1.5)
+    assert api.load_site(site_path, wind=api.Wind(4.0, 270.0)).wind == api.Wind(4.0, 270.0)
+    assert api.load_site(site_path, wind="0").wind is None
+    assert api.load_site(site_path).wind is None
+    with pytest.raises(InputError, match="^wind 7@abc: expected SPEED@FROM"):
+        api.load_site(site_path, wind="7@abc")
+
+
+def test_a_replay_flies_in_the_sites_wind(files):
+    site_path, plan_path = files
+    plan = api.read_plan(plan_path)
+    calm = api.replay_plan(plan, api.load_site(site_path))
+    windy = api.replay_plan(plan, api.load_site(site_path, wind="6@90"))
+    assert windy.report.duration_s > calm.report.duration_s
+
+
 def test_fly_on_the_builtin_vehicle_and_score_the_recorded_track_again(files, tmp_path):
     site_path, plan_path = files
     site, plan = api.load_site(site_path), api.read_plan(plan_path)

@@ -117,6 +117,18 @@ def test_site_wind_with_layers_round_trips() -> None:
     assert (lim.wind_speed_mps, lim.wind_from_deg) == (6.0, 95.0)
 
 
+def test_a_layered_wind_is_labelled_layer_by_layer() -> None:
+    d = site_to_dict(load_site(SAMPLE))
+    d["wind"] = {"speed_mps": 2.0, "from_deg": 270.0,
+                 "layers": [{"above_m": 20.0, "speed_mps": 6.0, "from_deg": 275.0,
+                             "turbulence_mps": 1.0}]}
+    site = parse_site(d)
+    assert site.wind is not None and site.flight_wind is not None
+    assert site.wind.label() == ("2 m/s from 270° at the ground, 6 m/s from 275°, turbulence "
+                                 "1 m/s from 20 m")
+    assert site.flight_wind.label() == "6 m/s from 275°, turbulence 1 m/s"
+
+
 @pytest.mark.parametrize("wind,msg", [
     ({"speed_mps": 4.0, "from_deg": 90.0, "gust": 3.0}, "wind.gust: unknown key"),
     ({"speed_mps": 4.0}, "wind.from_deg: missing field"),

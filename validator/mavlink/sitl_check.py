@@ -40,6 +40,7 @@ from validator.mavlink.vehicles import (
 if TYPE_CHECKING:
     from validator.mavlink.faults import FaultInjector
     from validator.validation import Validation
+    from validator.wind import Wind
 
 FaultKind = Literal["rc-loss", "gcs-loss", "battery-low", "gps-loss"]
 FAULTS: tuple[FaultKind, ...] = ("rc-loss", "gcs-loss", "battery-low", "gps-loss")
@@ -153,6 +154,31 @@ class SitlFlight:
         }
 
 
+def flight_params(choice: VehicleChoice, sent: Mapping[str, float], wind: Wind | None
+                  ) -> tuple[dict[str, float], str | None]:
+    """The parameters to set on the vehicle ``choice`` before a flight (``sent``, a parameter
+    file's values, plus what the simulator needs) in ``wind`` (the layer at the flight
+    altitude, :attr:`validator.site.Site.flight_wind`), and a note on the air it flies in when
+    that is not ``wind``."""
+    from validator.mavlink.sitl_process import sitl_wind_params, sped_up_link_params
+
+    out, note = dict(sent), None
+    if choice.kind == "external":
+        if wind is not None:
+            note = "an external vehicle flies in its own air (--wind: the replay)"
+    elif choice.kind == "sitl-binary":
+        assert choice.binary is not None
+        px4 = is_px4(choice.binary)
+        # our wall-clock heartbeats are sparse in a sped-up SITL's time: widen its timeout
+        out = {**sped_up_link_params(choice.speedup_x, px4), **out}
+        if px4:
+            if wind is not None:
+                note = "PX4's SIH has no wind model: flown in still air"
+        else:  # ArduPilot SITL flies in the flight's wind (SIM_WIND_*)
+            out = {**out, **sitl_wind_params(wind)}
+    return out, note
+
+
 def fly_validation(
     v: Validation,
     choice: VehicleChoice,
@@ -175,11 +201,6 @@ def fly_validation(
     in vehicle seconds (default: twice the replayed mission plus two minutes)."""
     from validator.mavlink.driver import default_time_limit_s, fly_and_score
     from validator.mavlink.faults import fault_watch, record_fault
-    from validator.mavlink.sitl_process import (
-        sitl_wind_params,
-        sped_up_link_params,
-        terminate_on_sigterm,
-    )
     from validator.motion.limits import site_limits
     from validator.motion.profile import make_profile
     from validator.validation import default_profile_name
@@ -194,21 +215,11 @@ def fly_validation(
     injector: list[FaultInjector] = []  # the fault's, once the link is open
     watch = fault_watch(v, fault, vehicle_params, injector,
                         autopilot=choice.kind != "builtin") if fault else None
-    wind_note = None
-    if choice.kind == "external":
-        if v.flown_wind is not None:
-            wind_note = "an external vehicle flies in its own air (--wind: the replay)"
-    elif choice.kind == "sitl-binary":
-        assert choice.binary is not None
-        px4 = is_px4(choice.binary)
-        # our wall-clock heartbeats are sparse in a sped-up SITL's time: widen its timeout
-        sent = {**sped_up_link_params(choice.speedup_x, px4), **sent}
+    sent, wind_note = flight_params(choice, sent, v.flight_wind)
+    if choice.kind == "sitl-binary":
+        from validator.mavlink.sitl_process import terminate_on_sigterm
+
         terminate_on_sigterm()  # a killed command stops its SITL as Ctrl-C does
-        if px4:
-            if v.flown_wind is not None:
-                wind_note = "PX4's SIH has no wind model: flown in still air"
-        else:  # ArduPilot SITL flies in the flight's wind (SIM_WIND_*)
-            sent = {**sent, **sitl_wind_params(v.flown_wind)}
     with start_vehicle(choice, v.plan, profile) as running:
         result = fly_and_score(v.plan, v.site, v.flight, running.url, time_limit_s=limit,
                                timeout_s=timeout_s, sysid=choice.sysid, params=sent or None,
