@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from validator.errors import InputError
 
@@ -66,6 +66,18 @@ class WindModel(_Strict):
     turbulence_mps: float = Field(default=0.0, ge=0, le=MAX_WIND_MPS,
                                   description="gusts' standard deviation, m/s")
     layers: list[WindLayerModel] = Field(default_factory=list, max_length=MAX_LAYERS)
+
+    @field_validator("layers")
+    @classmethod
+    def _one_layer_per_height(cls, layers: list[WindLayerModel]) -> list[WindLayerModel]:
+        # two layers from the same height leave the wind there to the order they are written in
+        seen: dict[float, int] = {}
+        for i, a in enumerate(layers):
+            if a.above_m in seen:
+                raise ValueError(f"layers[{i}].above_m {a.above_m:g} m is layer "
+                                 f"{seen[a.above_m]}'s height too: one layer per height")
+            seen[a.above_m] = i
+        return layers
 
 
 @dataclass(frozen=True)
@@ -257,7 +269,7 @@ def check_flyable(air_speed_mps: float, wind: Wind, where: str,
             leg = f"{name} (course {float(heading_deg(unit)[i]):.0f}°) cannot be flown: "
     limit = (f"the airspeed the vehicle holds through its gusts, {air_speed_mps:.2f} m/s" if gusts
              else f"the vehicle's top airspeed {air_speed_mps:.2f} m/s")
-    raise InputError(f"{where}: {leg}wind {wind.label()} is at or above {limit}; it can "
+    raise InputError(f"{where}: {leg}{wind.label()} is at or above {limit}; it can "
                      "neither hold position nor fly upwind")
 
 

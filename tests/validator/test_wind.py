@@ -79,7 +79,7 @@ def test_no_ground_speed_against_a_wind_above_the_air_speed() -> None:
     w = wind_vector_mps(12.0, 270.0)
     assert np.isnan(ground_speed_mps(10.0, w, _unit(270.0))[0])  # upwind: none
     assert ground_speed_mps(10.0, w, _unit(90.0))[0] == pytest.approx(22.0)
-    with pytest.raises(InputError, match=r"leg A \(course 270°\) cannot be flown: wind 12 m/s "
+    with pytest.raises(InputError, match=r"leg A \(course 270°\) cannot be flown: 12 m/s "
                                          r"from 270° is at or above .* 10\.00 m/s"):
         check_flyable(10.0, Wind(12.0, 270.0), "wind", np.vstack([_unit(90), _unit(270)]),
                       ["leg B", "leg A"])
@@ -134,6 +134,10 @@ def test_a_layered_wind_is_labelled_layer_by_layer() -> None:
     ({"speed_mps": 4.0}, "wind.from_deg: missing field"),
     ({"speed_mps": -1.0, "from_deg": 90.0}, "wind.speed_mps"),
     ({"speed_mps": 4.0, "from_deg": 400.0}, "wind.from_deg"),
+    ({"speed_mps": 2.0, "from_deg": 270.0,
+      "layers": [{"above_m": 20.0, "speed_mps": 6.0, "from_deg": 270.0},
+                 {"above_m": 20.0, "speed_mps": 8.0, "from_deg": 270.0}]},
+     r"wind.layers: .*layers\[1\].above_m 20 m is layer 0's height too"),
 ])
 def test_site_wind_refuses_mistakes(wind: dict[str, float], msg: str) -> None:
     d = site_to_dict(load_site(SAMPLE))
