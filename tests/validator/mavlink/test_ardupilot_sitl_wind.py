@@ -44,3 +44,32 @@ def test_a_plan_made_for_the_wind_keeps_its_period_and_clearance_in_it(tmp_path)
     assert cycle["flown_cycle_s"] == pytest.approx(predicted, rel=0.03)
     assert all(z["clearance_m"] > 0 for z in report["sitl"]["nfz"])
     assert report["sitl_flight"]["fence_breach_samples"] == 0
+
+
+def test_the_front_door_flies_a_layered_wind_at_the_flight_altitude(tmp_path) -> None:
+    """``api.fly_plan`` sets what validate-mission sets (the sped-up SITL's link timeout: without
+    it the vehicle refused to arm, 'GCS failsafe on') and flies the site's wind at the flight
+    altitude: 5 m/s from 20 m up, not the 2 m/s at the ground."""
+    import yaml
+
+    from mission_planner import api
+    from validator.autopilot.param_file import read_params
+
+    d = yaml.safe_load((REPO / "samples" / "realistic.yaml").read_text())
+    d["wind"] = {"speed_mps": 2.0, "from_deg": 250.0,
+                 "layers": [{"above_m": 20.0, "speed_mps": 5.0, "from_deg": 250.0,
+                             "turbulence_mps": 1.0}]}
+    site_path = tmp_path / "layered.yaml"
+    site_path.write_text(yaml.safe_dump(d))
+    plan_path, params_path = plan_for(tmp_path, site_path)
+    site, plan = api.load_site(site_path), api.read_plan(plan_path)
+    params = read_params(params_path)
+    flown = api.fly_plan(plan, site, api.choose_vehicle(plan, binary=str(BINARY)), params=params)
+    sent = flown.params_set
+    assert (sent["SIM_WIND_SPD"], sent["SIM_WIND_DIR"], sent["SIM_WIND_TURB"]) == (5.0, 250.0,
+                                                                                   1.0)
+    assert sent["FS_GCS_TIMEOUT"] > 5.0
+    assert flown.telemetry.end_reason == "landed" and flown.report.violations == []
+    cycle = flown.report.cycle
+    assert cycle is not None
+    assert cycle.flown_cycle_s == pytest.approx(cycle.planned_period_s, rel=0.05)
