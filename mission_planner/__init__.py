@@ -44,10 +44,9 @@ if TYPE_CHECKING:
 __all__ = [
     "AutopilotParams", "FlightCheck", "Flown", "Mission", "MissionOptions", "Replayed",
     "Solution", "UnsafeMission", "VehicleChoice", "Wind", "Written", "audit_plan",
-    "build_mission",
-    "choose_vehicle", "fly_plan", "load_site", "plan_mission", "plan_solution", "read_plan",
-    "recommended_params", "replay_mission", "replay_plan", "score_recorded", "write_mission",
-    "write_track",
+    "build_mission", "choose_vehicle", "fly_plan", "load_site", "plan_mission", "plan_solution",
+    "read_plan", "recommended_params", "replay_mission", "replay_plan", "score_recorded",
+    "write_mission", "write_track",
 ]
 
 

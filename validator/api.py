@@ -46,9 +46,8 @@ if TYPE_CHECKING:
     from validator.mavlink.telemetry import Telemetry
 
 __all__ = ["Flown", "Replayed", "VehicleChoice", "Wind", "audit_plan", "choose_vehicle",
-           "flight_profile",
-           "fly_plan", "load_site", "read_plan", "replay_plan", "score_recorded",
-           "write_track"]
+           "flight_profile", "fly_plan", "load_site", "read_plan", "replay_plan",
+           "score_recorded", "write_track"]
 
 
 

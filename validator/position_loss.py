@@ -47,8 +47,8 @@ in 6 m/s from 270° with turbulence 1 (``tests/data/failsafe/gps-loss-dead-recko
 the simulator's suggested coefficients and ArduPilot's autotest's, FS_DR_TIMEOUT 60) it slid
 84, 89 and 114 m *upwind* over a 41-42 s landing, the last (aimed here) 17.5 m into NFZ1,
 where the free drift of the model ran 251 m downwind. So with drag fusion the still-air
-region is swept by the drift's length in every direction (:func:`dead_reckons`): an error no
-larger than the wind.
+region is swept by the drift's length in every direction (:func:`dead_reckons`): the
+estimate's error taken as no faster than the wind (flown: a third to a half of its drift).
 
 The region is judged against the zones themselves, not their buffers: the buffer is the
 margin of the planned path, and the coast is what the vehicle does when that path is lost
