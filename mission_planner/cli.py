@@ -250,7 +250,8 @@ def _plan(args: argparse.Namespace) -> int:
     drifting = position_loss_drift_warning(mission)
     if drifting:
         print(f"plan-mission: warning: {drifting}", file=sys.stderr)
-    guessed = extrapolation_warning(mission.solution.site.flight_wind)
+    guessed = extrapolation_warning(mission.solution.site.flight_wind,
+                                    px4=mission.options.autopilot == "px4")
     if guessed:
         print(f"plan-mission: warning: {guessed}", file=sys.stderr)
     too_fast = speed_warning(site, args.dynamics, autopilot.key)

@@ -160,7 +160,7 @@ def format_report(v: Validation) -> str:
                      f"{site.buffer_m:g} m buffer ({share['share_of_buffer']:.0%}; the flown "
                      f"track's extra closeness at the {share['deviation_quantile']:.0%} quantile "
                      "of SITL flights)")
-        guessed = extrapolation_warning(v.flight_wind)
+        guessed = extrapolation_warning(v.flight_wind, px4=Autopilot.of(v.plan).key == "px4")
         if guessed:
             lines.append(f"  warning: {guessed}")
     if v.replay is not None and v.profile is not None:

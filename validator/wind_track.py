@@ -107,15 +107,17 @@ def buffer_share(buffer_m: float, wind: Wind | None) -> dict[str, float]:
             "extrapolated": DEVIATION_MODEL.extrapolated(wind)}
 
 
-def extrapolation_warning(wind: Wind | None) -> str | None:
+def extrapolation_warning(wind: Wind | None, px4: bool = False) -> str | None:
     """One line when ``wind`` (at the flight altitude) is beyond the flights the deviation
-    model is fitted to, so the buffer's share of it is a guess; else None."""
+    model is fitted to, so the buffer's share of it is a guess; else None. ``px4``: the plan
+    is PX4's, whose SIH has no wind to fly it in, so only a wider buffer is offered."""
     if not DEVIATION_MODEL.extrapolated(wind):
         return None
     assert wind is not None
     m = DEVIATION_MODEL
+    check = ("PX4's SIH has no wind to check it in: keep a wider buffer (--buffer-m)" if px4
+             else "check the plan in that wind (validate-mission --sitl-binary --wind) or keep "
+                  "a wider buffer (--buffer-m)")
     return (f"the wind buffer's track deviation is fitted to SITL flights in winds up to "
             f"{m.wind_max_mps:g} m/s with turbulence up to {m.turbulence_max_mps:g} m/s; in "
-            f"{wind.label()} its {m.deviation_m(wind):.2f} m is extrapolated: check the plan in "
-            f"that wind (validate-mission --sitl-binary --wind) or keep a wider buffer "
-            f"(--buffer-m)")
+            f"{wind.label()} its {m.deviation_m(wind):.2f} m is extrapolated: {check}")

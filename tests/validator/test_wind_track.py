@@ -130,6 +130,9 @@ def test_a_wind_beyond_the_fitted_flights_is_said_to_be_extrapolated() -> None:
     stronger = extrapolation_warning(Wind(9.0, 45.0, 1.0))
     assert stronger is not None and "winds up to 8 m/s with turbulence up to 2 m/s" in stronger
     assert "in 9 m/s from 45°, turbulence 1 m/s its" in stronger
+    assert "--sitl-binary --wind" in stronger
+    px4 = extrapolation_warning(Wind(9.0, 45.0, 1.0), px4=True)
+    assert px4 is not None and "SIH has no wind" in px4 and "--sitl-binary" not in px4
     gustier = Wind(4.0, 90.0, 3.0)
     assert extrapolation_warning(gustier) is not None
     assert buffer_share(3.0, gustier)["extrapolated"] is True
