@@ -173,3 +173,26 @@ def test_validate_mission_fails_a_file_whose_failsafe_crosses_a_zone_unless_forc
 def test_without_a_parameter_file_there_is_no_failsafe_audit():
     v = validate_mission(DATA / "plans/realistic-ardupilot.plan", DATA / "sites/realistic.yaml")
     assert v.failsafe is None and v.exit_status == 0
+
+
+def test_the_failsafe_table_points_the_gps_loss_row_at_its_coast(tmp_path, capsys):
+    """The row of the failsafe that acts after a GPS loss (EKF3's; with drag fusion the
+    dead-reckoning one) says how many legs' coasts reach a zone, not just 'clear'."""
+    plan, site = DATA / "plans/realistic-ardupilot.plan", DATA / "sites/realistic.yaml"
+    planned = DATA / "params/realistic-ardupilot-planned.param"
+    drag = tmp_path / "drag.param"
+    drag.write_text(planned.read_text() + "\nEK3_DRAG_BCOEF_X 9.5\nEK3_DRAG_BCOEF_Y 9.5\n"
+                    "EK3_DRAG_MCOEF 0.082\n")
+
+    def rows(params: Path) -> dict[str, str]:
+        validate_mission_main([str(plan), "--site", str(site), "--params", str(params),
+                               "--wind", "6@270"])
+        text = capsys.readouterr().out
+        return {p: next(line for line in text.splitlines() if f" {p} " in line)
+                for p in ("FS_EKF_ACTION", "FS_DR_ENABLE")}
+
+    free, reckoned = rows(planned), rows(drag)
+    assert "its coast after a GPS loss:" in free["FS_EKF_ACTION"]
+    assert "coast" not in free["FS_DR_ENABLE"]
+    assert "its coast after a GPS loss:" in reckoned["FS_DR_ENABLE"]
+    assert "coast" not in reckoned["FS_EKF_ACTION"]
