@@ -200,14 +200,15 @@ def _failsafe_lines(v: Validation) -> list[str]:
              "(value from the file, else the firmware's default)",
              f"  {'failsafe':<28} {'parameter':<16} {'value':>6} {'from':<8} {'paths':<18} "
              "verdict"]
-    # a GPS loss's coast follows the failsafe that fires: EKF3's, or with drag fusion the
-    # dead-reckoning one (validator.position_loss); its legs are warnings, listed below
+    # the path of the failsafe that fires after a GPS loss is a landing in place; the coast
+    # before it stops is another matter (validator.position_loss: warnings, listed below)
     lost = fs.position_loss
-    coasting = "FS_DR_ENABLE" if any(f.dead_reckoning for f in lost) else "FS_EKF_ACTION"
     for c in fs.checks:
         bad = [f for f in fs.findings if f.param == c.param]
         verdict = "clear" if not bad else f"{len(bad)} path finding(s)"
-        if lost and c.param == coasting:
+        if c.param == fs.gps_loss_failsafe and fs.autopilot == "px4":
+            verdict += "; its coast after a GPS loss: not modelled for PX4"
+        elif c.param == fs.gps_loss_failsafe and lost:
             verdict += f"; its coast after a GPS loss: {len({f.leg for f in lost})} leg warning(s)"
         lines.append(f"  {c.trigger[:28]:<28} {c.param:<16} {c.value:>6g} {c.source:<8} "
                      f"{'+'.join(c.paths):<18} {verdict}")

@@ -44,7 +44,11 @@ from validator.flight import Flight, Leg
 from validator.geodesy import E7_ROUNDING_MARGIN_M
 from validator.geometry import segment_point_distance
 from validator.plan_format import Autopilot, Plan
-from validator.position_loss import PositionLossFinding, audit_position_loss
+from validator.position_loss import (
+    PositionLossFinding,
+    audit_position_loss,
+    coasting_failsafe,
+)
 from validator.site import Site
 from validator.zones import PolygonZone, point_clearance_m
 
@@ -149,6 +153,8 @@ class FailsafeReport:
     # ArduCopter's GPS loss: the legs whose coast may reach a buffer (validator.position_loss;
     # a warning: no failsafe parameter steers a vehicle without a position)
     position_loss: tuple[PositionLossFinding, ...] = ()
+    # the parameter of the failsafe that acts after a GPS loss (position_loss.coasting_failsafe)
+    gps_loss_failsafe: str = ""
 
     @property
     def ok(self) -> bool:
@@ -160,7 +166,8 @@ class FailsafeReport:
                 "findings": [f.as_dict() for f in self.findings], "notes": list(self.notes),
                 "worst_return": None if self.worst_return is None else
                 self.worst_return.as_dict(), "params": dict(self.params),
-                "position_loss": [f.as_dict() for f in self.position_loss]}
+                "position_loss": [f.as_dict() for f in self.position_loss],
+                "gps_loss_failsafe": self.gps_loss_failsafe}
 
 
 # --------------------------------------------------------------------------------------------
@@ -407,7 +414,8 @@ def audit_failsafes(plan: Plan, site: Site, flight: Flight,
         lost = tuple(audit_position_loss(flight, site, params))
     return FailsafeReport(autopilot, tuple(checks), tuple(findings), tuple(notes),
                           _worst_return(flight, site, exposures, dest), dict(values),
-                          _outline(exposures) if flies_rtl else (), lost)
+                          _outline(exposures) if flies_rtl else (), lost,
+                          coasting_failsafe(autopilot, params))
 
 
 def _pair(xy: NDArray[np.float64]) -> tuple[float, float]:

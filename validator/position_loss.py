@@ -163,6 +163,16 @@ def dead_reckons(params: Mapping[str, float] | None) -> bool:
                for name in ("EK3_DRAG_BCOEF_X", "EK3_DRAG_BCOEF_Y", "EK3_DRAG_MCOEF"))
 
 
+def coasting_failsafe(autopilot: str, params: Mapping[str, float] | None) -> str:
+    """The parameter of the failsafe that acts after a GPS loss: ArduCopter's EKF failsafe
+    (FS_EKF_ACTION), or with drag fusion the dead-reckoning one (FS_DR_ENABLE,
+    :func:`dead_reckons`); PX4's navigation loss (COM_POSCTL_NAVL), whose coast is not
+    modelled."""
+    if autopilot == "px4":
+        return "COM_POSCTL_NAVL"
+    return "FS_DR_ENABLE" if dead_reckons(params) else "FS_EKF_ACTION"
+
+
 def coast_region(start: NDArray[np.float64], end: NDArray[np.float64], speed_mps: float,
                  next_end: NDArray[np.float64] | None = None,
                  drift_m: NDArray[np.float64] | None = None,

@@ -196,3 +196,8 @@ def test_the_failsafe_table_points_the_gps_loss_row_at_its_coast(tmp_path, capsy
     assert "coast" not in free["FS_DR_ENABLE"]
     assert "its coast after a GPS loss:" in reckoned["FS_DR_ENABLE"]
     assert "coast" not in reckoned["FS_EKF_ACTION"]
+    validate_mission_main([str(DATA / "plans/realistic-px4.plan"), "--site", str(site),
+                           "--params", str(DATA / "params/realistic-px4-planned.params")])
+    px4 = next(line for line in capsys.readouterr().out.splitlines()
+               if " COM_POSCTL_NAVL " in line)
+    assert px4.endswith("its coast after a GPS loss: not modelled for PX4")

@@ -24,6 +24,7 @@ from validator.position_loss import (
     audit_position_loss,
     berth_buffer_m,
     coast_region,
+    coasting_failsafe,
     dead_reckons,
     drift_xy_m,
     position_loss_speed_cap_mps,
@@ -302,3 +303,9 @@ def test_a_dead_reckoning_gps_loss_is_aimed_at_the_upwind_zone():
     reckoned = worst_position_loss_point(plan, windy, {**_wpnav(5.0), **DRAG})
     assert free is not None and reckoned is not None
     assert free[1] > 0.0 > reckoned[1]
+
+
+def test_the_failsafe_after_a_gps_loss_is_ekf3s_unless_it_dead_reckons():
+    assert coasting_failsafe("ardupilot", None) == "FS_EKF_ACTION"
+    assert coasting_failsafe("ardupilot", DRAG) == "FS_DR_ENABLE"
+    assert coasting_failsafe("px4", DRAG) == "COM_POSCTL_NAVL"
