@@ -150,6 +150,38 @@ def test_recorded_track_is_scored_like_the_replay(site, service):
                                rtol=0.02)
 
 
+def test_a_return_after_the_vehicle_left_the_mission_is_no_cycle_flown(site, service):
+    """ArduCopter keeps reporting the item it was flying through a failsafe's SmartRTL until
+    it has landed and disarmed: that run's end, or the return passing the item's destination,
+    counted the item as done, a cycle flown (ArduCopter 4.5.6 SITL, realistic.yaml in 6 m/s
+    from 135°, RC loss on the closing leg: "2.01 x planned"). Aligned on the samples before
+    the vehicle left, the recording covers no cycle; its clearances still cover the whole
+    track."""
+    flight = resolve_flight(service, site)
+    track = replay(flight, make_profile("arducopter", site_limits(site)))
+    assert flight.cycle is not None
+    closing = flight.legs[flight.cycle.end_leg].item
+    on_closing = np.flatnonzero(track.mission_seq == closing)
+    last_run = on_closing[np.flatnonzero(np.diff(on_closing) > 1)[-1] + 1:]  # the last cycle's
+    left = int(last_run[len(last_run) // 2])
+    # the return: by way of the closing leg's destination (SmartRTL retraces the cycle's start)
+    dest = flight.legs[flight.cycle.end_leg].end_xy_m
+    way = [track.xy_m[left - 1], dest, flight.home_xy_m]
+    back = np.concatenate([a + np.linspace(0.0, 1.0, 400)[:, None] * (b - a)
+                           for a, b in zip(way[:-1], way[1:], strict=True)])
+    t = np.concatenate([track.t_s[:left],
+                        track.t_s[left - 1] + 0.05 * np.arange(1, len(back) + 1)])
+    xy = np.concatenate([track.xy_m[:left], back])
+    seq = np.concatenate([track.mission_seq[:left], np.full(len(back), closing)])
+    seq[-5:] = -1  # disarmed
+    counted = score_track(track_from_samples(flight, t, xy, seq), flight, site, service)
+    assert counted.cycle is not None  # what the run's end made of it before
+    recorded = track_from_samples(flight, t, xy, seq, left_mission_s=float(t[left]))
+    rec = score_track(recorded, flight, site, service)
+    assert rec.cycle is None
+    assert rec.nfz[0].clearance_m == pytest.approx(counted.nfz[0].clearance_m, abs=1e-9)
+
+
 def test_a_flight_longer_than_the_endurance_is_a_violation_naming_both_times(site, service):
     flight = resolve_flight(service, site)
     track = replay(flight, make_profile("arducopter", site_limits(site)))

@@ -242,7 +242,9 @@ def telemetry_track(telemetry: Telemetry, flight: Flight, site: Site, *, ardupil
     """The recorded flight from NAV_TAKEOFF on as a :class:`Track` aligned with ``flight``,
     its clock starting at the takeoff like the replay's. The climb flown in GUIDED before
     MISSION_START counts as the mission's takeoff item when the mission starts with one;
-    ArduPilot's seq numbers become plan item indices."""
+    ArduPilot's seq numbers become plan item indices. Items are timed up to the first time the
+    vehicle left the mission mode on its own (``mode_changes``: a failsafe's return is no
+    cycle flown)."""
     t0 = telemetry.flight_start_s
     keep = telemetry.t_s >= t0
     t = telemetry.t_s[keep]
@@ -251,9 +253,11 @@ def telemetry_track(telemetry: Telemetry, flight: Flight, site: Site, *, ardupil
         # until the vehicle reports an item past the takeoff, it is flying the takeoff
         past = np.flatnonzero(seq > flight.legs[0].item)
         seq[: past[0] if past.size else seq.size] = flight.legs[0].item
+    left = min((s for s, _ in telemetry.mode_changes), default=None)
     return track_from_geodetic(
         flight, site, t - t0, telemetry.lat_deg[keep], telemetry.lon_deg[keep], seq,
         alt_m=telemetry.rel_alt_m[keep], source=source,
+        left_mission_s=None if left is None else left - t0,
     )
 
 

@@ -81,6 +81,7 @@ def track_from_samples(
     radius_m: float = 2.0,
     stopped_mps: float = 0.3,
     source: str = "telemetry",
+    left_mission_s: float | None = None,
 ) -> Track:
     """A recorded track (local metres) aligned with ``flight``'s legs.
 
@@ -95,6 +96,11 @@ def track_from_samples(
     a LAND or RTL, which shares its item's run, position and speed (the first sample there
     slower than ``stopped_mps``, else the first there); a recording that ends on an item's run
     after its hold time counts that item as done at the last sample.
+
+    ``left_mission_s``: when the vehicle left the mission mode on its own (a failsafe, a fence
+    breach). Its items are aligned on the samples before that only, as if the recording ended
+    there: the item it was flying is not done when the return lands, so a return that passes
+    the cycle's closing item is no cycle flown. The whole track stays in it, for clearances.
     """
     t = np.asarray(t_s, dtype=float).reshape(-1)
     xy = np.asarray(xy_m, dtype=float).reshape(-1, 2)
@@ -126,10 +132,11 @@ def track_from_samples(
     reached = np.full(n_legs, np.nan)
     done = np.full(n_legs, np.nan)
     leg_of = np.full(t.size, -1, dtype=np.int64)
-    # runs of equal seq
-    change = np.flatnonzero(np.diff(seq)) + 1
-    run_lo = np.concatenate([[0], change])
-    run_hi = np.concatenate([change, [t.size]])
+    # runs of equal seq, in the samples flown in the mission mode
+    n = t.size if left_mission_s is None else int(np.searchsorted(t, left_mission_s))
+    change = np.flatnonzero(np.diff(seq[:n])) + 1
+    run_lo = np.concatenate([[0], change]) if n else np.zeros(0, dtype=np.int64)
+    run_hi = np.concatenate([change, [n]]) if n else np.zeros(0, dtype=np.int64)
     r = 0
     prev_done = math.nan
     k = 0
@@ -143,7 +150,7 @@ def track_from_samples(
         if r >= run_lo.size:
             break
         lo, hi = int(run_lo[r]), int(run_hi[r])
-        end_t = float(t[hi]) if hi < t.size else math.nan  # the run ended: item done
+        end_t = float(t[hi]) if hi < n else math.nan  # the run ended: item done
         cursor = lo
         for g in group:
             leg = flight.legs[g]
@@ -162,8 +169,8 @@ def track_from_samples(
             else:
                 reached[g] = float(t[at]) if at is not None else end_t
             done[g] = end_t
-            if math.isnan(end_t) and at is not None and t[-1] >= reached[g] + hold - 1e-6:
-                done[g] = float(t[-1])  # the recording ends once the last item is complete
+            if math.isnan(end_t) and at is not None and t[n - 1] >= reached[g] + hold - 1e-6:
+                done[g] = float(t[n - 1])  # the recording ends once the last item is complete
             prev_done = done[g]
         r += 1
         k = group[-1] + 1
@@ -184,8 +191,10 @@ def track_from_geodetic(
     radius_m: float = 2.0,
     stopped_mps: float = 0.3,
     source: str = "telemetry",
+    left_mission_s: float | None = None,
 ) -> Track:
     """:func:`track_from_samples` for a track in WGS84 degrees (e.g. GLOBAL_POSITION_INT)."""
     xy = site.frame.to_local(np.asarray(lat_deg, dtype=float), np.asarray(lon_deg, dtype=float))
     return track_from_samples(flight, t_s, xy, mission_seq, alt_m=alt_m, radius_m=radius_m,
-                              stopped_mps=stopped_mps, source=source)
+                              stopped_mps=stopped_mps, source=source,
+                              left_mission_s=left_mission_s)
