@@ -174,11 +174,14 @@ def test_a_return_after_the_vehicle_left_the_mission_is_no_cycle_flown(site, ser
     xy = np.concatenate([track.xy_m[:left], back])
     seq = np.concatenate([track.mission_seq[:left], np.full(len(back), closing)])
     seq[-5:] = -1  # disarmed
-    counted = score_track(track_from_samples(flight, t, xy, seq), flight, site, service)
+    flown_on = track_from_samples(flight, t, xy, seq)
+    counted = score_track(flown_on, flight, site, service)
     assert counted.cycle is not None  # what the run's end made of it before
     recorded = track_from_samples(flight, t, xy, seq, left_mission_s=float(t[left]))
     rec = score_track(recorded, flight, site, service)
     assert rec.cycle is None
+    # the return is scored for clearance as the mission is: to the last reported item
+    assert np.array_equal(recorded.leg >= 0, flown_on.leg >= 0)
     assert rec.nfz[0].clearance_m == pytest.approx(counted.nfz[0].clearance_m, abs=1e-9)
 
 

@@ -100,7 +100,8 @@ def track_from_samples(
     ``left_mission_s``: when the vehicle left the mission mode on its own (a failsafe, a fence
     breach). Its items are aligned on the samples before that only, as if the recording ended
     there: the item it was flying is not done when the return lands, so a return that passes
-    the cycle's closing item is no cycle flown. The whole track stays in it, for clearances.
+    the cycle's closing item is no cycle flown. The samples after it (while the autopilot
+    reports an item) stay on the leg it was flying, so that clearances cover the return.
     """
     t = np.asarray(t_s, dtype=float).reshape(-1)
     xy = np.asarray(xy_m, dtype=float).reshape(-1, 2)
@@ -174,6 +175,10 @@ def track_from_samples(
             prev_done = done[g]
         r += 1
         k = group[-1] + 1
+    if 0 < n < t.size and leg_of[n - 1] >= 0:
+        # the flight after it left the mission, still on the item it was flying as the
+        # autopilot reports, so that its clearances are scored as the mission's are
+        leg_of[n:] = np.where(seq[n:] >= 0, leg_of[n - 1], -1)
     items = np.array([leg.item for leg in flight.legs], dtype=np.int64)
     seq_out = np.where(leg_of >= 0, items[np.maximum(leg_of, 0)], -1)
     return Track(t, xy, alt, speed, seq_out, leg_of, start, reached, done, source)
