@@ -337,21 +337,21 @@ def worst_position_loss_point(flight: Flight, site: Site, params: Mapping[str, f
     if not site.zone_names:
         return None
     default = default_speed_mps(params)
+    reckons = dead_reckons(params)
     best: tuple[float, int, NDArray[np.float64]] | None = None
     for k, leg in enumerate(flight.legs):
         if leg.length_m < 1e-6:
             continue
         v = _leg_speed_mps(leg, default)
         pts, clr = _sampled_leg_clearance_m(site, leg.start_xy_m, leg.end_xy_m, v, step_m,
-                                            _leg_drift_m(flight, k, site, params),
-                                            dead_reckons(params))
+                                            _leg_drift_m(flight, k, site, params), reckons)
         i = int(np.argmin(clr))
         if best is None or clr[i] < best[0]:
             best = (float(clr[i]), k, pts[i])
     if best is None:
         return None
     clearance, k, p = best
-    left_s = DEAD_RECKONING_DELAY_S if dead_reckons(params) else DETECTION_DELAY_S
+    left_s = DEAD_RECKONING_DELAY_S if reckons else DETECTION_DELAY_S
     while True:
         leg = flight.legs[k]
         v = _leg_speed_mps(leg, default)
