@@ -43,6 +43,8 @@ from validator.uas_zones.applicability import AirspaceOptions
 from validator.wind import Wind, parse_wind_arg
 
 if TYPE_CHECKING:
+    from validator.mavlink.faults import FaultReport
+    from validator.mavlink.sitl_check import FaultKind
     from validator.mavlink.telemetry import Telemetry
 
 __all__ = ["Flown", "Replayed", "VehicleChoice", "Wind", "audit_plan", "choose_vehicle",
@@ -138,7 +140,8 @@ class Flown:
     (to write with :func:`validator.track_file.write_track` and score again later), the raw
     ``telemetry``, which ``vehicle`` answered ("ArduPilot system 1"), its ``kind``, how the
     ``upload`` went, the parameters set on it before the flight, and a note on the air it
-    flew in when that is not the site's wind (an external vehicle, PX4's SIH)."""
+    flew in when that is not the site's wind (an external vehicle, PX4's SIH); with a
+    ``fault``, the flight after it (its violations are in ``report.findings`` too)."""
 
     report: TrackReport
     recorded: RecordedTrack
@@ -148,6 +151,7 @@ class Flown:
     upload: str
     params_set: dict[str, float] = field(default_factory=dict)
     wind_note: str | None = None
+    fault: FaultReport | None = None
 
 
 def fly_plan(
@@ -161,6 +165,7 @@ def fly_plan(
     timeout_s: float = DEFAULT_TIMEOUT_S,
     progress: Callable[[str], None] | None = None,
     source: str = "plan",
+    fault: FaultKind | None = None,
 ) -> Flown:
     """Upload ``plan`` to a vehicle, fly it as a pilot would and score the flight.
 
@@ -172,8 +177,13 @@ def fly_plan(
     site's at the flight altitude; PX4's SIH has none, ``Flown.wind_note`` says so).
     ``time_limit_s`` bounds the mission in vehicle seconds (default: twice the replayed
     mission plus two minutes); ``timeout_s`` is how long the vehicle may stay silent.
+    ``fault`` ("rc-loss", "gcs-loss", "battery-low", "gps-loss"; an autopilot only) is
+    injected as validate-mission's ``--fault`` does it: where the failsafe ``params`` leave
+    would do the most harm (:mod:`validator.mavlink.faults`); a zone entered after it, or an
+    end neither landed nor holding, is a violation of the flight.
     """
     from validator.mavlink.driver import default_time_limit_s, fly_and_score  # pymavlink
+    from validator.mavlink.faults import FaultInjector, fault_watch, score_fault, with_fault
     from validator.mavlink.sitl_check import flight_params
 
     flight = _flight(plan, site, source)
@@ -182,14 +192,22 @@ def fly_plan(
     choice = vehicle or choose_vehicle(plan)
     prof = flight_profile(plan, site, profile, params)
     limit = time_limit_s or default_time_limit_s(flight, prof)
+    injector: list[FaultInjector] = []  # the fault's, once the link is open
+    watch = fault_watch(fault, plan, site, flight, params, injector, field="fault",
+                        autopilot=choice.kind != "builtin") if fault else None
     sent, wind_note = flight_params(choice, params or {}, site.flight_wind)
     with start_vehicle(choice, plan, prof) as running:
         result = fly_and_score(plan, site, flight, running.url, time_limit_s=limit,
                                timeout_s=timeout_s, sysid=choice.sysid, params=sent or None,
                                progress=progress, wait_ready=running.wait_ready,
-                               signing_key=choice.signing_key)
-    return Flown(result.report, result.recorded(), result.telemetry, result.vehicle,
-                 choice.kind, result.upload_summary, sent, wind_note)
+                               signing_key=choice.signing_key, watch=watch)
+    report, after = result.report, None
+    if injector:
+        after = score_fault(injector[0], result.telemetry, site, flight.home_xy_m,
+                            result.telemetry.end_reason)
+        report = with_fault(report, after)
+    return Flown(report, result.recorded(), result.telemetry, result.vehicle,
+                 choice.kind, result.upload_summary, sent, wind_note, after)
 
 
 def score_recorded(plan: Plan, site: Site, track: str | Path | RecordedTrack, *,

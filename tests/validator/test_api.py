@@ -116,6 +116,17 @@ def test_fly_on_the_builtin_vehicle_and_score_the_recorded_track_again(files, tm
     assert again.nfz[0].clearance_m == pytest.approx(flown.report.nfz[0].clearance_m, abs=0.01)
 
 
+def test_a_fault_needs_an_autopilot_and_one_its_simulator_makes(files):
+    site_path, plan_path = files
+    site, plan = api.load_site(site_path), api.read_plan(plan_path)
+    with pytest.raises(InputError, match="^fault: needs an autopilot SITL"):
+        api.fly_plan(plan, site, api.choose_vehicle(plan), fault="rc-loss")
+    # refused before any link is opened: nothing listens at this URL
+    with pytest.raises(InputError, match="^fault solar-flare: not simulated on ArduCopter"):
+        api.fly_plan(plan, site, api.choose_vehicle(plan, url="tcp:127.0.0.1:9"),
+                     fault="solar-flare")  # type: ignore[arg-type]
+
+
 def test_the_vehicle_is_chosen_as_the_command_chooses(files, tmp_path, monkeypatch):
     _, plan_path = files
     plan = api.read_plan(plan_path)

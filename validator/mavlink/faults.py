@@ -49,11 +49,14 @@ from validator.site import Site
 from validator.zones import polyline_clearance_m
 
 if TYPE_CHECKING:
+    from validator.failsafe import FailsafeReport
+    from validator.flight import Flight
     from validator.mavlink.driver import Watch
     from validator.mavlink.link import Link
+    from validator.plan_format import Plan
+    from validator.replay import TrackReport
     from validator.validation import Validation
 
-FAULT_KINDS = ("rc-loss", "gcs-loss", "battery-low", "gps-loss")
 TRIGGER_RADIUS_M = 10.0  # the fault fires at the closest sample to the point within this
 HOLD_END_S = 30.0  # vehicle seconds held still outside the mission: a safe hold
 STILL_MPS = 0.3
@@ -77,12 +80,13 @@ _PX4: dict[str, dict[str, float | str]] = {
 }
 
 
-def fault_settings(kind: str, px4: bool) -> dict[str, float | str]:
+def fault_settings(kind: str, px4: bool, field: str = "--fault") -> dict[str, float | str]:
     """The parameters that inject ``kind`` (and :data:`GCS_LOSS`: stop our heartbeats);
-    :class:`InputError` for a fault the autopilot's simulator cannot produce."""
+    :class:`InputError` for a fault the autopilot's simulator cannot produce (``field``
+    names the option)."""
     table = _PX4 if px4 else _ARDUPILOT
     if kind not in table:
-        raise InputError(f"--fault {kind}: not simulated on {'PX4 SIH' if px4 else 'ArduCopter'}"
+        raise InputError(f"{field} {kind}: not simulated on {'PX4 SIH' if px4 else 'ArduCopter'}"
                          f" (choose from {', '.join(table)})")
     return table[kind]
 
@@ -299,49 +303,65 @@ def score_fault(injector: FaultInjector, telemetry: Telemetry, site: Site,
                        said[:20], coast, track)
 
 
-def fault_watch(v: Validation, kind: str, vehicle_params: Mapping[str, float] | None,
-                made: list[FaultInjector], *, autopilot: bool) -> Callable[[Link], Watch]:
-    """The fault injector for ``fly_and_score``, aimed at the point of the mission whose
-    straight return (an ArduCopter GPS loss: whose coast) comes closest to a zone (appended
-    to ``made`` once the link is open); ``autopilot`` says the flight is on an autopilot
-    SITL (the built-in vehicle has no failsafes)."""
+def fault_watch(kind: str, plan: Plan, site: Site, flight: Flight,
+                vehicle_params: Mapping[str, float] | None, made: list[FaultInjector], *,
+                autopilot: bool, failsafe: FailsafeReport | None = None,
+                field: str = "--fault", site_source: str | None = None
+                ) -> Callable[[Link], Watch]:
+    """The fault injector for ``fly_and_score``, aimed at the point of ``plan`` (resolved as
+    ``flight``) whose straight return (an ArduCopter GPS loss: whose coast) comes closest to a
+    zone of ``site`` under ``vehicle_params`` (``failsafe``: their audit, if made already);
+    appended to ``made`` once the link is open. ``autopilot`` says the flight is on an
+    autopilot SITL (the built-in vehicle has no failsafes); ``field`` names the option and
+    ``site_source`` the site file in the refusals."""
     if not autopilot:
-        raise InputError("--fault: needs an autopilot SITL (--sitl-binary, $ARDUPILOT_SITL or "
+        raise InputError(f"{field}: needs an autopilot SITL (--sitl-binary, $ARDUPILOT_SITL or "
                          "--connect): the built-in vehicle has no failsafes")
     from validator.failsafe import audit_failsafes
 
-    px4 = v.plan.firmware_type == 12  # MAV_AUTOPILOT_PX4
-    fault_settings(kind, px4)  # refuse a fault the simulator cannot produce before flying
-    fs = v.failsafe or audit_failsafes(v.plan, v.site, v.flight, vehicle_params or {})
+    px4 = plan.firmware_type == 12  # MAV_AUTOPILOT_PX4
+    fault_settings(kind, px4, field)  # refuse a fault the simulator cannot produce before flying
+    fs = failsafe or audit_failsafes(plan, site, flight, vehicle_params or {})
     worst = fs.worst_return
     if worst is None:
-        raise InputError(f"--fault: {v.site_path} has no zone: no worst point to inject at")
+        where = site_source or f"site {site.name!r}"
+        raise InputError(f"{field}: {where} has no zone: no worst point to inject at")
     target = worst.xy_m
     if kind == "gps-loss" and not px4:  # its failsafe path is the coast, not a return
         from validator.position_loss import worst_position_loss_point
 
-        coast = worst_position_loss_point(v.flight, v.site, vehicle_params)
+        coast = worst_position_loss_point(flight, site, vehicle_params)
         if coast is not None:
             target = (float(coast[0][0]), float(coast[0][1]))
 
     def make(link: Link) -> Watch:
-        made.append(FaultInjector(link, kind, target, v.site.frame.to_local, px4))
+        made.append(FaultInjector(link, kind, target, site.frame.to_local, px4))
         return made[-1]
 
     return make
 
 
-def record_fault(v: Validation, injector: FaultInjector, telemetry: Telemetry) -> None:
-    """The fault flight's score into the report: ``extra["fault"]``, and a violation when
-    the flight after the fault entered a zone or ended neither landed nor holding."""
-    rep = score_fault(injector, telemetry, v.site, v.flight.home_xy_m, telemetry.end_reason)
-    v.extra["fault"] = rep.as_dict()
-    found = []
-    for zone, c in rep.clearance_m.items():
-        if c < 0:
-            found.append(Finding("violation", f"after the {rep.kind} fault the vehicle "
-                                              f"entered {zone} {-c:.2f} m deep", None))
+def fault_findings(rep: FaultReport) -> tuple[Finding, ...]:
+    """The violations of the flight after a fault: a zone entered, or an end neither landed
+    nor holding."""
+    found = [Finding("violation", f"after the {rep.kind} fault the vehicle entered {zone} "
+                                  f"{-c:.2f} m deep", None)
+             for zone, c in rep.clearance_m.items() if c < 0]
     if rep.end_state not in ("landed", "safe hold"):
         found.append(Finding("violation", f"after the {rep.kind} fault: {rep.end_state}", None))
-    if found and v.sitl is not None:
-        v.sitl = dataclasses.replace(v.sitl, findings=(*v.sitl.findings, *found))
+    return tuple(found)
+
+
+def with_fault(report: TrackReport, rep: FaultReport) -> TrackReport:
+    """``report`` (the flight's) with the violations of the flight after the fault."""
+    found = fault_findings(rep)
+    return dataclasses.replace(report, findings=(*report.findings, *found)) if found else report
+
+
+def record_fault(v: Validation, injector: FaultInjector, telemetry: Telemetry) -> None:
+    """The fault flight's score into the report: ``extra["fault"]``, and its violations
+    (:func:`fault_findings`) into the flight's."""
+    rep = score_fault(injector, telemetry, v.site, v.flight.home_xy_m, telemetry.end_reason)
+    v.extra["fault"] = rep.as_dict()
+    if v.sitl is not None:
+        v.sitl = with_fault(v.sitl, rep)

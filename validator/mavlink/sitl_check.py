@@ -213,8 +213,9 @@ def fly_validation(
     sent = {**(vehicle_params or {}),
             **{k: x for k, x in model.items() if k not in MODEL_ONLY_PARAMS}}
     injector: list[FaultInjector] = []  # the fault's, once the link is open
-    watch = fault_watch(v, fault, vehicle_params, injector,
-                        autopilot=choice.kind != "builtin") if fault else None
+    watch = fault_watch(fault, v.plan, v.site, v.flight, vehicle_params, injector,
+                        autopilot=choice.kind != "builtin", failsafe=v.failsafe,
+                        site_source=v.site_path) if fault else None
     sent, wind_note = flight_params(choice, sent, v.flight_wind)
     if choice.kind == "sitl-binary":
         from validator.mavlink.sitl_process import terminate_on_sigterm

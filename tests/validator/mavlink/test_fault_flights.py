@@ -126,3 +126,23 @@ def test_a_gps_loss_in_wind_drifts_downwind_as_far_as_the_audit_warns(tmp_path):
     moved = np.asarray(fault["end_xy_m"]) - failsafe_at
     north = float(moved[1])
     assert 0.5 * drift[1] < north <= drift[1] + COAST_S * 10.0 + WANDER_M, (north, drift)
+
+
+@needs_arducopter
+def test_the_front_door_flies_a_fault_as_the_command_does():
+    """``api.fly_plan(..., fault=)``: the same injection at the same point, scored into
+    ``Flown.fault``, with the parameters plan-mission writes: SmartRTL home, no zone entered."""
+    from validator import api
+    from validator.autopilot.param_file import read_params
+
+    site = api.load_site(DATA / "sites" / "river.yaml")
+    plan = api.read_plan(DATA / "plans" / "river-ardupilot.plan")
+    params = read_params(DATA / "params" / "river-ardupilot-planned.param")
+    flown = api.fly_plan(plan, site, api.choose_vehicle(plan, binary=str(ARDUCOPTER)),
+                         params=params, fault="rc-loss")
+    after = flown.fault
+    assert after is not None and after.injected_s > 0
+    assert "SMART_RTL" in after.modes and after.end_state == "landed", (after.modes,
+                                                                        after.end_state)
+    assert not after.entered_zone and after.end_from_home_m < 5.0
+    assert flown.report.violations == []

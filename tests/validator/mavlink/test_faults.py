@@ -11,7 +11,13 @@ import pytest
 
 from tests.validator.builders import make_site
 from validator.errors import InputError
-from validator.mavlink.faults import FaultInjector, fault_settings, score_fault
+from validator.mavlink.faults import (
+    FaultInjector,
+    FaultReport,
+    fault_findings,
+    fault_settings,
+    score_fault,
+)
 from validator.mavlink.telemetry import Telemetry
 
 
@@ -85,6 +91,26 @@ def test_faults_the_simulator_cannot_make_are_refused():
     assert fault_settings("rc-loss", px4=False) == {"SIM_RC_FAIL": 1.0}
     with pytest.raises(InputError, match="rc-loss: not simulated on PX4 SIH"):
         fault_settings("rc-loss", px4=True)
+    with pytest.raises(InputError, match="^fault solar-flare: not simulated on ArduCopter"):
+        fault_settings("solar-flare", px4=False, field="fault")
+
+
+def _after(clearance_m: dict[str, float], end_state: str) -> FaultReport:
+    return FaultReport("rc-loss", "SIM_RC_FAIL 1", "simulator truth (SIMSTATE)", 5.0, (0.0, 0.0),
+                       (0.0, 0.0), clearance_m, end_state, (0.0, 0.0), 0.0, ("RTL",), ())
+
+
+def test_a_zone_entered_after_the_fault_is_a_violation_of_the_flight():
+    found = fault_findings(_after({"NFZ1": -1.5, "NFZ2": 4.0}, "landed"))
+    assert [(f.severity, f.message) for f in found] == [
+        ("violation", "after the rc-loss fault the vehicle entered NFZ1 1.50 m deep")]
+
+
+def test_a_flight_that_neither_lands_nor_holds_after_the_fault_is_a_violation():
+    assert fault_findings(_after({"NFZ1": 3.0}, "landed")) == ()
+    assert fault_findings(_after({"NFZ1": 3.0}, "safe hold")) == ()
+    found = fault_findings(_after({"NFZ1": 3.0}, "time limit reached"))
+    assert [f.message for f in found] == ["after the rc-loss fault: time limit reached"]
 
 
 def test_the_score_measures_the_track_after_the_fault_between_samples():
