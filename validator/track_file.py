@@ -16,7 +16,11 @@ row per position report (GLOBAL_POSITION_INT):
     the current mission item as a 0-based ``.plan`` index (ArduPilot's wire sequence minus
     one; PX4's as sent), -1 before the mission;
 ``armed``, ``fence_breach``
-    0 or 1.
+    0 or 1;
+``left_mission``
+    1 from the first time the vehicle left its mission mode on its own (a failsafe, a fence
+    action), else 0: the items after it are no cycle flown. Files written before this column
+    read with 0 throughout.
 
 ``#`` lines at the top are comments (the vehicle, the plan). A ``.gz`` name is compressed.
 """
@@ -40,7 +44,8 @@ from validator.replay import Track, track_from_geodetic
 from validator.site import Site
 
 COLUMNS = ("t_s", "lat_deg", "lon_deg", "alt_m", "vn_mps", "ve_mps", "vd_mps", "item",
-           "armed", "fence_breach")
+           "armed", "fence_breach", "left_mission")
+_BEFORE_LEFT_MISSION = COLUMNS[:-1]  # the header of files written before ``left_mission``
 
 
 @dataclass(frozen=True)
@@ -55,13 +60,27 @@ class RecordedTrack:
     item: NDArray[np.int64]
     armed: NDArray[np.bool_]
     fence_breach: NDArray[np.bool_]
+    left_mission: NDArray[np.bool_] | None = None  # None: never left (or not recorded)
+
+    @property
+    def left_mission_s(self) -> float | None:
+        """When the vehicle first left its mission mode on its own (s), None if it never did."""
+        if self.left_mission is None or not self.left_mission.any():
+            return None
+        return float(self.t_s[int(np.argmax(self.left_mission))])
 
     def track(self, flight: Flight, site: Site, source: str = "recorded") -> Track:
-        """The flight from the takeoff on, aligned with ``flight`` (as the SITL driver does)."""
+        """The flight from the takeoff on, aligned with ``flight``: the climb before the
+        vehicle reports an item past the mission's takeoff counts as that takeoff, and items
+        are timed up to :attr:`left_mission_s` (a failsafe's return is no cycle flown)."""
         keep = self.t_s >= 0
+        item = self.item[keep].copy()
+        if flight.legs and flight.legs[0].kind == "takeoff":
+            past = np.flatnonzero(item > flight.legs[0].item)
+            item[: past[0] if past.size else item.size] = flight.legs[0].item
         return track_from_geodetic(flight, site, self.t_s[keep], self.lat_deg[keep],
-                                   self.lon_deg[keep], self.item[keep], alt_m=self.alt_m[keep],
-                                   source=source)
+                                   self.lon_deg[keep], item, alt_m=self.alt_m[keep],
+                                   source=source, left_mission_s=self.left_mission_s)
 
     @property
     def disarmed_s(self) -> float:
@@ -79,11 +98,12 @@ def dumps_track(rec: RecordedTrack, comments: tuple[str, ...] = ()) -> str:
     for c in comments:
         out.write(f"# {c}\n")
     out.write(",".join(COLUMNS) + "\n")
+    left = np.zeros(rec.t_s.size, bool) if rec.left_mission is None else rec.left_mission
     for k in range(rec.t_s.size):
         vn, ve, vd = rec.vel_ned_mps[k]
         out.write(f"{rec.t_s[k]:.3f},{rec.lat_deg[k]:.8f},{rec.lon_deg[k]:.8f},"
                   f"{rec.alt_m[k]:.3f},{vn:.2f},{ve:.2f},{vd:.2f},{int(rec.item[k])},"
-                  f"{int(rec.armed[k])},{int(rec.fence_breach[k])}\n")
+                  f"{int(rec.armed[k])},{int(rec.fence_breach[k])},{int(left[k])}\n")
     return out.getvalue()
 
 
@@ -116,7 +136,8 @@ def read_track(path: str | Path) -> RecordedTrack:
         text = read_text(p, "track")
     lines = [(n, line) for n, line in enumerate(text.splitlines(), 1)
              if line.strip() and not line.startswith("#")]
-    if not lines or tuple(lines[0][1].strip().split(",")) != COLUMNS:
+    header = tuple(lines[0][1].strip().split(",")) if lines else ()
+    if header not in (COLUMNS, _BEFORE_LEFT_MISSION):
         raise InputError(f"{p}: not a track file (expected the header {','.join(COLUMNS)})")
     rows: list[list[float]] = []
     for n, line in lines[1:]:
@@ -125,16 +146,19 @@ def read_track(path: str | Path) -> RecordedTrack:
             row = [float(f) for f in fields]
         except ValueError:
             row = []
-        if len(row) != len(COLUMNS) or not all(math.isfinite(x) for x in row):
-            raise InputError(f"{p}: line {n}: expected {len(COLUMNS)} finite numbers")
+        if len(row) != len(header) or not all(math.isfinite(x) for x in row):
+            raise InputError(f"{p}: line {n}: expected {len(header)} finite numbers")
         rows.append(row)
     if not rows:
         raise InputError(f"{p}: no samples")
     a = np.asarray(rows, dtype=float)
     if np.any(np.diff(a[:, 0]) < 0):
         raise InputError(f"{p}: t_s must not decrease")
+    if len(header) > 10 and np.any(np.diff(a[:, 10]) < 0):
+        raise InputError(f"{p}: left_mission must not go back to 0 once it is 1")
     return RecordedTrack(a[:, 0], a[:, 1], a[:, 2], a[:, 3], a[:, 4:7],
-                         a[:, 7].astype(np.int64), a[:, 8] != 0, a[:, 9] != 0)
+                         a[:, 7].astype(np.int64), a[:, 8] != 0, a[:, 9] != 0,
+                         a[:, 10] != 0 if len(header) > 10 else None)
 
 
 __all__ = ["COLUMNS", "RecordedTrack", "dumps_track", "read_track", "write_track"]

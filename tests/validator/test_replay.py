@@ -1,3 +1,4 @@
+import dataclasses
 import math
 
 import numpy as np
@@ -150,14 +151,10 @@ def test_recorded_track_is_scored_like_the_replay(site, service):
                                rtol=0.02)
 
 
-def test_a_return_after_the_vehicle_left_the_mission_is_no_cycle_flown(site, service):
-    """ArduCopter keeps reporting the item it was flying through a failsafe's SmartRTL until
-    it has landed and disarmed: that run's end, or the return passing the item's destination,
-    counted the item as done, a cycle flown (ArduCopter 4.5.6 SITL, realistic.yaml in 6 m/s
-    from 135°, RC loss on the closing leg: "2.01 x planned"). Aligned on the samples before
-    the vehicle left, the recording covers no cycle; its clearances still cover the whole
-    track."""
-    flight = resolve_flight(service, site)
+def _failsafe_return(site, flight):
+    """A replayed flight that leaves the mission in its last cycle's closing leg and returns
+    home by way of that leg's destination, reporting the closing item all the way (as
+    ArduCopter does through SmartRTL): samples (t, xy, seq) and the index where it left."""
     track = replay(flight, make_profile("arducopter", site_limits(site)))
     assert flight.cycle is not None
     closing = flight.legs[flight.cycle.end_leg].item
@@ -174,6 +171,18 @@ def test_a_return_after_the_vehicle_left_the_mission_is_no_cycle_flown(site, ser
     xy = np.concatenate([track.xy_m[:left], back])
     seq = np.concatenate([track.mission_seq[:left], np.full(len(back), closing)])
     seq[-5:] = -1  # disarmed
+    return t, xy, seq, left
+
+
+def test_a_return_after_the_vehicle_left_the_mission_is_no_cycle_flown(site, service):
+    """ArduCopter keeps reporting the item it was flying through a failsafe's SmartRTL until
+    it has landed and disarmed: that run's end, or the return passing the item's destination,
+    counted the item as done, a cycle flown (ArduCopter 4.5.6 SITL, realistic.yaml in 6 m/s
+    from 135°, RC loss on the closing leg: "2.01 x planned"). Aligned on the samples before
+    the vehicle left, the recording covers no cycle; its clearances still cover the whole
+    track."""
+    flight = resolve_flight(service, site)
+    t, xy, seq, left = _failsafe_return(site, flight)
     flown_on = track_from_samples(flight, t, xy, seq)
     counted = score_track(flown_on, flight, site, service)
     assert counted.cycle is not None  # what the run's end made of it before
@@ -183,6 +192,25 @@ def test_a_return_after_the_vehicle_left_the_mission_is_no_cycle_flown(site, ser
     # the return is scored for clearance as the mission is: to the last reported item
     assert np.array_equal(recorded.leg >= 0, flown_on.leg >= 0)
     assert rec.nfz[0].clearance_m == pytest.approx(counted.nfz[0].clearance_m, abs=1e-9)
+
+
+def test_a_track_file_keeps_when_the_vehicle_left_the_mission(site, service, tmp_path):
+    """Scored again from its track file (``validate-mission --track``, ``score_recorded``),
+    the same return is still no cycle flown: the file's ``left_mission`` column says when the
+    vehicle left; a file without it is scored as before."""
+    from validator import api
+    from validator.track_file import RecordedTrack, write_track
+
+    flight = resolve_flight(service, site)
+    t, xy, seq, left = _failsafe_return(site, flight)
+    lat, lon = site.frame.to_geodetic(xy)
+    n = t.size
+    rec = RecordedTrack(t, lat, lon, np.full(n, site.altitude_m), np.zeros((n, 3)), seq,
+                        seq >= 0, np.zeros(n, bool), t >= t[left])
+    write_track(tmp_path / "left.csv", rec)
+    assert api.score_recorded(service, site, tmp_path / "left.csv").cycle is None
+    write_track(tmp_path / "unsaid.csv", dataclasses.replace(rec, left_mission=None))
+    assert api.score_recorded(service, site, tmp_path / "unsaid.csv").cycle is not None
 
 
 def test_a_flight_longer_than_the_endurance_is_a_violation_naming_both_times(site, service):

@@ -37,6 +37,22 @@ def test_a_track_reads_back_as_written(tmp_path, name):
     assert back.disarmed_s == pytest.approx(0.5)
 
 
+def test_when_the_vehicle_left_the_mission_reads_back(tmp_path):
+    rec = _track()
+    left = RecordedTrack(**{**rec.__dict__, "left_mission": np.array([0, 0, 0, 1, 1], bool)})
+    write_track(tmp_path / "left.csv", left)
+    assert read_track(tmp_path / "left.csv").left_mission_s == pytest.approx(0.25)
+    write_track(tmp_path / "stayed.csv", rec)
+    assert read_track(tmp_path / "stayed.csv").left_mission_s is None
+
+
+def test_a_track_file_written_before_left_mission_still_reads(tmp_path):
+    path = tmp_path / "old.csv"
+    path.write_text(",".join(COLUMNS[:-1]) + "\n0,37.5,127.0,0,0,0,0,-1,1,0\n")
+    back = read_track(path)
+    assert back.item.tolist() == [-1] and back.left_mission_s is None
+
+
 def test_gz_is_compressed(tmp_path):
     write_track(tmp_path / "a.csv.gz", _track())
     text = gzip.decompress((tmp_path / "a.csv.gz").read_bytes()).decode()
@@ -46,9 +62,12 @@ def test_gz_is_compressed(tmp_path):
 @pytest.mark.parametrize("text, message", [
     ("t_s,lat\n0,1\n", "not a track file"),
     (",".join(COLUMNS) + "\n", "no samples"),
-    (",".join(COLUMNS) + "\n0,1,2,3,4,5,6,7,8\n", "line 2: expected 10 finite numbers"),
-    (",".join(COLUMNS) + "\n0,nan,2,3,4,5,6,7,1,0\n", "line 2: expected 10 finite numbers"),
-    (",".join(COLUMNS) + "\n1,1,2,3,4,5,6,7,1,0\n0,1,2,3,4,5,6,7,1,0\n", "must not decrease"),
+    (",".join(COLUMNS) + "\n0,1,2,3,4,5,6,7,8,0\n", "line 2: expected 11 finite numbers"),
+    (",".join(COLUMNS) + "\n0,nan,2,3,4,5,6,7,1,0,0\n", "line 2: expected 11 finite numbers"),
+    (",".join(COLUMNS) + "\n1,1,2,3,4,5,6,7,1,0,0\n0,1,2,3,4,5,6,7,1,0,0\n", "must not decrease"),
+    (",".join(COLUMNS) + "\n0,1,2,3,4,5,6,7,1,0,1\n1,1,2,3,4,5,6,7,1,0,0\n",
+     "left_mission must not go back to 0"),
+    (",".join(COLUMNS[:-1]) + "\n0,1,2,3,4,5,6,7,1,0,0\n", "line 2: expected 10 finite numbers"),
 ])
 def test_a_bad_track_file_is_one_input_error_naming_it(tmp_path, text, message):
     path = tmp_path / "bad.csv"

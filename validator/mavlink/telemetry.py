@@ -21,7 +21,7 @@ from validator.geodesy import from_int_e7
 from validator.mavlink.connection import Connection, LinkError
 from validator.mavlink.modes import mode_name
 from validator.mavlink.wire import mavlink
-from validator.replay import Track, track_from_geodetic
+from validator.replay import Track
 from validator.site import Site
 from validator.track_file import RecordedTrack
 
@@ -240,32 +240,20 @@ class Recorder:
 def telemetry_track(telemetry: Telemetry, flight: Flight, site: Site, *, ardupilot: bool,
                     source: str) -> Track:
     """The recorded flight from NAV_TAKEOFF on as a :class:`Track` aligned with ``flight``,
-    its clock starting at the takeoff like the replay's. The climb flown in GUIDED before
-    MISSION_START counts as the mission's takeoff item when the mission starts with one;
-    ArduPilot's seq numbers become plan item indices. Items are timed up to the first time the
-    vehicle left the mission mode on its own (``mode_changes``: a failsafe's return is no
-    cycle flown)."""
-    t0 = telemetry.flight_start_s
-    keep = telemetry.t_s >= t0
-    t = telemetry.t_s[keep]
-    seq = telemetry.mission_seq[keep] - (1 if ardupilot else 0)
-    if flight.legs and flight.legs[0].kind == "takeoff":
-        # until the vehicle reports an item past the takeoff, it is flying the takeoff
-        past = np.flatnonzero(seq > flight.legs[0].item)
-        seq[: past[0] if past.size else seq.size] = flight.legs[0].item
-    left = min((s for s, _ in telemetry.mode_changes), default=None)
-    return track_from_geodetic(
-        flight, site, t - t0, telemetry.lat_deg[keep], telemetry.lon_deg[keep], seq,
-        alt_m=telemetry.rel_alt_m[keep], source=source,
-        left_mission_s=None if left is None else left - t0,
-    )
+    its clock starting at the takeoff like the replay's: :func:`recorded_track`'s, scored as a
+    track file of it is (:meth:`~validator.track_file.RecordedTrack.track`: the climb before
+    MISSION_START is the takeoff item; items are timed up to the first time the vehicle left
+    the mission mode on its own, ``mode_changes``: a failsafe's return is no cycle flown)."""
+    return recorded_track(telemetry, ardupilot=ardupilot).track(flight, site, source)
 
 
 def recorded_track(telemetry: Telemetry, *, ardupilot: bool) -> RecordedTrack:
     """The telemetry as a :class:`~validator.track_file.RecordedTrack`: times from the start
-    of the takeoff (as :func:`telemetry_track`), mission items as ``.plan`` indices."""
+    of the takeoff, mission items as ``.plan`` indices (ArduPilot's home, 0, is -1), and
+    ``left_mission`` from the first of ``mode_changes``."""
     seq = telemetry.mission_seq - (1 if ardupilot else 0)
+    left = min((s for s, _ in telemetry.mode_changes), default=math.inf)
     return RecordedTrack(telemetry.t_s - telemetry.flight_start_s, telemetry.lat_deg,
                          telemetry.lon_deg, telemetry.rel_alt_m, telemetry.vel_mps,
                          np.where(telemetry.mission_seq < 0, -1, seq).astype(np.int64),
-                         telemetry.armed, telemetry.fence_breach)
+                         telemetry.armed, telemetry.fence_breach, telemetry.t_s >= left)
