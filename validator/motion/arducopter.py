@@ -121,7 +121,8 @@ class _LegSpeeds:
     ``speed`` its limit along the track, ``first`` and ``cruise`` the speeds ArduCopter's
     S-curve first runs at and then changes to (a leg entered through a corner flown through),
     ``lean_caps`` the ground speed the lean limit flies on the leg's course; ``accel`` (m/s²),
-    ``jerk`` (m/s³) and ``ramp`` (s) its S-curve limits, ``landing`` the final descents."""
+    ``jerk`` (m/s³) and ``ramp`` (s) its S-curve limits, ``touchdown`` the speed a final
+    descent ends at below LAND_ALT_LOW (LAND_SPEED; 0 on every other leg)."""
 
     cmd: NDArray[np.float64]
     speed: NDArray[np.float64]
@@ -131,7 +132,7 @@ class _LegSpeeds:
     accel: NDArray[np.float64]
     jerk: NDArray[np.float64]
     ramp: NDArray[np.float64]
-    landing: NDArray[np.bool_]
+    touchdown: NDArray[np.float64]
 
 
 def _leg_speeds(flight: Flight, profile: Profile, geom: LegGeometry) -> _LegSpeeds:
@@ -157,7 +158,8 @@ def _leg_speeds(flight: Flight, profile: Profile, geom: LegGeometry) -> _LegSpee
     # ArduCopter lands at WPNAV_SPEED_DN (never slower than LAND_SPEED) down to LAND_ALT_LOW,
     # then at LAND_SPEED until the ground stops it
     landing = np.array([leg.kind == "land" for leg in legs]) & vertical
-    speed = np.where(landing, np.maximum(speed, profile.si("LAND_SPEED")), speed)
+    touchdown = np.where(landing, profile.si("LAND_SPEED"), 0.0)
+    speed = np.maximum(speed, touchdown)
     ramp = jerk_ramp_s(profile, jerk)
     blend = np.array([False] + [leg.pass_through for leg in legs[:-1]])
     # the S-curve's own speeds: the firmware builds and changes it whatever the vehicle does
@@ -169,7 +171,7 @@ def _leg_speeds(flight: Flight, profile: Profile, geom: LegGeometry) -> _LegSpee
     # what the vehicle can fly, not what the plan allows (VEHICLE_SPEED_MAX): nothing but the
     # lean limit holds the vehicle back from the speed the S-curve runs at
     lean_caps = lean_caps_mps(profile, unit, held_lean_top_speed_mps(profile), held=True)
-    return _LegSpeeds(cmd, speed, first, cruise, lean_caps, accel, jerk, ramp, landing)
+    return _LegSpeeds(cmd, speed, first, cruise, lean_caps, accel, jerk, ramp, touchdown)
 
 
 def _ardu_limits(
@@ -178,10 +180,9 @@ def _ardu_limits(
     """Every leg's S-curve (rest to rest; a landing ends at LAND_SPEED below LAND_ALT_LOW), and
     each leg's speed limit along its track (m/s)."""
     v = _leg_speeds(flight, profile, geom)
-    land_speed = profile.si("LAND_SPEED")
     prof = scurve_to_touchdown(geom.length_m, np.minimum(v.cruise, v.lean_caps), v.accel,
-                               v.jerk, v.ramp, np.where(v.landing, land_speed, 0.0),
-                               np.where(v.landing, profile.si("LAND_ALT_LOW"), 0.0),
+                               v.jerk, v.ramp, v.touchdown,
+                               np.where(v.touchdown > 0, profile.si("LAND_ALT_LOW"), 0.0),
                                np.minimum(v.first, v.lean_caps))
     return prof, v.speed
 
