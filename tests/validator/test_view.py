@@ -21,6 +21,7 @@ from validator.view import (
     ViewInputs,
     Wind,
     failsafe_paths,
+    fault_mark,
     validation_inputs,
     view_figure,
 )
@@ -199,6 +200,35 @@ def test_a_clear_rtl_draws_its_closest_return_green():
     w = v.failsafe.worst_return
     line = next(p for p in paths if p.kind == "line")
     assert w is not None and np.allclose(line.xy_m, [w.xy_m, w.destination_xy_m])
+
+
+def _fault(clearance_m: dict[str, float]) -> dict:
+    from validator.mavlink.faults import FaultReport
+
+    return FaultReport("rc-loss", "SIM_RC_FAIL 1", "simulator truth (SIMSTATE)", 144.6,
+                       (-195.4, 125.3), (-196.7, 127.0), clearance_m, "landed", (0.03, 0.03),
+                       0.05, ("SMART_RTL",), ("Radio Failsafe",),
+                       track_xy_m=((-195.3, 125.0), (-120.9, 49.0), (0.0, 0.0))).as_dict()
+
+
+@pytest.mark.parametrize("clearance, colour, says", [
+    ({"HOSP": 12.33, "CTR1": 79.2}, "#2ca02c", "closest to a zone: HOSP, 12.33 m"),
+    ({"HOSP": -1.5, "CTR1": 79.2}, "#d62728", "entered HOSP 1.50 m deep"),
+])
+def test_a_fault_is_drawn_where_it_was_injected_with_the_flight_after_it(
+        validation, clearance, colour, says):
+    v = validation
+    mark = fault_mark(_fault(clearance))
+    assert mark is not None
+    fig = view_figure(ViewInputs(v.plan, v.site, v.flight, fault=mark))
+    after, injected = (t for t in fig["data"] if t.get("meta", {}).get("layer") == "fault")
+    assert (injected["x"], injected["y"]) == ([-195.4], [125.3])
+    assert after["x"] == [-195.3, -120.9, 0.0] and after["line"]["color"] == colour
+    assert injected["marker"]["color"] == colour
+    for text in ("rc-loss injected (SIM_RC_FAIL 1)", "then flew SMART_RTL",
+                 "ended landed, 0.1 m from home", says):
+        assert text in injected["hovertext"]
+    assert fault_mark({**_fault(clearance), "injected_xy_m": None}) is None  # never injected
 
 
 def test_the_planners_own_file_retraces_the_mission_and_flies_no_straight_return():

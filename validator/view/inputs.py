@@ -9,9 +9,10 @@ site origin, times seconds from the takeoff, speeds m/s; a wind is :class:`valid
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -51,12 +52,44 @@ class FailsafePath:
 
 
 @dataclass(frozen=True)
+class FaultMark:
+    """A fault injected in flight (``validate-mission --fault``) and the flight after it:
+    where it was injected (``xy_m``), the track after it (``after_xy_m``, a point a second),
+    whether that entered a zone, and what the autopilot did (``note``, for the hover)."""
+
+    kind: str
+    xy_m: NDArray[np.float64]
+    after_xy_m: NDArray[np.float64]
+    entered_zone: bool
+    note: str
+
+
+def fault_mark(fault: Mapping[str, Any]) -> FaultMark | None:
+    """The view of a fault flight's report (:meth:`validator.mavlink.faults.FaultReport.as_dict`,
+    the report's ``fault`` section); None when the fault was never injected."""
+    if fault.get("injected_xy_m") is None:
+        return None
+    said = [f"{fault['kind']} injected ({fault['how']})",
+            f"then flew {', '.join(fault['modes']) or 'the mission on'}",
+            f"ended {fault['end_state']}, {fault['end_from_home_m']:.1f} m from home"]
+    clear = fault["clearance_m"]
+    if clear:
+        zone = min(clear, key=clear.get)
+        said.append(f"entered {zone} {-clear[zone]:.2f} m deep" if clear[zone] < 0
+                    else f"closest to a zone: {zone}, {clear[zone]:.2f} m")
+    after = np.asarray(fault["track_xy_m"], dtype=float).reshape(-1, 2)
+    return FaultMark(fault["kind"], np.asarray(fault["injected_xy_m"], dtype=float), after,
+                     bool(fault["entered_zone"]), "<br>".join(said))
+
+
+@dataclass(frozen=True)
 class ViewInputs:
     """Everything one view draws. ``flight`` is the plan resolved on the site
     (:func:`validator.flight.resolve_flight`); ``tracks`` are drawn in order and the first one
     leads the time slider's node and rate read-outs. ``wind`` is the air the tracks fly in
     and the plan was made for; ``planned_wind`` the one the plan was made for when that is
-    another (:data:`STILL_AIR` for still air, as ``wind`` may be)."""
+    another (:data:`STILL_AIR` for still air, as ``wind`` may be); ``fault`` a fault injected
+    in the flown track's flight."""
 
     plan: Plan
     site: Site
@@ -66,6 +99,7 @@ class ViewInputs:
     wind: Wind | None = None
     planned_wind: Wind | None = None
     title: str = ""
+    fault: FaultMark | None = None
 
 
 def _flown_by(checks: list[FailsafeCheck]) -> str:
@@ -119,7 +153,8 @@ def failsafe_paths(report: FailsafeReport, flight: Flight) -> tuple[FailsafePath
 def validation_inputs(v: Validation, title: str = "") -> ViewInputs:
     """A :class:`~validator.validation.Validation`'s view: its plan and site, its replay and
     the flown track of its flight (SITL or a recorded one), when it has them; the failsafe
-    paths its parameter file leaves; the wind it is flown in, and the plan's when another."""
+    paths its parameter file leaves; the wind it is flown in, and the plan's when another;
+    the fault injected in its flight (``--fault``)."""
     tracks = []
     if v.replay_track is not None and v.profile is not None:
         tracks.append(TrackLayer(f"replay ({v.profile.name})", v.replay_track))
@@ -132,5 +167,6 @@ def validation_inputs(v: Validation, title: str = "") -> ViewInputs:
     wind, planned = v.flown_wind, None
     if not v.wind_as_planned:
         wind, planned = v.flown_wind or STILL_AIR, v.planned_wind or STILL_AIR
+    fault = fault_mark(v.extra["fault"]) if "fault" in v.extra else None
     return ViewInputs(v.plan, v.site, v.flight, tuple(tracks), paths, wind, planned,
-                      title=title or f"{v.site.name}: {Path(v.plan_path).name}")
+                      title=title or f"{v.site.name}: {Path(v.plan_path).name}", fault=fault)

@@ -1,11 +1,11 @@
 """The still layers of a mission view, as plotly trace dicts in local metres: zones and their
 buffers, the fence as uploaded, nodes, home, rally points, the legs coloured by commanded
 speed (transits dashed, apart from the service cycle), the waypoints with what a pilot asks
-of each, flown tracks, failsafe paths.
+of each, flown tracks, failsafe paths, a fault injected in flight and the flight after it.
 
 Each trace carries ``meta.layer`` (``zone``, ``buffer``, ``fence``, ``node``, ``home``,
-``rally``, ``cycle``, ``transit``, ``waypoint``, ``track``, ``failsafe``) so the page, its
-tests and a reader's script can find a layer without counting traces.
+``rally``, ``cycle``, ``transit``, ``waypoint``, ``track``, ``failsafe``, ``fault``) so the
+page, its tests and a reader's script can find a layer without counting traces.
 """
 
 from __future__ import annotations
@@ -309,8 +309,27 @@ def failsafe_traces(inputs: ViewInputs) -> list[Trace]:
     return out
 
 
+def fault_traces(inputs: ViewInputs) -> list[Trace]:
+    """A fault injected in flight: the flight after it, green when it kept out of every zone
+    and red when not, and a cross where it was injected (what the autopilot did, on hover)."""
+    f = inputs.fault
+    if f is None:
+        return []
+    colour = ZONE_RED if f.entered_zone else FAILSAFE_GREEN
+    hover = f"<b>{f.kind} fault</b><br>{f.note}"
+    return [{"type": "scatter", "mode": "lines", **_xy(f.after_xy_m),
+             "name": f"after the {f.kind} fault", "meta": {"layer": "fault", "kind": "after"},
+             "hoverinfo": "text", "hoveron": "points", "hovertext": hover,
+             "line": {"color": colour, "width": 3.0}, "opacity": 0.8},
+            {"type": "scatter", "mode": "markers", **_xy(f.xy_m[None, :]),
+             "name": f"{f.kind} injected", "meta": {"layer": "fault", "kind": "injected"},
+             "hoverinfo": "text", "hovertext": hover,
+             "marker": {"symbol": "x", "size": 14, "color": colour,
+                        "line": {"width": 1.5, "color": "black"}}}]
+
+
 def map_traces(inputs: ViewInputs) -> list[Trace]:
     """Every still layer of the map, bottom to top."""
     return [*zone_traces(inputs), *fence_traces(inputs), *failsafe_traces(inputs),
-            *leg_traces(inputs), *track_traces(inputs), waypoint_trace(inputs),
-            *point_traces(inputs)]
+            *leg_traces(inputs), *track_traces(inputs), *fault_traces(inputs),
+            waypoint_trace(inputs), *point_traces(inputs)]
