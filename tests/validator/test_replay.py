@@ -232,3 +232,28 @@ def test_no_endurance_no_check_and_wind_is_named_as_the_remedy():
     windy = endurance_finding(300.0, 250.0, windy=True)
     assert windy is not None and windy.severity == "violation"
     assert windy.message.endswith("fewer cycles or a calmer day")
+
+
+def test_the_lag_is_judged_by_the_planners_slot_times_not_the_ideal_landing(capsys):
+    """A plan that carries its slot times is timed by them through the service cycle; the
+    transit and landing after it only by the commanded speeds with no acceleration, which
+    the landing always lags (ArduCopter's descent, LAND_SPEED): the report's worst lag is
+    the cycle's, and the text says which is which."""
+    from pathlib import Path
+
+    from validator.cli import validate_mission_main
+    from validator.validation import validate_mission
+
+    repo = Path(__file__).resolve().parents[2]
+    plan = repo / "tests/golden/realistic-vehicle/mission.plan"
+    site = repo / "samples/realistic.yaml"
+    rep = validate_mission(plan, site, replay_flight=True).replay
+    assert rep is not None
+    lags = [w for w in rep.waypoint_lag if w["lag_s"] is not None]
+    slots = [w["lag_s"] for w in lags if w["timed_by"] == "slots"]
+    assert len(slots) > 5 and lags[-1]["timed_by"] == "commanded"
+    assert lags[-1]["lag_s"] > 10.0 > rep.max_lag_s == max(slots)
+    validate_mission_main([str(plan), "--site", str(site), "--replay"])
+    out = capsys.readouterr().out
+    assert f"lag behind the planner's slot times: max {max(slots):.1f} s" in out
+    assert f"at the last waypoint {lags[-1]['lag_s']:.1f} s behind the commanded speeds" in out

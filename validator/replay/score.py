@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import TypedDict
+from typing import Literal, TypedDict
 
 import numpy as np
 import shapely
@@ -37,13 +37,17 @@ from validator.zones import PolygonZone, polyline_clearance_m
 
 
 class WaypointLag(TypedDict):
-    """When the track reached a waypoint against the plan (s from the cycle start)."""
+    """When the track reached a waypoint against the plan (s from the cycle start), and what
+    timed the plan there: the planner's own slot times (``"slots"``: the service cycle of a
+    plan that carries them) or the commanded speeds with no acceleration (``"commanded"``:
+    every leg of a plan without them, and the transit and landing after the cycle)."""
 
     leg: int
     item: int
     planned_s: float
     flown_s: float | None  # None: never reached
     lag_s: float | None
+    timed_by: Literal["slots", "commanded"]
 
 
 @dataclass(frozen=True)
@@ -110,8 +114,13 @@ class TrackReport:
 
     @property
     def max_lag_s(self) -> float:
-        lags_s = [w["lag_s"] for w in self.waypoint_lag if w["lag_s"] is not None]
-        return max(lags_s, default=math.nan)
+        """The most the track lags the plan's timing (s), over the waypoints the planner's
+        slot times time when there are any (the transit and landing after the cycle are timed
+        only at commanded speeds, which no vehicle flies), else over every waypoint; NaN if
+        none was reached."""
+        lags = [w for w in self.waypoint_lag if w["lag_s"] is not None]
+        slots = [w for w in lags if w["timed_by"] == "slots"]
+        return max((w["lag_s"] or 0.0 for w in slots or lags), default=math.nan)
 
     def as_dict(self) -> dict[str, object]:
         return {
@@ -285,8 +294,9 @@ def score_track(
     lags: list[WaypointLag] = []
     for li, leg in enumerate(flight.legs):
         flown_t = track.leg_reached_s[li] - t0
+        timed_by: Literal["slots", "commanded"] = "commanded"
         if slot_times is not None and li in slot_times:
-            plan_t = slot_times[li]
+            plan_t, timed_by = slot_times[li], "slots"
         elif slot_times is not None and li > max(slot_times):  # after the cycle: ideal legs
             end = max(slot_times)
             plan_t = slot_times[end] + reference.leg_reached_s[li] - reference.leg_reached_s[end]
@@ -294,7 +304,8 @@ def score_track(
             plan_t = reference.leg_reached_s[li] - r0
         lag = None if math.isnan(flown_t) or math.isnan(plan_t) else float(flown_t - plan_t)
         lags.append({"leg": li, "item": leg.item, "planned_s": float(plan_t),
-                     "flown_s": None if math.isnan(flown_t) else float(flown_t), "lag_s": lag})
+                     "flown_s": None if math.isnan(flown_t) else float(flown_t), "lag_s": lag,
+                     "timed_by": timed_by})
 
     xt = _cross_track(flight, track)
     xt_ok = xt[~np.isnan(xt)]
