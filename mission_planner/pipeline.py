@@ -360,7 +360,7 @@ def position_loss_drift_warning(mission: Mission) -> str | None:
             f"with the wind while ArduCopter's EKF failsafe lands without a position: from "
             f"{legs} leg(s) it may enter {zones} (up to "
             f"{max(-f.clearance_m for f in drifting):.1f} m deep), and no buffer keeps that "
-            f"clear; validate-mission --params lists the legs")
+            f"clear; validate-mission --params --report lists the legs")
 
 
 def _replayed_min_rate(mission: Mission) -> float:

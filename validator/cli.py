@@ -231,23 +231,32 @@ def _failsafe_lines(v: Validation) -> list[str]:
 
 
 def _failsafe_summary(v: Validation) -> list[Finding]:
-    """The failsafe findings for the table: the deepest per parameter and zone (the JSON
-    report lists every leg)."""
+    """The failsafe findings for the table: per parameter and zone the deepest path, per zone
+    the deepest coast after a GPS loss (the JSON report lists every leg)."""
     if v.failsafe is None:
         return []
-    worst: dict[tuple[str, str], tuple[float, int]] = {}
-    all_findings = v.failsafe_findings
-    for i, f in enumerate(v.failsafe.findings):
-        key = (f.param, f.zone)
-        if key not in worst or f.clearance_m < worst[key][0]:
-            worst[key] = (f.clearance_m, i)
+    fs, all_findings = v.failsafe, v.failsafe_findings
+    paths = _deepest(all_findings, [((f.param, f.zone), f.clearance_m) for f in fs.findings])
+    notes = all_findings[len(fs.findings):len(all_findings) - len(fs.position_loss)]
+    coasts = _deepest(all_findings[len(all_findings) - len(fs.position_loss):],
+                      [(f.zone, f.clearance_m) for f in fs.position_loss])
+    return paths + notes + coasts
+
+
+def _deepest(findings: list[Finding], keyed: list[tuple[object, float]]) -> list[Finding]:
+    """Of ``findings`` (each with its group key and clearance in ``keyed``), the deepest of
+    each group, saying from how many more legs the group's other findings come."""
+    worst: dict[object, int] = {}
+    for i, (key, clearance_m) in enumerate(keyed):
+        if key not in worst or clearance_m < keyed[worst[key]][1]:
+            worst[key] = i
     out = []
-    for (param, zone), (_, i) in worst.items():
-        more = sum(1 for f in v.failsafe.findings if (f.param, f.zone) == (param, zone)) - 1
-        g = all_findings[i]
+    for key, i in worst.items():
+        more = sum(1 for k, _ in keyed if k == key) - 1
+        g = findings[i]
         out.append(Finding(g.severity, g.message + (f" (and from {more} more leg(s))"
                                                     if more else ""), g.item))
-    return out + all_findings[len(v.failsafe.findings):]
+    return out
 
 
 # --------------------------------------------------------------------------------------------

@@ -175,6 +175,28 @@ def test_without_a_parameter_file_there_is_no_failsafe_audit():
     assert v.failsafe is None and v.exit_status == 0
 
 
+def test_the_text_lists_the_deepest_coast_per_zone_and_the_report_every_leg(tmp_path, capsys):
+    """In wind a GPS loss's coast reaches zones from dozens of legs: the text says the deepest
+    per zone and from how many more legs (as it does the failsafe paths); the JSON report
+    keeps every leg."""
+    plan, site = DATA / "plans/realistic-ardupilot.plan", DATA / "sites/realistic.yaml"
+    out = tmp_path / "r.json"
+    validate_mission_main([str(plan), "--site", str(site), "--params",
+                           str(DATA / "params/realistic-ardupilot-planned.param"),
+                           "--wind", "6@270", "--report", str(out)])
+    coasts = json.loads(out.read_text())["failsafe"]["position_loss"]
+    lines = [line for line in capsys.readouterr().out.splitlines() if "GPS loss: from" in line]
+    zones = {c["zone"] for c in coasts}
+    assert len(coasts) > len(zones) and len(lines) == len(zones)
+    for zone in zones:
+        of = [c for c in coasts if c["zone"] == zone]
+        deepest = min(of, key=lambda c: c["clearance_m"])
+        line = next(x for x in lines if f"may enter {zone} " in x)
+        assert f"{-deepest['clearance_m']:.2f} m deep" in line
+        more = f"(and from {len(of) - 1} more leg(s))"
+        assert line.endswith(more) if len(of) > 1 else "more leg" not in line
+
+
 def test_the_failsafe_table_points_the_gps_loss_row_at_its_coast(tmp_path, capsys):
     """The row of the failsafe that acts after a GPS loss (EKF3's; with drag fusion the
     dead-reckoning one) says how many legs' coasts reach a zone, not just 'clear'."""
