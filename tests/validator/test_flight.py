@@ -1,3 +1,4 @@
+import dataclasses
 import re
 
 import numpy as np
@@ -53,6 +54,26 @@ def test_do_jump_to_a_missing_item_is_bad_input(site):
     items = [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), jump(40, 1)]
     with pytest.raises(InputError, match=r"item 1 \(DO_JUMP\): target 41"):
         resolve_flight(plan_of(site, items), site)
+
+
+def test_a_home_of_0_0_is_bad_input_not_a_leg_across_the_globe(site):
+    # a leg of 4,600 km from 0°, 0° to the site took the replay and the depth steps of the
+    # audit to tens of GB (a plan downloaded from a SITL with no home yet)
+    plan = dataclasses.replace(waypoint_plan(site, [(50, -40)]), home_lat_deg=0.0,
+                               home_lon_deg=0.0)
+    with pytest.raises(InputError, match=r"^plan: plannedHomePosition at 0°, 0°: no home"):
+        resolve_flight(plan, site)
+
+
+def test_a_plan_for_another_site_is_bad_input_naming_the_item(site):
+    plan = waypoint_plan(site, [(50, -40), (150_000, 0)])
+    far = next(i for i, it in enumerate(plan.items) if it.params[5] > site.frame.lon0_deg + 1)
+    with pytest.raises(InputError, match=rf"^plan: item {far} at \(.*\), 150 km from the "
+                                         r"origin of site .* \(beyond 100 km\)"):
+        resolve_flight(plan, site)
+    rally = waypoint_plan(site, [(50, -40)], rally=[(0, 120_000)])
+    with pytest.raises(InputError, match=r"^plan: rally point 0 at .* 120 km from"):
+        resolve_flight(rally, site)
 
 
 def test_rtl_flies_straight_to_the_nearest_of_home_and_rally(site):

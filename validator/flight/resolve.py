@@ -39,6 +39,11 @@ from validator.flight.service import ServicePlan, parse_service
 from validator.plan_format import Cmd, Frame, MissionItem, Plan
 from validator.site import Site
 
+# No multicopter mission reaches this far from its site's origin (m): a position beyond it is
+# a plan for another site, or a home of 0°, 0° (a vehicle that had none yet), and measuring
+# a leg thousands of km long would exhaust the memory (replay samples, depth steps)
+MAX_REACH_M = 100_000.0
+
 MAX_LEGS = 200_000  # a resolved mission longer than this is a runaway loop, not a flight
 FOREVER_REPEATS = 1  # a DO_JUMP that repeats forever is resolved with this many repeats
 
@@ -110,18 +115,16 @@ class _Resolver:
         self.plan = plan
         self.site = site
         self.source = source
-        home = site.frame.to_local(plan.home_lat_deg, plan.home_lon_deg)
-        self.home_xy = np.asarray(home, dtype=float)
+        self._idx = 0  # the item being resolved, for error messages
+        self.home_xy = self.local(plan.home_lat_deg, plan.home_lon_deg, "plannedHomePosition")
         self.state = _State(self.home_xy.copy(), 0.0, None, self.home_xy.copy())
         self.legs: list[Leg] = []
         self.findings: list[Finding] = []
         self.fence_disabled: list[int] = []
         self.pending_first: int | None = None  # first item executed since the last leg
         self.reported: set[tuple[int, str]] = set()
-        self.rally_xy = [
-            np.asarray(site.frame.to_local(lat, lon), dtype=float) for lat, lon, _ in plan.rally
-        ]
-        self._idx = 0  # the item being resolved, for error messages
+        self.rally_xy = [self.local(lat, lon, f"rally point {k}")
+                         for k, (lat, lon, _) in enumerate(plan.rally)]
 
     def find(self, severity: Severity, message: str, item: int | None) -> None:
         key = (item if item is not None else -1, message)
@@ -130,6 +133,20 @@ class _Resolver:
             self.findings.append(Finding(severity, message, item))
 
     # -- helpers ----------------------------------------------------------------------------
+    def local(self, lat: float, lon: float, what: str) -> NDArray[np.float64]:
+        """``what``'s position (degrees) in the site's frame (m); :class:`InputError` beyond
+        :data:`MAX_REACH_M` of the origin."""
+        xy = np.asarray(self.site.frame.to_local(lat, lon), dtype=float)
+        far_m = float(np.hypot(*xy))
+        if far_m > MAX_REACH_M:
+            why = ("0°, 0°: no home (a vehicle without one yet writes that); set it to where "
+                   "the vehicle takes off" if lat == 0.0 and lon == 0.0 else
+                   f"({lat:.6f}, {lon:.6f}), {far_m / 1000:,.0f} km from the origin of site "
+                   f"{self.site.name!r} (beyond {MAX_REACH_M / 1000:g} km): a plan for "
+                   "another site?")
+            raise InputError(f"{self.source}: {what} at {why}")
+        return xy
+
     def position(self, it: MissionItem) -> NDArray[np.float64]:
         lat, lon = it.params[4], it.params[5]
         if math.isnan(lat) or math.isnan(lon) or (lat == 0.0 and lon == 0.0):
@@ -138,7 +155,7 @@ class _Resolver:
             raise InputError(
                 f"{self.source}: item {self._idx}: latitude/longitude ({lat}, {lon}) out of range"
             )
-        return np.asarray(self.site.frame.to_local(lat, lon), dtype=float)
+        return self.local(lat, lon, f"item {self._idx}")
 
     def altitude(self, it: MissionItem, i: int, *, zero_is_current: bool) -> float:
         alt = it.params[6]

@@ -223,13 +223,15 @@ def wire_to_plan(
     """A plan from the three lists a vehicle holds.
 
     With ``home_item`` (ArduPilot) seq 0 is the vehicle's home and becomes the plan's
-    ``plannedHomePosition``; otherwise ``home`` (lat, lon, alt AMSL) is used, or the first
-    positioned item at altitude 0 when the vehicle reported none.
+    ``plannedHomePosition``; otherwise (and when seq 0 is at 0°, 0°: a vehicle without a home
+    yet) ``home`` (lat, lon, alt AMSL) is used, or the first positioned item at altitude 0
+    when the vehicle reported none.
     """
     decoded = ItemLists(_from_wire(lists.mission), _from_wire(lists.fence),
                         _from_wire(lists.rally))
     items, first = mission_from_items(decoded.mission, home_item=home_item)
-    home = first or home
+    if first is not None and (first[0], first[1]) != (0.0, 0.0):
+        home = first
     if home is None:
         pos = [w for w in lists.mission if w.frame in GLOBAL_FRAMES and (w.x or w.y)]
         home = ((float(from_int_e7(pos[0].x)), float(from_int_e7(pos[0].y)), 0.0) if pos

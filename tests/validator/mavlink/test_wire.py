@@ -80,6 +80,23 @@ def test_plan_survives_the_wire_to_int32_precision(plan, home_item):
                         home=home).items[2].params[4] == back.items[2].params[4]
 
 
+def test_an_ardupilot_home_of_0_0_is_no_home_and_the_first_waypoint_stands_in(plan):
+    """ArduPilot reads back seq 0 at 0°, 0° until it has a home (a SITL without a GPS fix
+    yet): that is no position, and the plan's home is the vehicle's HOME_POSITION if it
+    said one, else the first positioned item at altitude 0."""
+    import dataclasses
+
+    wire = plan_to_wire(plan, home_item=True)
+    nowhere = dataclasses.replace(wire.mission[0], x=0, y=0)
+    lists = dataclasses.replace(wire, mission=[nowhere, *wire.mission[1:]])
+    back = wire_to_plan(lists, home_item=True)
+    first = next(w for w in wire.mission[1:] if w.x or w.y)
+    assert (back.home_lat_deg, back.home_lon_deg) == pytest.approx((first.x / 1e7,
+                                                                    first.y / 1e7))
+    said = wire_to_plan(lists, home_item=True, home=(1.0, 2.0, 3.0))
+    assert (said.home_lat_deg, said.home_lon_deg, said.home_alt_m) == (1.0, 2.0, 3.0)
+
+
 def test_latitude_out_of_range_names_the_item(plan):
     plan.items[2].params[4] = 95.0
     with pytest.raises(InputError, match=r"mission.items\[2\]: latitude 95.0"):
