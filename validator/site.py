@@ -72,6 +72,10 @@ MAX_PERIOD_S = 1e7
 MAX_ACCEL_MPS2 = 1e3
 MAX_JERK_MPS3 = 1e4
 MAX_DB = 300.0  # |dBm| and |dB| of the radio figures
+# No multicopter mission reaches this far from its site's origin (m): home, a node or a plan's
+# position beyond it is a typo or a plan for another site, and a leg thousands of km long
+# would exhaust the memory (replay samples, depth steps)
+MAX_REACH_M = 100_000.0
 
 
 class _Strict(BaseModel):
@@ -399,6 +403,11 @@ def site_from_model(model: SiteModel, source: str = "site", *,
     frame = LocalFrame(model.origin.lat, model.origin.lon, model.origin.alt)
     gn_xy = np.array([_resolve(frame, g) for g in model.ground_nodes], dtype=float)
     home = _resolve(frame, model.home) if model.home else np.zeros(2)
+    for where, xy in [("home", home), *((f"ground_nodes[{i}] ({g.name})", gn_xy[i])
+                                         for i, g in enumerate(model.ground_nodes))]:
+        if np.hypot(*xy) > MAX_REACH_M:
+            raise InputError(f"{source}: {where}: {np.hypot(*xy) / 1000:,.0f} km from the "
+                             f"origin, beyond the {MAX_REACH_M / 1000:g} km a mission reaches")
     seen: set[str] = set()
     for i, g in enumerate(model.ground_nodes):
         if g.name in seen:

@@ -260,6 +260,18 @@ def test_rejects_a_gn_inside_a_polygon_and_home_in_its_buffer() -> None:
     _rejects(data, "home lies inside CTR plus its 2 m safety buffer")
 
 
+def test_a_home_or_node_beyond_a_missions_reach_is_refused() -> None:
+    data = _base()
+    data["ground_nodes"][0] = {"name": "GN1", "x": 500_000.0, "y": 0.0}  # a typo: 500 km
+    _rejects(data, "site.yaml: ground_nodes[0] (GN1): 500 km from the origin, beyond the 100 km")
+    data = _base()
+    data["home"] = {"lat": data["origin"]["lat"] + 1.0, "lon": data["origin"]["lon"]}
+    _rejects(data, "site.yaml: home: 111 km from the origin")
+    data = _base()
+    data["ground_nodes"][0] = {"name": "GN1", "x": 99_000.0, "y": 0.0}
+    assert parse_site(data).gn_xy_m[0, 0] == 99_000.0
+
+
 def test_duplicate_zone_names_across_circles_and_polygons() -> None:
     data = _with_polygon()
     data["no_fly_zones"][1]["name"] = "NFZ1"

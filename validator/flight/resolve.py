@@ -37,12 +37,7 @@ from validator.errors import InputError
 from validator.flight.model import CycleSpan, Finding, Flight, Leg, LegKind, Severity
 from validator.flight.service import ServicePlan, parse_service
 from validator.plan_format import Cmd, Frame, MissionItem, Plan
-from validator.site import Site
-
-# No multicopter mission reaches this far from its site's origin (m): a position beyond it is
-# a plan for another site, or a home of 0°, 0° (a vehicle that had none yet), and measuring
-# a leg thousands of km long would exhaust the memory (replay samples, depth steps)
-MAX_REACH_M = 100_000.0
+from validator.site import MAX_REACH_M, Site
 
 MAX_LEGS = 200_000  # a resolved mission longer than this is a runaway loop, not a flight
 FOREVER_REPEATS = 1  # a DO_JUMP that repeats forever is resolved with this many repeats
@@ -135,7 +130,8 @@ class _Resolver:
     # -- helpers ----------------------------------------------------------------------------
     def local(self, lat: float, lon: float, what: str) -> NDArray[np.float64]:
         """``what``'s position (degrees) in the site's frame (m); :class:`InputError` beyond
-        :data:`MAX_REACH_M` of the origin."""
+        :data:`~validator.site.MAX_REACH_M` of the origin (a plan for another site, or a home
+        of 0°, 0°: a vehicle that had none yet)."""
         xy = np.asarray(self.site.frame.to_local(lat, lon), dtype=float)
         far_m = float(np.hypot(*xy))
         if far_m > MAX_REACH_M:
