@@ -63,7 +63,9 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="nfz-study", description=__doc__.split("\n")[0] if __doc__ else None,
+    parser = _Parser(prog="nfz-study",
+                     description="The paper's Fig. 3 and Fig. 4 (one site; Monte-Carlo sweeps of "
+                                 "NFZ radius and count),\nand a sweep of winds.",
                      epilog=EXIT_STATUS, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     raw = argparse.RawDescriptionHelpFormatter
