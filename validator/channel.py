@@ -9,6 +9,16 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 
+def dbm_to_w(dbm: float) -> float:
+    """A power in dBm as watts."""
+    return float(10.0 ** ((dbm - 30.0) / 10.0))
+
+
+def db_to_linear(db: float) -> float:
+    """A gain in dB as a ratio."""
+    return float(10.0 ** (db / 10.0))
+
+
 def spectral_efficiency(
     uav_xy_m: ArrayLike,
     gn_xy_m: ArrayLike,

@@ -41,6 +41,7 @@ from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from validator.autopilot.ardupilot import PARAMS as ARDUPILOT_PARAMS
+from validator.channel import db_to_linear, dbm_to_w
 from validator.errors import InputError
 from validator.geodesy import LocalFrame
 from validator.input_files import (
@@ -271,14 +272,6 @@ class Site:
         if wind is None:
             return self
         return self.with_limits(wind=None if wind.calm else wind)
-
-
-def dbm_to_w(dbm: float) -> float:
-    return float(10.0 ** ((dbm - 30.0) / 10.0))
-
-
-def db_to_linear(db: float) -> float:
-    return float(10.0 ** (db / 10.0))
 
 
 def _resolve(frame: LocalFrame, p: PointModel | NoFlyZoneModel) -> NDArray[np.float64]:
