@@ -9,6 +9,7 @@ from __future__ import annotations
 import copy
 import json
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -164,6 +165,28 @@ def test_million_mission_items_are_refused() -> None:
     data["mission"]["items"] = [{}] * 1_000_000
     with pytest.raises(InputError, match="1000000 entries, at most 65535"):
         loads_plan(json.dumps(data), "p.plan")
+
+
+@pytest.mark.parametrize("command, index, value, says", [
+    (16, 0, 1e9, "a 1e+09 s hold"),  # NAV_WAYPOINT param1: seconds
+    (178, 1, 1e-6, "m at 1e-06 m/s"),  # DO_CHANGE_SPEED param2: m/s
+])
+def test_a_mission_of_more_than_a_day_is_refused_before_it_is_sampled(command, index, value,
+                                                                      says) -> None:
+    # sampled every 0.05 s these took 20 to 149 GB (a traceback, or the kernel's kill)
+    from validator.motion.limits import site_limits
+    from validator.motion.profile import make_profile
+    from validator.replay import replay
+
+    data = copy.deepcopy(PLAN_DICT)
+    k = next(i for i, it in enumerate(data["mission"]["items"]) if it["command"] == command)
+    data["mission"]["items"][k]["params"][index] = value
+    plan = loads_plan(json.dumps(data), "p.plan")
+    flight = resolve_flight(plan, SITE, "p.plan")
+    refusal = rf"^plan: item \d+: .*{re.escape(says)}.*beyond a day"
+    for name in ("ideal", "arducopter", "px4"):
+        with pytest.raises(InputError, match=refusal):
+            replay(flight, make_profile(name, site_limits(SITE)))
 
 
 def test_yaml_alias_bomb_is_refused() -> None:
