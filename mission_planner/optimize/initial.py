@@ -27,6 +27,7 @@ from shapely.geometry.base import BaseGeometry
 from shapely.ops import nearest_points, unary_union
 
 from mission_planner.optimize.scaled import Scaled
+from validator.errors import InputError
 from validator.geometry import expanded_radius
 from validator.zones import FENCE_MITRE_LIMIT, leg_separation
 
@@ -178,7 +179,10 @@ def _hub(sc: Scaled, zones: BaseGeometry) -> NDArray[np.float64]:
         for p in cands:
             if zones.is_empty or not zones.intersects(Point(p)):
                 return np.asarray(p, dtype=float)
-    raise RuntimeError("no point outside the no-fly zones near the ground nodes")
+    raise InputError(
+        f"uav.slots: in {sc.num_slots} slots of {sc.slot_s:g} s (uav.period {sc.period_s:g} s) "
+        "a slot's straight leg is so long that the zones, expanded to keep every leg clear, "
+        "cover the ground nodes: more slots or a shorter period")
 
 
 def _feasible(sc: Scaled, q: NDArray[np.float64], delta: float, radii: NDArray[np.float64]) -> bool:

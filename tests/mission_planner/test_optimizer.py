@@ -159,6 +159,17 @@ def test_conventional_scheme_cuts_through_an_nfz_the_proposed_one_avoids() -> No
     assert proposed.nfz_clearance_min_m >= 0.0
 
 
+def test_slots_so_long_that_the_expanded_zones_cover_the_nodes_are_refused() -> None:
+    # 50 slots of 4000 s at 30 m/s: a slot's leg may be 120 km long, and the zones expanded
+    # to keep it clear swallow the site (a RuntimeError's traceback before)
+    site = _site([{"name": "GN1", "x": -100.0, "y": 0.0}, {"name": "GN2", "x": 100.0, "y": 0.0}],
+                 [{"name": "NFZ1", "x": 0.0, "y": 0.0, "radius": 30.0}], slots=50,
+                 period=200_000.0)
+    with pytest.raises(InputError, match=r"^uav.slots: in 50 slots of 4000 s \(uav.period "
+                                         r"200000 s\) .* more slots or a shorter period"):
+        plan(site, "proposed", options=FAST)
+
+
 def test_unknown_scheme_is_refused() -> None:
     with pytest.raises(InputError, match="scheme"):
         plan(random_site(1, slots=8), "shortest")
