@@ -63,6 +63,10 @@ def test_a_home_of_0_0_is_bad_input_not_a_leg_across_the_globe(site):
                                home_lon_deg=0.0)
     with pytest.raises(InputError, match=r"^plan: plannedHomePosition at 0°, 0°: no home"):
         resolve_flight(plan, site)
+    rally = dataclasses.replace(waypoint_plan(site, [(50, -40)]), rally=[(0.0, 0.0, 30.0)])
+    with pytest.raises(InputError, match=r"^plan: rally point 0 at \(0.000000, 0.000000\), "
+                                         r".* a plan for another site\?"):
+        resolve_flight(rally, site)
 
 
 def test_a_plan_for_another_site_is_bad_input_naming_the_item(site):

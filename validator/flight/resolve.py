@@ -39,6 +39,8 @@ from validator.flight.service import ServicePlan, parse_service
 from validator.plan_format import Cmd, Frame, MissionItem, Plan
 from validator.site import MAX_REACH_M, Site
 
+HOME = "plannedHomePosition"  # the plan's home, as QGroundControl's .plan names it
+
 MAX_LEGS = 200_000  # a resolved mission longer than this is a runaway loop, not a flight
 FOREVER_REPEATS = 1  # a DO_JUMP that repeats forever is resolved with this many repeats
 
@@ -111,7 +113,7 @@ class _Resolver:
         self.site = site
         self.source = source
         self._idx = 0  # the item being resolved, for error messages
-        self.home_xy = self.local(plan.home_lat_deg, plan.home_lon_deg, "plannedHomePosition")
+        self.home_xy = self.local(plan.home_lat_deg, plan.home_lon_deg, HOME)
         self.state = _State(self.home_xy.copy(), 0.0, None, self.home_xy.copy())
         self.legs: list[Leg] = []
         self.findings: list[Finding] = []
@@ -136,7 +138,7 @@ class _Resolver:
         far_m = float(np.hypot(*xy))
         if far_m > MAX_REACH_M:
             why = ("0°, 0°: no home (a vehicle without one yet writes that); set it to where "
-                   "the vehicle takes off" if lat == 0.0 and lon == 0.0 else
+                   "the vehicle takes off" if what == HOME and lat == lon == 0.0 else
                    f"({lat:.6f}, {lon:.6f}), {far_m / 1000:,.0f} km from the origin of site "
                    f"{self.site.name!r} (beyond {MAX_REACH_M / 1000:g} km): a plan for "
                    "another site?")
