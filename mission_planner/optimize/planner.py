@@ -48,6 +48,10 @@ def plan(
     if not opt.wind_paths or set(opt.wind_paths) - set(WIND_PATHS):
         raise InputError(f"wind_paths: expected some of {', '.join(WIND_PATHS)}, "
                          f"got {opt.wind_paths!r}")
+    if site.slots < site.num_gns:  # (9)-(10): one node per slot; a node without one gets 0
+        raise InputError(f"uav.slots: {site.slots} slot(s) for {site.num_gns} ground nodes: "
+                         f"the schedule serves one node per slot, so the min rate would be 0; "
+                         f"give at least {site.num_gns}")
     wind = site.flight_wind
     if wind is not None:  # a wind the vehicle cannot fly against has no plan
         from validator.motion.speed_model import commanded_top_speed_mps, cruise_speed_mps

@@ -44,6 +44,8 @@ class Fig4Config:
             raise InputError(f"--slots: must be >= 2, got {self.slots}")
         if self.num_gns < 1:
             raise InputError(f"--gns: must be >= 1, got {self.num_gns}")
+        if self.slots < self.num_gns:  # one node per slot: the planner refuses fewer
+            raise InputError(f"--slots: must be >= --gns ({self.num_gns}), got {self.slots}")
         if not self.radius_m > 0:
             raise InputError(f"--radius: must be > 0 m, got {self.radius_m}")
         if self.num_nfzs < 0:

@@ -170,6 +170,13 @@ def test_slots_so_long_that_the_expanded_zones_cover_the_nodes_are_refused() -> 
         plan(site, "proposed", options=FAST)
 
 
+def test_fewer_slots_than_nodes_are_refused() -> None:
+    # one node per slot (the paper's (9)-(10)): a node left without a slot is served 0
+    with pytest.raises(InputError, match=r"^uav.slots: 2 slot\(s\) for 4 ground nodes: .* "
+                                         r"give at least 4$"):
+        plan(random_site(1, slots=2), "proposed", options=FAST)
+
+
 def test_unknown_scheme_is_refused() -> None:
     with pytest.raises(InputError, match="scheme"):
         plan(random_site(1, slots=8), "shortest")

@@ -73,6 +73,7 @@ def test_fig4_design_takes_trials_outermost() -> None:
         ({"radii_m": (10.0, -5.0)}, "--radii"),
         ({"counts": (-1,)}, "--counts"),
         ({"slots": 1}, "--slots"),
+        ({"slots": 3, "num_gns": 4}, "--slots: must be >= --gns"),
         ({"seed": -2}, "--seed"),
         ({"buffer_m": -1.0}, "--buffer-m"),
     ],
