@@ -105,19 +105,17 @@ def _track_lines(title: str, rep: TrackReport) -> list[str]:
             f"= {c.ratio:.2f} x planned"
         )
     lags = [w for w in rep.waypoint_lag if w["lag_s"] is not None]
-    slots = [w for w in lags if w["timed_by"] == "slots"]
-    if slots:
-        worst = max(slots, key=lambda w: w["lag_s"] or 0.0)  # None filtered out above
-        line = (f"  lag behind the planner's slot times: max {worst['lag_s']:.1f} s "
+    worst = rep.worst_lag
+    if worst is not None and worst["timed_by"] == "slots":
+        line = (f"  lag behind the planner's slot times: max {rep.max_lag_s:.1f} s "
                 f"(item {worst['item']})")
         if lags[-1]["timed_by"] == "commanded":  # the landing: no slot times it
             line += (f"; at the last waypoint {lags[-1]['lag_s']:.1f} s behind the commanded "
                      "speeds flown without acceleration")
         lines.append(line)
-    elif lags:
-        worst = max(lags, key=lambda w: w["lag_s"] or 0.0)
+    elif worst is not None:
         lines.append(f"  lag behind the commanded speeds flown without acceleration: max "
-                     f"{worst['lag_s']:.1f} s (item {worst['item']}), at the last waypoint "
+                     f"{rep.max_lag_s:.1f} s (item {worst['item']}), at the last waypoint "
                      f"{lags[-1]['lag_s']:.1f} s")
     lines.append(f"  cross-track deviation from the legs: max {rep.cross_track_max_m:.2f} m, "
                  f"rms {rep.cross_track_rms_m:.2f} m; top speed {rep.speed_max_mps:.1f} m/s")

@@ -113,14 +113,20 @@ class TrackReport:
         return [f for f in self.findings if f.severity == "violation"]
 
     @property
-    def max_lag_s(self) -> float:
-        """The most the track lags the plan's timing (s), over the waypoints the planner's
+    def worst_lag(self) -> WaypointLag | None:
+        """The waypoint the track lags the plan's timing most at, among those the planner's
         slot times time when there are any (the transit and landing after the cycle are timed
-        only at commanded speeds, which no vehicle flies), else over every waypoint; NaN if
+        only at commanded speeds, which no vehicle flies), else among every waypoint; None if
         none was reached."""
         lags = [w for w in self.waypoint_lag if w["lag_s"] is not None]
         slots = [w for w in lags if w["timed_by"] == "slots"]
-        return max((w["lag_s"] or 0.0 for w in slots or lags), default=math.nan)
+        return max(slots or lags, key=lambda w: w["lag_s"] or 0.0, default=None)
+
+    @property
+    def max_lag_s(self) -> float:
+        """:attr:`worst_lag`'s lag (s); NaN if no waypoint was reached."""
+        worst = self.worst_lag
+        return math.nan if worst is None or worst["lag_s"] is None else worst["lag_s"]
 
     def as_dict(self) -> dict[str, object]:
         return {
