@@ -183,7 +183,7 @@ def test_a_mission_of_more_than_a_day_is_refused_before_it_is_sampled(command, i
     data["mission"]["items"][k]["params"][index] = value
     plan = loads_plan(json.dumps(data), "p.plan")
     flight = resolve_flight(plan, SITE, "p.plan")
-    refusal = rf"^plan: item \d+: .*{re.escape(says)}.*beyond a day"
+    refusal = rf"^p\.plan: item \d+: .*{re.escape(says)}.*beyond a day"
     for name in ("ideal", "arducopter", "px4"):
         with pytest.raises(InputError, match=refusal):
             replay(flight, make_profile(name, site_limits(SITE)))

@@ -105,7 +105,8 @@ class CycleSpan:
 
 @dataclass(frozen=True)
 class Flight:
-    """A plan resolved into legs (conventions: :mod:`validator.flight.resolve`)."""
+    """A plan resolved into legs (conventions: :mod:`validator.flight.resolve`); ``source``
+    names the plan's file in errors about it."""
 
     legs: tuple[Leg, ...]
     home_xy_m: NDArray[np.float64]
@@ -114,6 +115,7 @@ class Flight:
     cycle: CycleSpan | None
     service: ServicePlan | None
     fence_disabled_at: tuple[int, ...] = field(default=())
+    source: str = "plan"
 
     @property
     def path_xy_m(self) -> NDArray[np.float64]:

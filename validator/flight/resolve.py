@@ -426,4 +426,5 @@ def resolve_flight(plan: Plan, site: Site, source: str = "plan") -> Flight:
         cycle=cycle,
         service=service,
         fence_disabled_at=tuple(r.fence_disabled),
+        source=source,
     )

@@ -32,7 +32,7 @@ MAX_MISSION_S = 86_400.0
 def fly(flight: Flight, profile: Profile, *, dt_s: float = REPLAY_STEP_S) -> FlownPath:
     """Fly ``flight`` with ``profile``, sampled every ``dt_s`` seconds (and at the very end)."""
     if not flight.legs:
-        raise InputError("plan: nothing to replay (no navigation items)")
+        raise InputError(f"{flight.source}: nothing to replay (no navigation items)")
     if not dt_s > 0:
         raise InputError(f"--dt: must be > 0, got {dt_s}")
     _check_duration(flight)
@@ -55,7 +55,7 @@ def _check_duration(flight: Flight) -> None:
     leg = flight.legs[k]
     how = (f"a {leg.hold_s:g} s hold" if leg.hold_s >= each[k] / 2 else
            f"{leg.length_m:.0f} m at {leg.speed_mps:g} m/s")
-    raise InputError(f"plan: item {leg.item}: {how}: the mission would fly over "
+    raise InputError(f"{flight.source}: item {leg.item}: {how}: the mission would fly over "
                      f"{sum(each):,.0f} s, beyond a day ({MAX_MISSION_S:g} s)")
 
 
