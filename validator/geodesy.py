@@ -24,6 +24,21 @@ E7_ROUNDING_MAX_M = 0.5 / E7 * 111_700.0 * math.sqrt(2.0)
 # clearance of legs and transits, and the polygon fence's growth before rounding (m).
 E7_ROUNDING_MARGIN_M = 0.01
 assert E7_ROUNDING_MARGIN_M > E7_ROUNDING_MAX_M
+# How near a pole a site may be anchored (degrees): toward a pole longitude stops meaning east
+# (a 1 km leg east at 89.9° spans 10° of it), ArduPilot's flat-earth navigation floors its
+# longitude scale cos(lat) at 0.01 (89.4°) and misplaces every point east of home beyond, and
+# the view's map tiles (Web Mercator) end at 85.05°. No settled place lies beyond 82.5°.
+MAX_LAT_DEG = 85.0
+
+
+def check_latitude(lat_deg: float) -> float:
+    """``lat_deg`` when a site can be anchored there; ValueError within 90 - MAX_LAT_DEG
+    degrees of a pole."""
+    if abs(lat_deg) > MAX_LAT_DEG:
+        raise ValueError(f"{lat_deg:g}° is within {90 - MAX_LAT_DEG:g}° of a pole, where "
+                         "autopilots' flat-earth navigation and the map end (at most "
+                         f"±{MAX_LAT_DEG:g}°)")
+    return lat_deg
 
 
 @dataclass(frozen=True)

@@ -33,17 +33,17 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
 import shapely
 from numpy.typing import NDArray
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from validator.autopilot.ardupilot import PARAMS as ARDUPILOT_PARAMS
 from validator.channel import db_to_linear, dbm_to_w
 from validator.errors import InputError
-from validator.geodesy import LocalFrame
+from validator.geodesy import LocalFrame, check_latitude
 from validator.input_files import (
     MAX_SITE_BYTES,
     check_tree,
@@ -85,7 +85,7 @@ class _Strict(BaseModel):
 
 
 class OriginModel(_Strict):
-    lat: float = Field(ge=-90, le=90)
+    lat: Annotated[float, AfterValidator(check_latitude)] = Field(ge=-90, le=90)
     lon: float = Field(ge=-180, le=180)
     alt: float = Field(default=0.0, ge=-MAX_ALT_M, le=MAX_ALT_M)
 

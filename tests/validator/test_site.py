@@ -272,6 +272,19 @@ def test_a_home_or_node_beyond_a_missions_reach_is_refused() -> None:
     assert parse_site(data).gn_xy_m[0, 0] == 99_000.0
 
 
+@pytest.mark.parametrize("lat", [90.0, -85.01])
+def test_an_origin_near_a_pole_is_refused(lat: float) -> None:
+    data = _base()
+    data["origin"]["lat"] = lat
+    _rejects(data, "site.yaml: origin.lat: ", f"{lat:g}° is within 5° of a pole")
+
+
+def test_an_origin_at_the_polar_bound_is_a_site() -> None:
+    data = _base()
+    data["origin"]["lat"] = 85.0
+    assert parse_site(data).frame.lat0_deg == 85.0
+
+
 def test_duplicate_zone_names_across_circles_and_polygons() -> None:
     data = _with_polygon()
     data["no_fly_zones"][1]["name"] = "NFZ1"
