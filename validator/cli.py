@@ -233,12 +233,10 @@ def _failsafe_summary(v: Validation) -> list[Finding]:
     the deepest coast after a GPS loss (the JSON report lists every leg)."""
     if v.failsafe is None:
         return []
-    fs, all_findings = v.failsafe, v.failsafe_findings
-    paths = _deepest(all_findings, [((f.param, f.zone), f.clearance_m) for f in fs.findings])
-    notes = all_findings[len(fs.findings):len(all_findings) - len(fs.position_loss)]
-    coasts = _deepest(all_findings[len(all_findings) - len(fs.position_loss):],
-                      [(f.zone, f.clearance_m) for f in fs.position_loss])
-    return paths + notes + coasts
+    fs = v.failsafe
+    paths, notes, coasts = v.failsafe_groups()
+    return (_deepest(paths, [((f.param, f.zone), f.clearance_m) for f in fs.findings]) + notes
+            + _deepest(coasts, [(f.zone, f.clearance_m) for f in fs.position_loss]))
 
 
 def _deepest(findings: list[Finding], keyed: list[tuple[object, float]]) -> list[Finding]:

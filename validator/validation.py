@@ -73,13 +73,19 @@ class Validation:
 
     @property
     def failsafe_findings(self) -> list[Finding]:
-        """Each failsafe path that enters a zone or its buffer: a violation unless forced."""
+        """Each failsafe path that enters a zone or its buffer: a violation unless forced; the
+        audit's notes; each coast after a GPS loss that does: a warning."""
+        return [f for group in self.failsafe_groups() for f in group]
+
+    def failsafe_groups(self) -> tuple[list[Finding], list[Finding], list[Finding]]:
+        """:attr:`failsafe_findings` in its three groups: the paths (one per
+        :attr:`FailsafeReport.findings`), the notes, the coasts (one per ``position_loss``)."""
         if self.failsafe is None:
-            return []
+            return [], [], []
         severity: Severity = "warning" if self.force else "violation"
-        return ([Finding(severity, f.message, f.item) for f in self.failsafe.findings]
-                + [Finding("note", n) for n in self.failsafe.notes]
-                + [Finding("warning", f.message, f.item) for f in self.failsafe.position_loss])
+        return ([Finding(severity, f.message, f.item) for f in self.failsafe.findings],
+                [Finding("note", n) for n in self.failsafe.notes],
+                [Finding("warning", f.message, f.item) for f in self.failsafe.position_loss])
 
     @property
     def violations(self) -> list[Finding]:
