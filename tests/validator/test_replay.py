@@ -194,6 +194,41 @@ def test_a_return_after_the_vehicle_left_the_mission_is_no_cycle_flown(site, ser
     assert rec.nfz[0].clearance_m == pytest.approx(counted.nfz[0].clearance_m, abs=1e-9)
 
 
+def test_a_track_that_left_the_mission_is_timed_from_its_cycle_start(site, service):
+    """A recording that completes no cycle (a failsafe took the vehicle home in its last one)
+    counts its waypoint lags from where it started the cycle, as a complete one does. They
+    had counted from its first sample: every lag 37 s late by the take-off and transit
+    (ArduCopter 4.5.6 SITL, realistic.yaml, RC loss)."""
+    flight = resolve_flight(service, site)
+    t, xy, seq, left = _failsafe_return(site, flight)
+    whole = score_track(track_from_samples(flight, t, xy, seq), flight, site, service)
+    rec = score_track(track_from_samples(flight, t, xy, seq, left_mission_s=float(t[left])),
+                      flight, site, service)
+    assert whole.cycle is not None and rec.cycle is None
+    both = [(a["lag_s"], b["lag_s"]) for a, b in zip(whole.waypoint_lag, rec.waypoint_lag,
+                                                      strict=True) if b["lag_s"] is not None]
+    assert len(both) > 5
+    for counted, lag in both:
+        assert lag == pytest.approx(counted, abs=1e-9)
+
+
+def test_the_flight_after_the_vehicle_left_the_mission_is_no_cross_track_error(site, service):
+    """The cross-track deviation measures the mission's legs flown; a failsafe's own path,
+    here 80 m to the side, is scored for clearance only (it had read "max 87.53 m" after an
+    RC loss on ArduCopter 4.5.6 SITL)."""
+    flight = resolve_flight(service, site)
+    t, xy, seq, left = _failsafe_return(site, flight)
+    xy[left:] += np.linspace(0.0, 1.0, t.size - left)[:, None] * np.array([0.0, 80.0])
+    whole = score_track(track_from_samples(flight, t, xy, seq), flight, site, service)
+    rec = score_track(track_from_samples(flight, t, xy, seq, left_mission_s=float(t[left])),
+                      flight, site, service)
+    before = score_track(track_from_samples(flight, t[:left], xy[:left], seq[:left]), flight,
+                         site, service)
+    assert whole.cross_track_max_m > 20.0
+    assert rec.cross_track_max_m == pytest.approx(before.cross_track_max_m, abs=1e-9)
+    assert rec.cross_track_max_m < 5.0
+
+
 def test_a_track_file_keeps_when_the_vehicle_left_the_mission(site, service, tmp_path):
     """Scored again from its track file (``validate-mission --track``, ``score_recorded``),
     the same return is still no cycle flown: the file's ``left_mission`` column says when the

@@ -84,6 +84,18 @@ class CycleSpan:
     cycles: int
     source: str
 
+    def start_s(
+        self,
+        start_s: NDArray[np.float64],
+        reached_s: NDArray[np.float64],
+        done_s: NDArray[np.float64],
+    ) -> float:
+        """When the first cycle starts (s; NaN if it never did), from the same leg times as
+        :meth:`window_s`."""
+        if self.start_at_arrival:
+            return float(reached_s[self.start_leg])
+        return float(done_s[self.start_leg - 1] if self.start_leg > 0 else start_s[0])
+
     def window_s(
         self,
         start_s: NDArray[np.float64],
@@ -93,10 +105,7 @@ class CycleSpan:
         """When the cycles start and end (s), from each leg's start, arrival and completion
         times (a :class:`~validator.replay.Track`'s, or the ideal timing's); None when either
         never happened or the span is empty."""
-        if self.start_at_arrival:
-            start = reached_s[self.start_leg]
-        else:
-            start = done_s[self.start_leg - 1] if self.start_leg > 0 else start_s[0]
+        start = self.start_s(start_s, reached_s, done_s)
         end = done_s[self.end_leg]
         if math.isnan(start) or math.isnan(end) or end <= start:
             return None

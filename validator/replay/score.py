@@ -186,6 +186,23 @@ def _cycle_window(flight: Flight, track: Track) -> tuple[float, float] | None:
     return flight.cycle.window_s(track.leg_start_s, track.leg_reached_s, track.leg_done_s)
 
 
+def _clock_origins(flight: Flight, track: Track, reference: Track) -> tuple[float, float]:
+    """The times (s) on ``track``'s and ``reference``'s clocks that the waypoint lags count
+    from: where each starts the service cycle (the slot times' origin), whether or not it
+    completes one; a track that never got there counts from its first sample, as if it had
+    started with the reference."""
+    r0 = float(reference.t_s[0])
+    if flight.cycle is None:
+        return float(track.t_s[0]), r0
+    ref_start, start = (flight.cycle.start_s(tr.leg_start_s, tr.leg_reached_s, tr.leg_done_s)
+                        for tr in (reference, track))
+    if not math.isnan(ref_start):
+        r0 = ref_start
+    if math.isnan(start):
+        return float(track.t_s[0]) + r0 - float(reference.t_s[0]), r0
+    return start, r0
+
+
 def _per_cycle(flight: Flight, track: Track, start: float, end: float) -> tuple[float, ...]:
     """Each cycle's duration, when the closing item occurs once per cycle."""
     c = flight.cycle
@@ -200,7 +217,8 @@ def _per_cycle(flight: Flight, track: Track, start: float, end: float) -> tuple[
 
 
 def _cross_track(flight: Flight, track: Track) -> NDArray[np.float64]:
-    """Distance (m) of each sample from the planned legs next to its current leg."""
+    """Distance (m) of each sample from the planned legs next to its current leg; NaN
+    outside the mission (before it, and after the vehicle left it on its own)."""
     path = flight.path_xy_m
     n = len(flight.legs)
     leg = np.clip(track.leg, 0, n - 1)
@@ -209,7 +227,10 @@ def _cross_track(flight: Flight, track: Track) -> NDArray[np.float64]:
         k = np.clip(leg + off, 0, n - 1)
         d = segment_point_distance(path[k], path[k + 1], track.xy_m)
         best = np.minimum(best, d)
-    return np.where(track.leg >= 0, best, np.nan)
+    flying_mission = track.leg >= 0
+    if track.left_mission_s is not None:
+        flying_mission &= track.t_s < track.left_mission_s
+    return np.where(flying_mission, best, np.nan)
 
 
 def endurance_finding(flying_s: float, endurance_s: float | None,
@@ -292,8 +313,7 @@ def score_track(
     elif flight.cycle is not None:
         findings.append(Finding("warning", "the track does not cover the service cycle", None))
 
-    t0 = window[0] if window else float(track.t_s[0])
-    r0 = ref_window[0] if ref_window else float(reference.t_s[0])
+    t0, r0 = _clock_origins(flight, track, reference)
     # Inside the service cycle the planner's own slot times are the plan's timing when the
     # plan carries them; the ideal replay knows only commanded speeds, not S-curve timing.
     slot_times = planned_leg_times(flight, flight.service) if flight.service else None

@@ -30,6 +30,9 @@ class Track:
     index into ``Flight.legs`` being flown, -1 before the mission. Per leg of the flight:
     ``leg_start_s`` motion toward it began, ``leg_reached_s`` its destination was reached,
     ``leg_done_s`` its item completed (hold over); NaN when it never happened.
+    ``left_mission_s``: when a recorded vehicle left the mission mode on its own (a failsafe,
+    a fence breach; None: it never did): the samples from then on are the autopilot's own
+    flight, scored for clearance but not timed or measured against the legs.
     """
 
     t_s: NDArray[np.float64]
@@ -42,6 +45,7 @@ class Track:
     leg_reached_s: NDArray[np.float64]
     leg_done_s: NDArray[np.float64]
     source: str = "replay"
+    left_mission_s: float | None = None
 
     def item_reached_s(self, flight: Flight, item: int) -> NDArray[np.float64]:
         """Every time the destination of mission item ``item`` was reached (jumps repeat it)."""
@@ -181,7 +185,8 @@ def track_from_samples(
         leg_of[n:] = np.where(seq[n:] >= 0, leg_of[n - 1], -1)
     items = np.array([leg.item for leg in flight.legs], dtype=np.int64)
     seq_out = np.where(leg_of >= 0, items[np.maximum(leg_of, 0)], -1)
-    return Track(t, xy, alt, speed, seq_out, leg_of, start, reached, done, source)
+    return Track(t, xy, alt, speed, seq_out, leg_of, start, reached, done, source,
+                 left_mission_s)
 
 
 def track_from_geodetic(
