@@ -184,6 +184,14 @@ def format_report(v: Validation) -> str:
         lines += ["", *_track_lines(f"Flown by {who} ({v.sitl.source})", v.sitl)]
         if v.extra.get("sitl_wind"):
             lines.append(f"  {v.extra['sitl_wind']}")
+    if "fault" in v.extra:
+        from validator.mavlink.faults import fault_lines
+
+        fault = v.extra["fault"]
+        lines += ["", f"Fault: {fault['kind']}, the flight after it (from "
+                  f"{fault['position_source']})"]
+        lines += ([f"  {s}" for s in fault_lines(fault)] if fault["injected_xy_m"] is not None
+                  else [f"  {fault['end_state']}"])
     if v.failsafe is not None:
         lines += ["", *_failsafe_lines(v)]
     findings = list(rep.findings) + list(v.param_findings) + _failsafe_summary(v)

@@ -122,3 +122,27 @@ def test_the_old_json_option_still_writes_the_report_with_a_deprecation_line(tmp
                                     str(out)])
     assert json.loads(out.read_text())["exit_status"] == status
     assert capsys.readouterr().err == "warning: --json is deprecated; use --report\n"
+
+
+@pytest.mark.parametrize("clearance, says", [
+    ({"NFZ1": 32.77, "NFZ2": 80.1}, "  closest to a zone: NFZ1, 32.77 m"),
+    ({"NFZ1": -1.5, "NFZ2": 80.1}, "  entered NFZ1 1.50 m deep"),
+])
+def test_the_report_says_what_a_fault_flight_did(files, clearance, says):
+    """validate-mission --fault printed nothing of the flight after the fault (only its
+    violations, and only in the findings): what was injected, what the autopilot flew, how it
+    ended and how close it came to a zone were in the JSON report alone."""
+    from validator.cli import format_report
+    from validator.mavlink.faults import FaultReport
+
+    _, site, good, _ = files
+    v = validate_mission(good, site)
+    v.extra["fault"] = FaultReport(
+        "rc-loss", "SIM_RC_FAIL 1", "simulator truth (SIMSTATE)", 164.0, (186.6, 326.7),
+        (191.3, 322.2), clearance, "landed", (480.0, 350.0), 0.04, ("SMART_RTL",),
+        ("Radio Failsafe",)).as_dict()
+    text = format_report(v).splitlines()
+    at = text.index("Fault: rc-loss, the flight after it (from simulator truth (SIMSTATE))")
+    assert text[at + 1:at + 5] == ["  rc-loss injected (SIM_RC_FAIL 1) at t = 164.0 s",
+                                   "  then flew SMART_RTL", "  ended landed, 0.0 m from home",
+                                   says]

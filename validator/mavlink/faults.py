@@ -192,13 +192,6 @@ class FaultReport:
     track_xy_m: tuple[tuple[float, float], ...] = ()  # after the fault, a point a second
 
     @property
-    def closest_zone(self) -> tuple[str, float] | None:
-        if not self.clearance_m:
-            return None
-        name = min(self.clearance_m, key=lambda k: self.clearance_m[k])
-        return name, self.clearance_m[name]
-
-    @property
     def entered_zone(self) -> bool:
         return any(c < 0 for c in self.clearance_m.values())
 
@@ -339,6 +332,21 @@ def fault_watch(kind: str, plan: Plan, site: Site, flight: Flight,
         return made[-1]
 
     return make
+
+
+def fault_lines(fault: Mapping[str, Any]) -> list[str]:
+    """A fault flight's report (:meth:`FaultReport.as_dict`) in words, a line each: what was
+    injected and when, what the autopilot flew, how it ended, the zone it came closest to (or
+    entered)."""
+    said = [f"{fault['kind']} injected ({fault['how']}) at t = {fault['injected_s']:.1f} s",
+            f"then flew {', '.join(fault['modes']) or 'the mission on'}",
+            f"ended {fault['end_state']}, {fault['end_from_home_m']:.1f} m from home"]
+    clear = fault["clearance_m"]
+    if clear:
+        zone = min(clear, key=clear.get)
+        said.append(f"entered {zone} {-clear[zone]:.2f} m deep" if clear[zone] < 0
+                    else f"closest to a zone: {zone}, {clear[zone]:.2f} m")
+    return said
 
 
 def fault_findings(rep: FaultReport) -> tuple[Finding, ...]:

@@ -67,16 +67,11 @@ class FaultMark:
 def fault_mark(fault: Mapping[str, Any]) -> FaultMark | None:
     """The view of a fault flight's report (:meth:`validator.mavlink.faults.FaultReport.as_dict`,
     the report's ``fault`` section); None when the fault was never injected."""
+    from validator.mavlink.faults import fault_lines  # pymavlink, only for a fault flight
+
     if fault.get("injected_xy_m") is None:
         return None
-    said = [f"{fault['kind']} injected ({fault['how']})",
-            f"then flew {', '.join(fault['modes']) or 'the mission on'}",
-            f"ended {fault['end_state']}, {fault['end_from_home_m']:.1f} m from home"]
-    clear = fault["clearance_m"]
-    if clear:
-        zone = min(clear, key=clear.get)
-        said.append(f"entered {zone} {-clear[zone]:.2f} m deep" if clear[zone] < 0
-                    else f"closest to a zone: {zone}, {clear[zone]:.2f} m")
+    said = fault_lines(fault)
     after = np.asarray(fault["track_xy_m"], dtype=float).reshape(-1, 2)
     return FaultMark(fault["kind"], np.asarray(fault["injected_xy_m"], dtype=float), after,
                      bool(fault["entered_zone"]), "<br>".join(said))
