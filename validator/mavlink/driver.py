@@ -393,8 +393,8 @@ def fly_and_score(
                             source=f"sitl:{url}")
     report = score_track(track, flight, site, plan)
     extra = [Finding("warning", f"geofence on the vehicle: {p}", None) for p in fence]
-    extra += [Finding("warning", f"the vehicle left the mission for {mode} at "
-                                 f"{t - telemetry.mission_start_s:.1f} s into it", None)
+    extra += [Finding("warning", f"the vehicle left the mission for {mode} at t = {t:.1f} s "
+                                 f"({t - telemetry.mission_start_s:.1f} s into it)", None)
               for t, mode in telemetry.mode_changes]
     extra += link_findings(telemetry)
     if telemetry.end_reason.startswith("time limit"):
