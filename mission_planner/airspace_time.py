@@ -5,7 +5,8 @@ duration is known only once the mission is planned and replayed. :func:`plan_for
 the zones for an estimate (:func:`duration_estimate_s`), plans, and takes the replayed
 duration: when the mission flies longer than the window it was planned for and that longer
 window takes other zones, it plans again for it (a bounded number of times, each window longer
-than the last, so it ends).
+than the last, so it ends); where it takes the same zones the plan stands, and
+:func:`with_airspace` makes its report name the longer window.
 """
 
 from __future__ import annotations
@@ -17,8 +18,10 @@ from typing import TypeVar
 
 import numpy as np
 
+from mission_planner.mission import Mission
 from validator.errors import InputError
 from validator.site import Site, load_site
+from validator.site_airspace import SiteAirspace
 from validator.uas_zones.applicability import AirspaceOptions
 
 T = TypeVar("T")
@@ -64,3 +67,11 @@ def plan_for_time(site_path: str | Path, options: AirspaceOptions, cycles: int,
         site = longer
     raise InputError(f"--at: the mission kept flying longer than the window it was planned for "
                      f"({window:.0f} s) and meeting other zones; plan fewer --cycles")
+
+
+def with_airspace(mission: Mission, airspace: SiteAirspace) -> Mission:
+    """``mission`` with ``airspace`` as its site's zone decision: the same zones, decided over
+    the longer window :func:`plan_for_time` settled on, which the mission's report then names
+    (it named the window the plan was first made for, shorter than the replayed mission)."""
+    site = replace(mission.solution.site, airspace=airspace)
+    return replace(mission, solution=replace(mission.solution, site=site))

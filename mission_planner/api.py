@@ -99,8 +99,9 @@ def plan_mission(
     closer the flown track comes in that wind. With ``position_loss_berth`` an ArduCopter
     plan from which a GPS loss could coast into a zone is planned again with a buffer wide
     enough (``Mission.position_loss_berth`` says so). Deterministic; the
-    safety verdict is ``Mission.problems`` (empty: safe). Same as :func:`plan_solution`
-    followed by :func:`build_mission`.
+    safety verdict is ``Mission.problems`` (empty: safe). :func:`plan_solution` followed by
+    :func:`build_mission` is the same without the berth's second plan and, for PX4, without
+    the comparison with a plan that stops at every waypoint.
     """
     return plan_and_build(site, scheme, options, dynamics=dynamics, progress=progress,
                           pass_through_corners=pass_through_corners, second_start=second_start,

@@ -49,7 +49,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from mission_planner.airspace_time import plan_for_time
+from mission_planner.airspace_time import plan_for_time, with_airspace
 from mission_planner.api import write_mission
 from mission_planner.autopilot_params import AutopilotParams, recommended_params
 from mission_planner.flight_report import FlightCheck, refusals, replay_mission
@@ -222,6 +222,7 @@ def _plan(args: argparse.Namespace) -> int:
             args.site, airspace, args.cycles, made, lambda m: m[2].report.duration_s,
             args.buffer_m)
     site = site.with_forecast(wind)
+    mission = with_airspace(mission, site.airspace)
     for line in site.airspace.lines():
         print(f"plan-mission: {line}", file=sys.stderr)
     if args.at and not site.airspace.uas and not args.quiet:

@@ -36,6 +36,18 @@ def test_the_report_lists_every_zone_within_reach_taken_or_why_not(weekday: Path
     assert sorted(air["taken"]) == ["CTR1", "HOSP", "NATR"]
 
 
+def test_the_reports_window_covers_the_replayed_mission(weekday: Path) -> None:
+    """The window the zones were decided for runs at least as long as the mission flies: it
+    had named the first estimate (454 s) where plan-mission settled on a longer window taking
+    the same zones (535 s) for a mission replayed in 486 s."""
+    from datetime import datetime
+
+    report = json.loads((weekday / "r.json").read_text())
+    air = report["airspace"]
+    window_s = (datetime.fromisoformat(air["until"]) - datetime.fromisoformat(air["at"]))
+    assert window_s.total_seconds() >= report["flight"]["replayed_mission_s"]
+
+
 def test_a_plan_checked_for_a_time_another_zone_is_active_is_flagged(weekday: Path,
                                                                       capsys) -> None:
     plan = str(weekday / "m.plan")
