@@ -17,8 +17,10 @@ from validator.flight.resolve import (
     DO_SET_HOME,
     FOREVER_REPEATS,
     MAX_LEGS,
+    MAX_MISSION_S,
     PASSIVE_COMMANDS,
     UNSUPPORTED_NAV,
+    check_duration,
     resolve_flight,
 )
 from validator.flight.service import ServicePlan, parse_service
@@ -28,6 +30,7 @@ __all__ = [
     "DO_SET_HOME",
     "FOREVER_REPEATS",
     "MAX_LEGS",
+    "MAX_MISSION_S",
     "PASSIVE_COMMANDS",
     "UNSUPPORTED_NAV",
     "CycleSpan",
@@ -37,6 +40,7 @@ __all__ = [
     "LegKind",
     "ServicePlan",
     "Severity",
+    "check_duration",
     "parse_service",
     "resolve_flight",
 ]

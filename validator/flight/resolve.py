@@ -42,6 +42,10 @@ from validator.site import MAX_REACH_M, Site
 HOME = "plannedHomePosition"  # the plan's home, as QGroundControl's .plan names it
 
 MAX_LEGS = 200_000  # a resolved mission longer than this is a runaway loop, not a flight
+# No multicopter mission lasts a day (s): a hold or a commanded speed that makes one is bad
+# input; its times overflowed the audit's table (a 1e308 s hold read "Result: CLEAR"), and
+# sampling it every 0.05 s would take more memory than any machine has
+MAX_MISSION_S = 86_400.0
 FOREVER_REPEATS = 1  # a DO_JUMP that repeats forever is resolved with this many repeats
 
 # Commands that never move the vehicle (cameras, servos, gimbals, conditions, markers).
@@ -418,7 +422,7 @@ def resolve_flight(plan: Plan, site: Site, source: str = "plan") -> Flight:
                    f"not {site.name!r}", None)
     if cycle is None:
         cycle = _cycle_from_plan(plan, legs)
-    return Flight(
+    flight = Flight(
         legs=legs,
         home_xy_m=r.home_xy,
         firmware_type=plan.firmware_type,
@@ -428,3 +432,23 @@ def resolve_flight(plan: Plan, site: Site, source: str = "plan") -> Flight:
         fence_disabled_at=tuple(r.fence_disabled),
         source=source,
     )
+    check_duration(flight)
+    return flight
+
+
+def check_duration(flight: Flight) -> None:
+    """:class:`InputError` for a mission whose holds and legs at their commanded speeds alone
+    (a lower bound: the vehicle flies no faster) take over :data:`MAX_MISSION_S`, naming the
+    leg that takes longest."""
+    each = [leg.hold_s + (leg.length_m / leg.speed_mps if leg.speed_mps else 0.0)
+            for leg in flight.legs]
+    total_s = sum(each)
+    if total_s <= MAX_MISSION_S:
+        return
+    k = max(range(len(each)), key=each.__getitem__)
+    leg = flight.legs[k]
+    how = (f"a {leg.hold_s:g} s hold" if leg.hold_s >= each[k] / 2 else
+           f"{leg.length_m:.0f} m at {leg.speed_mps:g} m/s")
+    over = f"{total_s:,.0f}" if total_s < 1e9 else f"{total_s:.2e}"
+    raise InputError(f"{flight.source}: item {leg.item}: {how}: the mission would fly over "
+                     f"{over} s, beyond a day ({MAX_MISSION_S:g} s)")
