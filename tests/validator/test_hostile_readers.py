@@ -191,6 +191,17 @@ def test_a_mission_of_more_than_a_day_is_refused_when_it_is_resolved(command, in
         resolve_flight(plan, SITE, "p.plan")
 
 
+@pytest.mark.parametrize("alt_m", [1e12, -1e308, 2.0**63])
+def test_an_altitude_beyond_a_missions_reach_is_refused(alt_m: float) -> None:
+    # the replay sampled the climb to 1e12 m: a traceback asking for 155 TiB
+    data = copy.deepcopy(PLAN_DICT)
+    k = next(i for i, it in enumerate(data["mission"]["items"]) if it["command"] == 16)
+    data["mission"]["items"][k]["params"][6] = alt_m
+    plan = loads_plan(json.dumps(data), "p.plan")
+    with pytest.raises(InputError, match=rf"^p\.plan: item {k}: altitude .* beyond the 100 km"):
+        resolve_flight(plan, SITE, "p.plan")
+
+
 def test_a_flight_of_more_than_a_day_made_without_a_plan_file_is_not_replayed() -> None:
     """The planner's own flights (corner checks) are built without resolve_flight: the
     replay refuses them too, before it samples them."""

@@ -182,6 +182,9 @@ class _Resolver:
     ) -> None:
         if len(self.legs) >= MAX_LEGS:
             raise InputError(f"{self.source}: mission resolves to more than {MAX_LEGS} legs")
+        if not abs(end_alt) <= MAX_REACH_M:  # its climb had a replay sample 155 TiB at 1e12 m
+            raise InputError(f"{self.source}: item {i}: altitude {end_alt:g} m from home, "
+                             f"beyond the {MAX_REACH_M / 1000:g} km a mission reaches")
         first = self.pending_first if self.pending_first is not None else i
         self.legs.append(
             Leg(
