@@ -142,6 +142,10 @@ def test_metadata_defines_the_service_cycle(site):
         ({"cycles": 0}, "cycles"),
         ({"surprise": 1}, "surprise"),
         ({"format": 2}, "format"),
+        # numbers that overflowed the scoring's geometry and rates (the hostile mutations)
+        ({"trajectory_m": [[0, 0], [1, 1e308], [2, 0], [3, 0], [0, 0]]}, "trajectory_m[1]"),
+        ({"delta_s": [1.0, 1e308, 1.0, 1.0]}, "delta_s: a period of 1e+308 s, beyond a day"),
+        ({"power_w": [0.1, 0.1, 1e300, 0.1]}, "power_w[2]: must be within"),
     ],
 )
 def test_bad_metadata_names_the_field(site, patch, field):

@@ -34,7 +34,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from validator.errors import InputError
-from validator.flight.model import CycleSpan, Finding, Flight, Leg, LegKind, Severity
+from validator.flight.model import (
+    MAX_MISSION_S,
+    CycleSpan,
+    Finding,
+    Flight,
+    Leg,
+    LegKind,
+    Severity,
+)
 from validator.flight.service import ServicePlan, parse_service
 from validator.plan_format import Cmd, Frame, MissionItem, Plan
 from validator.site import MAX_REACH_M, Site
@@ -42,10 +50,6 @@ from validator.site import MAX_REACH_M, Site
 HOME = "plannedHomePosition"  # the plan's home, as QGroundControl's .plan names it
 
 MAX_LEGS = 200_000  # a resolved mission longer than this is a runaway loop, not a flight
-# No multicopter mission lasts a day (s): a hold or a commanded speed that makes one is bad
-# input; its times overflowed the audit's table (a 1e308 s hold read "Result: CLEAR"), and
-# sampling it every 0.05 s would take more memory than any machine has
-MAX_MISSION_S = 86_400.0
 FOREVER_REPEATS = 1  # a DO_JUMP that repeats forever is resolved with this many repeats
 
 # Commands that never move the vehicle (cameras, servos, gimbals, conditions, markers).

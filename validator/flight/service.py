@@ -12,8 +12,10 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import ValidationError
 
+from validator.channel import dbm_to_w
 from validator.errors import InputError
-from validator.site import Site
+from validator.flight.model import MAX_MISSION_S
+from validator.site import MAX_DB, MAX_REACH_M, Site
 from validator.wind import Wind, WindModel
 
 
@@ -46,6 +48,7 @@ class ServicePlan:
         return int(self.delta_s.size)
 
 
+MAX_POWER_W = dbm_to_w(MAX_DB)  # the site's own bound on a radio's power (W)
 _SERVICE_KEYS = {
     "format", "site", "scheme", "trajectory_m", "delta_s", "power_w", "schedule", "cycle_items",
     "cycles", "wind",
@@ -90,10 +93,18 @@ def parse_service(extra: object, site: Site, source: str = "plan") -> ServicePla
     for name, arr in (("delta_s", delta), ("power_w", power)):
         if arr.shape != (n,):
             raise InputError(f"{where}.{name}: expected {n} numbers (one per slot), got {arr.size}")
+    far = np.hypot(traj[:, 0], traj[:, 1]) > MAX_REACH_M
+    if np.any(far):
+        raise InputError(f"{where}.trajectory_m[{int(np.argmax(far))}]: beyond the "
+                         f"{MAX_REACH_M / 1000:g} km a mission reaches from the site's origin")
     if np.any(delta <= 0):
         raise InputError(f"{where}.delta_s[{int(np.argmax(delta <= 0))}]: must be > 0")
-    if np.any(power < 0):
-        raise InputError(f"{where}.power_w[{int(np.argmax(power < 0))}]: must be >= 0")
+    if float(np.sum(delta)) > MAX_MISSION_S:
+        raise InputError(f"{where}.delta_s: a period of {float(np.sum(delta)):.3g} s, beyond a "
+                         f"day ({MAX_MISSION_S:g} s)")
+    if np.any(power < 0) or np.any(power > MAX_POWER_W):
+        bad = int(np.argmax((power < 0) | (power > MAX_POWER_W)))
+        raise InputError(f"{where}.power_w[{bad}]: must be within 0-{MAX_POWER_W:g} W")
     sched_raw = extra["schedule"]
     if not isinstance(sched_raw, list) or len(sched_raw) != n:
         raise InputError(f"{where}.schedule: expected {n} ground-node names or nulls")
