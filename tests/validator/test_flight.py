@@ -175,3 +175,25 @@ def test_cycle_items_beyond_the_mission_are_bad_input(site):
     plan.extra["cycle_items"] = [3, 99]
     with pytest.raises(InputError, match=r"nfzMission\.cycle_items: item 99 does not exist"):
         resolve_flight(plan, site)
+
+
+@pytest.mark.parametrize("frame", [1, 4, 99])  # LOCAL_NED, LOCAL_ENU, nothing
+def test_a_position_in_a_frame_the_autopilot_refuses_is_refused(site, frame):
+    """ArduPilot answers MAV_MISSION_UNSUPPORTED_FRAME to such an item: it had been read as
+    metres above home, with a warning, and the plan judged CLEAR."""
+    plan = waypoint_plan(site, [(50, -40), (150, -40)])
+    plan.items[3] = dataclasses.replace(plan.items[3], frame=frame)
+    with pytest.raises(InputError, match=rf"^p\.plan: item 3: frame {frame} is no frame for a "
+                                         "position"):
+        resolve_flight(plan, site, "p.plan")
+
+
+@pytest.mark.parametrize("frame", [0, 2, 5])  # GLOBAL, MISSION, GLOBAL_INT: AMSL to ArduPilot
+def test_an_absolute_frame_is_altitude_above_sea_level(site, frame):
+    plan = waypoint_plan(site, [(50, -40), (150, -40)])
+    plan.items[3] = dataclasses.replace(plan.items[3], frame=frame,
+                                        params=[*plan.items[3].params[:6],
+                                                plan.home_alt_m + 25.0])
+    flight = resolve_flight(plan, site)
+    assert flight.legs[2].end_alt_m == pytest.approx(25.0)
+    assert not any("frame" in f.message for f in flight.findings)

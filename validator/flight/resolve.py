@@ -49,6 +49,11 @@ from validator.site import MAX_REACH_M, Site
 
 HOME = "plannedHomePosition"  # the plan's home, as QGroundControl's .plan names it
 
+# The frames ArduPilot takes a positioned item in (AP_Mission::mavlink_int_to_mission_cmd; PX4
+# likewise); any other it refuses. MISSION (2) and the _INT variants count as their base frame.
+AMSL_FRAMES = frozenset({Frame.GLOBAL, Frame.MISSION, 5})  # 5: GLOBAL_INT
+RELATIVE_FRAMES = frozenset({Frame.GLOBAL_RELATIVE_ALT, 6})  # 6: GLOBAL_RELATIVE_ALT_INT
+TERRAIN_FRAMES = frozenset({Frame.GLOBAL_TERRAIN_ALT, 11})  # 11: GLOBAL_TERRAIN_ALT_INT
 MAX_LEGS = 200_000  # a resolved mission longer than this is a runaway loop, not a flight
 FOREVER_REPEATS = 1  # a DO_JUMP that repeats forever is resolved with this many repeats
 
@@ -167,12 +172,14 @@ class _Resolver:
         alt = it.params[6]
         if math.isnan(alt) or (zero_is_current and alt == 0.0):
             return self.state.alt_m
-        if it.frame == Frame.GLOBAL:
+        if it.frame in AMSL_FRAMES:
             return float(alt - self.plan.home_alt_m)
-        if it.frame == Frame.GLOBAL_TERRAIN_ALT:
+        if it.frame in TERRAIN_FRAMES:
             self.find("warning", "altitude above terrain treated as above home", i)
-        elif it.frame not in (Frame.GLOBAL_RELATIVE_ALT, 6):  # 6: GLOBAL_RELATIVE_ALT_INT
-            self.find("warning", f"frame {it.frame} treated as altitude above home", i)
+        elif it.frame not in RELATIVE_FRAMES:
+            raise InputError(f"{self.source}: item {i}: frame {it.frame} is no frame for a "
+                             "position: the autopilot refuses the item (MAV_MISSION_UNSUPPORTED_"
+                             "FRAME); use 3 (above home) or 0 (AMSL)")
         return float(alt)
 
     def add_leg(
