@@ -197,3 +197,16 @@ def test_an_absolute_frame_is_altitude_above_sea_level(site, frame):
     flight = resolve_flight(plan, site)
     assert flight.legs[2].end_alt_m == pytest.approx(25.0)
     assert not any("frame" in f.message for f in flight.findings)
+
+
+@pytest.mark.parametrize("firmware, radius_m", [(3, 10.0), (12, 0.0)])  # ArduPilot, PX4
+def test_a_loiter_turns_of_radius_0_flies_arducopters_circle_radius(site, firmware, radius_m):
+    """ArduCopter keeps its circle's radius for a LOITER_TURNS of radius 0 (CIRCLE_RADIUS,
+    10 m by default): read as a hover at the centre, a loiter 8 m from a zone was CLEAR while
+    the vehicle circles 2 m into it."""
+    turns = nav(site, Cmd.NAV_LOITER_TURNS, (60, 0), p1=1.0)
+    plan = plan_of(site, [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), speed(5.0), turns,
+                          nav(site, Cmd.NAV_LAND, site.home_xy_m, 0.0)])
+    plan.firmware_type = firmware
+    loiter = next(leg for leg in resolve_flight(plan, site).legs if leg.kind == "loiter")
+    assert loiter.loiter_radius_m == radius_m

@@ -53,6 +53,8 @@ PARAMS: dict[str, ParamSpec] = {
     "LAND_SPEED_HIGH": ParamSpec("cm/s", 0.01, 0.0, 0.0, 500.0,
                                  "descent speed above LAND_ALT_LOW, 0 = WPNAV_SPEED_DN", _I16,
                                  zero_ok=True),
+    "CIRCLE_RADIUS": ParamSpec("cm", 0.01, 1000.0, 0.0, 200000.0, "the circle a LOITER_TURNS "
+                               "of radius 0 flies (AC_Circle)", zero_ok=True),
     "RTL_ALT": ParamSpec("cm", 0.01, 1500.0, 200.0, 300000.0, "altitude of a return home",
                          _I32),
     "RTL_SPEED": ParamSpec("cm/s", 0.01, 0.0, 0.0, 2000.0,

@@ -33,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from validator.autopilot.ardupilot import PARAMS as ARDUPILOT_PARAMS
 from validator.errors import InputError
 from validator.flight.model import (
     MAX_MISSION_S,
@@ -44,7 +45,7 @@ from validator.flight.model import (
     Severity,
 )
 from validator.flight.service import ServicePlan, parse_service
-from validator.plan_format import Cmd, Frame, MissionItem, Plan
+from validator.plan_format import Autopilot, Cmd, Frame, MissionItem, Plan
 from validator.site import MAX_REACH_M, Site
 
 HOME = "plannedHomePosition"  # the plan's home, as QGroundControl's .plan names it
@@ -343,10 +344,17 @@ class _Resolver:
     def loiter_turns(self, pc: int, it: MissionItem) -> None:
         turns = abs(it.params[0]) if not math.isnan(it.params[0]) else 1.0
         radius = abs(it.params[2]) if not math.isnan(it.params[2]) else 0.0
+        default = ""
+        if radius == 0 and self.plan.firmware_type == Autopilot.ARDUPILOTMEGA:
+            # ArduCopter keeps its circle's radius for a 0 (ModeAuto::circle_movetoedge_start):
+            # CIRCLE_RADIUS, 10 m by default, not a hover at the centre
+            spec = ARDUPILOT_PARAMS["CIRCLE_RADIUS"]
+            radius = spec.default * spec.to_si
+            default = " (radius 0: ArduCopter's CIRCLE_RADIUS default)"
         speed = self.state.speed_mps or self.site.max_speed_mps
         hold = turns * 2.0 * math.pi * radius / speed if radius > 0 else 0.0
-        self.find("note", f"LOITER_TURNS: a {radius:g} m circle, replayed as a {hold:.1f} s "
-                  "hold at its centre", pc)
+        self.find("note", f"LOITER_TURNS: a {radius:g} m circle{default}, replayed as a "
+                  f"{hold:.1f} s hold at its centre", pc)
         self.add_leg(pc, "loiter", self.position(it),
                      self.altitude(it, pc, zero_is_current=True), hold_s=hold,
                      loiter_radius_m=radius)
