@@ -41,7 +41,7 @@ from validator.fileio import write_atomic
 from validator.flight import Flight
 from validator.input_files import MAX_FILE_BYTES, read_text
 from validator.replay import Track, track_from_geodetic
-from validator.site import Site
+from validator.site import MAX_REACH_M, Site
 
 COLUMNS = ("t_s", "lat_deg", "lon_deg", "alt_m", "vn_mps", "ve_mps", "vd_mps", "item",
            "armed", "fence_breach", "left_mission")
@@ -114,6 +114,13 @@ def write_track(path: str | Path, rec: RecordedTrack, comments: tuple[str, ...] 
     write_atomic(path, data)
 
 
+# Column, name and the largest magnitude a sample may have: a latitude of 91 had been scored
+# as 5,127 km of cross-track error and a CLEAR flight; altitudes and items within a mission's
+# reach (validator.site.MAX_REACH_M) and MAVLink's uint16 item numbers.
+_BOUNDS = ((1, "lat_deg", 90.0), (2, "lon_deg", 180.0), (3, "alt_m", MAX_REACH_M),
+           (7, "item", 65535.0))
+
+
 def read_track(path: str | Path) -> RecordedTrack:
     """Read a track file written by :func:`write_track`; :class:`InputError` naming the file
     and the line for anything else."""
@@ -152,6 +159,15 @@ def read_track(path: str | Path) -> RecordedTrack:
     if not rows:
         raise InputError(f"{p}: no samples")
     a = np.asarray(rows, dtype=float)
+    line_of = [n for n, _ in lines[1:]]
+    for col, name, bound in _BOUNDS:
+        out = np.flatnonzero(~(np.abs(a[:, col]) <= bound))
+        if out.size:
+            raise InputError(f"{p}: line {line_of[out[0]]}: {name} {a[out[0], col]:g} beyond "
+                             f"±{bound:g}")
+    odd = np.flatnonzero(a[:, 7] != np.round(a[:, 7]))
+    if odd.size:
+        raise InputError(f"{p}: line {line_of[odd[0]]}: item {a[odd[0], 7]:g} is no item number")
     if np.any(np.diff(a[:, 0]) < 0):
         raise InputError(f"{p}: t_s must not decrease")
     if len(header) > 10 and np.any(np.diff(a[:, 10]) < 0):
