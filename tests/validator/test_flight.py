@@ -210,3 +210,19 @@ def test_a_loiter_turns_of_radius_0_flies_arducopters_circle_radius(site, firmwa
     plan.firmware_type = firmware
     loiter = next(leg for leg in resolve_flight(plan, site).legs if leg.kind == "loiter")
     assert loiter.loiter_radius_m == radius_m
+
+
+def test_a_jump_that_repeats_forever_is_a_violation_where_the_endurance_is_known(site):
+    """Resolved with one repeat it had passed the endurance check; ArduPilot flies it until a
+    failsafe ends it."""
+    items = [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), speed(5.0),
+             nav(site, Cmd.NAV_WAYPOINT, (40, 0)), nav(site, Cmd.NAV_WAYPOINT, (40, 40)),
+             jump(2, -1), nav(site, Cmd.NAV_LAND, site.home_xy_m, 0.0)]
+    plan = plan_of(site, items)
+    open_ended = [f.severity for f in resolve_flight(plan, site).findings
+                  if "repeats forever" in f.message]
+    assert open_ended == ["warning"]
+    timed = site.with_limits(endurance_s=900.0)
+    found = [f for f in resolve_flight(plan, timed).findings if "repeats forever" in f.message]
+    assert [(f.severity, f.item) for f in found] == [("violation", 4)]
+    assert "beyond the UAV's endurance of 900 s" in found[0].message

@@ -315,8 +315,15 @@ class _Resolver:
         if math.isnan(repeats):
             repeats = 0.0
         if repeats < 0:
-            self.find("warning", f"DO_JUMP repeats forever; resolved with {FOREVER_REPEATS} "
-                      "repeat(s)", pc)
+            endurance = self.site.endurance_s
+            if endurance is None:
+                self.find("warning", f"DO_JUMP repeats forever; resolved with "
+                          f"{FOREVER_REPEATS} repeat(s)", pc)
+            else:  # had passed the endurance check on the one repeat it was resolved with
+                self.find("violation", f"DO_JUMP repeats forever: the mission flies until a "
+                          f"failsafe ends it, beyond the UAV's endurance of {endurance:g} s "
+                          f"(uav.endurance); give it a count (resolved with "
+                          f"{FOREVER_REPEATS} repeat(s))", pc)
             repeats = FOREVER_REPEATS
         count = done.get(pc, 0)
         if count < int(repeats):
