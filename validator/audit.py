@@ -150,10 +150,34 @@ def _check_legs(
     return out
 
 
+# A fence polygon smaller than this (m²) is a line: three vertices in a row on the 1e-7° grid
+# enclose a sliver of a few cm², which the breach test treats as a fence of no width
+MIN_FENCE_AREA_M2 = 1.0
+
+
+def _invalid_reason(poly: shapely.Polygon) -> str:
+    """Why shapely finds ``poly`` invalid, its point in local metres."""
+    reason = shapely.is_valid_reason(poly)  # e.g. "Self-intersection[44.17 221.97]"
+    what, _, at = reason.partition("[")
+    try:
+        x, y = (float(v) for v in at.rstrip("]").split())
+    except ValueError:
+        return reason
+    return f"{what.lower()} at x {x:.1f}, y {y:.1f} m"
+
+
 def _check_fence(plan: Plan, flight: Flight, site: Site, tol: float) -> list[Finding]:
     out: list[Finding] = []
     fence = local_fence(plan, site.frame)
-    circles, polygons = fence.circles, fence.polygons
+    circles, polygons = fence.circles, [(p, inc) for p, inc in fence.polygons
+                                        if p.is_valid and p.area >= MIN_FENCE_AREA_M2]
+    for i, (poly, inclusion) in enumerate(fence.polygons):
+        if not (poly.is_valid and poly.area >= MIN_FENCE_AREA_M2):  # no use in the checks below
+            why = (_invalid_reason(poly) if not poly.is_valid else
+                   f"it has no area (under {MIN_FENCE_AREA_M2:g} m²: collinear vertices)")
+            out.append(Finding("violation", f"fence polygon {i} "
+                               f"({'inclusion' if inclusion else 'exclusion'}): {why}: the "
+                               "autopilot's breach test of it is not the shape drawn", None))
     excl_c = [(c, r) for c, r, inc in circles if not inc]
     incl_c = [(c, r) for c, r, inc in circles if inc]
     excl_p = [p for p, inc in polygons if not inc]

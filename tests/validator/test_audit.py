@@ -11,7 +11,7 @@ from tests.validator.builders import (
     waypoint_plan,
 )
 from validator.audit import audit
-from validator.plan_format import Cmd, FenceCircle, MissionItem
+from validator.plan_format import Cmd, FenceCircle, FencePolygon, MissionItem
 
 
 @pytest.fixture(scope="module")
@@ -149,3 +149,21 @@ def test_closest_approach_time_follows_the_commanded_speeds(site):
     plan = waypoint_plan(site, [(0, -40), (200, -40)], v=5.0, end="none")
     nfz = audit(plan, site).nfz[0]
     assert nfz.t_s == pytest.approx(30.0 / 2.5 + 40.0 / 5.0 + 100.0 / 5.0, abs=1e-6)
+
+
+@pytest.mark.parametrize("corners_m, says", [
+    ([(-300, -300), (-200, -200), (-300, -200), (-200, -300)],  # a bowtie
+     "fence polygon 0 (exclusion): self-intersection at x -250.0, y -250.0 m"),
+    ([(-300, -300), (-300, -250), (-300, -200)],  # three vertices in a row
+     "fence polygon 0 (exclusion): it has no area"),
+])
+def test_a_fence_polygon_the_autopilot_cannot_hold_as_drawn_is_a_violation(site, corners_m,
+                                                                           says):
+    """A self-intersecting or flat exclusion polygon uploads, and ArduPilot's breach test of
+    it is not the shape drawn; beside fences that cover every zone it had been CLEAR."""
+    plan = waypoint_plan(site, [(0, -40), (200, -40)])
+    lat, lon = site.frame.to_geodetic(np.asarray(corners_m, dtype=float))
+    plan.polygons.append(FencePolygon(list(zip(lat.tolist(), lon.tolist(), strict=True)),
+                                      inclusion=False))
+    found = [m for m in violations(audit(plan, site)) if m.startswith("fence polygon")]
+    assert len(found) == 1 and says in found[0], found
