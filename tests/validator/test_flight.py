@@ -14,7 +14,7 @@ from tests.validator.builders import (
     waypoint_plan,
 )
 from validator.errors import InputError
-from validator.flight import parse_service, resolve_flight
+from validator.flight import DO_SET_HOME, parse_service, resolve_flight
 from validator.plan_format import Cmd, Frame, MissionItem
 
 
@@ -226,3 +226,20 @@ def test_a_jump_that_repeats_forever_is_a_violation_where_the_endurance_is_known
     found = [f for f in resolve_flight(plan, timed).findings if "repeats forever" in f.message]
     assert [(f.severity, f.item) for f in found] == [("violation", 4)]
     assert "beyond the UAV's endurance of 900 s" in found[0].message
+
+
+def test_a_home_moved_into_a_zone_is_a_violation(site):
+    """DO_SET_HOME (param1 0: at its coordinates) into a zone had been a note: every return
+    after it lands there."""
+    items = [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), speed(5.0),
+             nav(site, Cmd.NAV_WAYPOINT, (40, -40)),
+             nav(site, DO_SET_HOME, (100, 0)),
+             nav(site, Cmd.NAV_WAYPOINT, (40, -40))]
+    found = [(f.severity, f.item) for f in resolve_flight(plan_of(site, items), site).findings
+             if "DO_SET_HOME" in f.message]
+    assert found == [("violation", 3)]
+    items[3] = dataclasses.replace(items[3], params=[*items[3].params[:4],
+                                                     *items[2].params[4:]])
+    found = [(f.severity, f.item) for f in resolve_flight(plan_of(site, items), site).findings
+             if "DO_SET_HOME" in f.message]
+    assert found == [("note", 3)]

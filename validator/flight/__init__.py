@@ -8,16 +8,17 @@ the simulated vehicle:
 - :mod:`.model`: what it returns, a :class:`Flight` of straight :class:`Leg` s with the
   service cycle among them (:class:`CycleSpan`) and :class:`Finding` s;
 - :mod:`.service`: the planner's metadata a plan carries (:class:`ServicePlan`,
-  :func:`parse_service`).
+  :func:`parse_service`);
+- :mod:`.bounds`: how long a mission may last (:data:`MAX_MISSION_S`).
 """
 
+from validator.flight.bounds import MAX_MISSION_S
 from validator.flight.model import CycleSpan, Finding, Flight, Leg, LegKind, Severity
 from validator.flight.resolve import (
     DO_FENCE_ENABLE,
     DO_SET_HOME,
     FOREVER_REPEATS,
     MAX_LEGS,
-    MAX_MISSION_S,
     PASSIVE_COMMANDS,
     UNSUPPORTED_NAV,
     check_duration,

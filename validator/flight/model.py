@@ -10,24 +10,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Literal
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
+from validator.flight.service import ServicePlan
 from validator.plan_format import Autopilot
-
-if TYPE_CHECKING:  # service.py reads the day bound below
-    from validator.flight.service import ServicePlan
 
 LegKind = Literal["takeoff", "waypoint", "loiter", "rtl", "land"]
 Severity = Literal["violation", "warning", "note"]
 
-
-# No multicopter mission lasts a day (s): a hold, a commanded speed or slot times that make one
-# are bad input; its times overflowed the audit's table (a 1e308 s hold read "Result: CLEAR"),
-# and sampling it every 0.05 s would take more memory than any machine has
-MAX_MISSION_S = 86_400.0
 
 @dataclass(frozen=True)
 class Finding:

@@ -35,8 +35,8 @@ from numpy.typing import NDArray
 
 from validator.autopilot.ardupilot import PARAMS as ARDUPILOT_PARAMS
 from validator.errors import InputError
+from validator.flight.bounds import MAX_MISSION_S
 from validator.flight.model import (
-    MAX_MISSION_S,
     CycleSpan,
     Finding,
     Flight,
@@ -47,6 +47,7 @@ from validator.flight.model import (
 from validator.flight.service import ServicePlan, parse_service
 from validator.plan_format import Autopilot, Cmd, Frame, MissionItem, Plan
 from validator.site import MAX_REACH_M, Site
+from validator.zones import point_clearance_m
 
 HOME = "plannedHomePosition"  # the plan's home, as QGroundControl's .plan names it
 
@@ -276,7 +277,7 @@ class _Resolver:
                     self.state.home_xy = self.state.xy.copy()
                 else:
                     self.state.home_xy = self.position(it)
-                self.find("note", "DO_SET_HOME moves the RTL destination", pc)
+                self.set_home_finding(pc)
             elif cmd == DO_FENCE_ENABLE:
                 if it.params[0] == 0:
                     self.fence_disabled.append(pc)
@@ -347,6 +348,22 @@ class _Resolver:
             self.state.airborne = True
         self.add_leg(pc, "waypoint", self.position(it),
                      self.altitude(it, pc, zero_is_current=True), hold_s=hold)
+
+    def set_home_finding(self, pc: int) -> None:
+        """What a DO_SET_HOME does: moves the RTL destination; a violation where the new home
+        lies in a zone or its buffer (every return lands there)."""
+        xy = self.state.home_xy
+        site = self.site
+        clear = [(float(np.hypot(*(xy - c))) - r, n) for c, r, n in
+                 zip(site.nfz_xy_m, site.nfz_radius_m, site.nfz_names, strict=True)]
+        clear += [(float(point_clearance_m(z, xy)), z.name) for z in site.polygon_zones]
+        c, name = min(clear, default=(math.inf, ""))
+        if c < site.buffer_m:
+            where = f"{-c:.1f} m inside it" if c < 0 else f"{c:.1f} m from it"
+            self.find("violation", f"DO_SET_HOME moves home into {name} plus its "
+                      f"{site.buffer_m:g} m safety buffer ({where}): a return lands there", pc)
+        else:
+            self.find("note", "DO_SET_HOME moves the RTL destination", pc)
 
     def loiter_turns(self, pc: int, it: MissionItem) -> None:
         turns = abs(it.params[0]) if not math.isnan(it.params[0]) else 1.0

@@ -14,7 +14,7 @@ from pydantic import ValidationError
 
 from validator.channel import dbm_to_w
 from validator.errors import InputError
-from validator.flight.model import MAX_MISSION_S
+from validator.flight.bounds import MAX_MISSION_S
 from validator.site import MAX_DB, MAX_REACH_M, Site
 from validator.wind import Wind, WindModel
 
