@@ -26,6 +26,7 @@ import json
 import math
 import os
 from pathlib import Path
+from typing import Any
 
 import yaml
 
@@ -76,9 +77,12 @@ def parse_json(text: str, source: str) -> object:
         return v
 
     try:
-        data = json.loads(text, parse_constant=no_constant, parse_float=finite_float)
+        data = json.loads(text, parse_constant=no_constant, parse_float=finite_float,
+                          object_pairs_hook=_unique_keys)
     except _NonFinite as err:
         raise InputError(f"{source}: {err.args[0]!r} is not a finite number") from None
+    except _DuplicateKey as err:
+        raise InputError(f"{source}: key {err.args[0]!r} given twice in one object") from None
     except json.JSONDecodeError as err:
         raise InputError(f"{source}: not valid JSON (line {err.lineno}: {err.msg})") from None
     except RecursionError:
@@ -91,9 +95,11 @@ def parse_json(text: str, source: str) -> object:
 
 def parse_yaml(text: str, source: str) -> object:
     """Parse YAML text safely (no Python objects) and check its structure (:func:`check_tree`)."""
-    loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
     try:
-        data = yaml.load(text, Loader=loader)  # noqa: S506 - a safe loader
+        data = yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506 - a safe loader
+    except _DuplicateKey as err:
+        raise InputError(f"{source}: line {err.args[1]}: key {err.args[0]!r} given twice")  \
+            from None
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         line = f" at line {mark.line + 1}" if mark is not None else ""
@@ -106,6 +112,39 @@ def parse_yaml(text: str, source: str) -> object:
 
 class _NonFinite(ValueError):
     pass
+
+
+class _DuplicateKey(ValueError):
+    """A key given twice in one mapping: both parsers keep the last one silently, so a
+    second ``buffer_m`` or ``name`` had overridden the first without a word."""
+
+
+def _unique_keys(pairs: list[tuple[str, object]]) -> dict[str, object]:
+    out: dict[str, object] = {}
+    for key, value in pairs:
+        if key in out:
+            raise _DuplicateKey(key)
+        out[key] = value
+    return out
+
+
+class _UniqueKeyLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # type: ignore[misc]
+    """The safe loader, refusing a key given twice in one mapping (a ``<<`` merge may still
+    override the keys it brings)."""
+
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
+        seen: set[object] = set()
+        for key_node, _ in node.value:
+            if key_node.tag == "tag:yaml.org,2002:merge":
+                continue
+            key = self.construct_object(key_node, deep=deep)
+            try:
+                if key in seen:
+                    raise _DuplicateKey(key, key_node.start_mark.line + 1)
+                seen.add(key)
+            except TypeError:  # an unhashable key: the base constructor says so
+                pass
+        return super().construct_mapping(node, deep=deep)
 
 
 def check_tree(data: object, source: str) -> None:

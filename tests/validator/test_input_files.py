@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from validator.errors import InputError
-from validator.input_files import resolve_referenced_path
+from validator.input_files import parse_json, parse_yaml, resolve_referenced_path
 
 
 @pytest.fixture()
@@ -87,3 +87,23 @@ def test_a_symbolic_link_loop_is_an_input_error(site: Path) -> None:
     os.symlink("loop", site.parent / "loop")
     with pytest.raises(InputError, match="airspace"):
         resolve_referenced_path(site, "loop/x.geojson", field="airspace")
+
+
+@pytest.mark.parametrize("text, message", [
+    ("name: a\nsafety: {buffer_m: 3.0}\nname: b\n", "s.yaml: line 3: key 'name' given twice"),
+    ("safety: {buffer_m: 3.0, buffer_m: 5.0}\n", "s.yaml: line 1: key 'buffer_m' given twice"),
+])
+def test_a_yaml_key_given_twice_is_refused(text: str, message: str) -> None:
+    # the parser kept the last one silently: a second name or buffer overrode the first
+    with pytest.raises(InputError, match=message):
+        parse_yaml(text, "s.yaml")
+
+
+def test_a_yaml_merge_may_still_override_what_it_brings() -> None:
+    text = "base: &b {x: 1, y: 2}\nother:\n  <<: *b\n  x: 3\n"
+    assert parse_yaml(text, "s.yaml") == {"base": {"x": 1, "y": 2}, "other": {"x": 3, "y": 2}}
+
+
+def test_a_json_key_given_twice_is_refused() -> None:
+    with pytest.raises(InputError, match="p.plan: key 'items' given twice in one object"):
+        parse_json('{"mission": {"items": [], "items": [1]}}', "p.plan")
