@@ -148,6 +148,8 @@ def write_mission(
     """
     out = Path(out)
     kind = fmt or ("waypoints" if out.suffix == ".waypoints" else "plan")
+    if params is None:  # its name is derived from the output's, which must be a file
+        check_output_paths([out])
     param_file = Path(params) if params is not None else params_path(out)
     extras = [Path(p) for p in (report, geojson, plot, html) if p is not None]
     paths = [out, param_file, *extras]

@@ -79,6 +79,7 @@ from validator.cli_common import (
     run_command,
 )
 from validator.errors import InputError
+from validator.output_paths import output_path
 from validator.plan_format import Autopilot
 from validator.site import Site
 from validator.uas_zones.applicability import AirspaceOptions, parse_at
@@ -93,7 +94,7 @@ def _parser() -> argparse.ArgumentParser:
         "avoiding no-fly zones, and export it as an autopilot mission.",
     )
     p.add_argument("site", type=Path, help="site file (YAML)")
-    p.add_argument("-o", "--output", type=Path, required=True,
+    p.add_argument("-o", "--output", type=output_path, required=True,
                    help="mission file to write (.plan, or .waypoints with --format waypoints)")
     p.add_argument("--scheme", choices=("proposed", "conventional", "tangent"),
                    default="proposed",
@@ -112,7 +113,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--second-start", action="store_true",
                    help="also run the optimiser from every node sharing every slot and keep "
                    "the better plan: a better optimum on some sites, twice the time")
-    p.add_argument("--report", type=Path,
+    p.add_argument("--report", type=output_path,
                    help="write the solution, mission, autopilot-parameter and replayed-flight "
                    "report (JSON)")
     p.add_argument("--buffer-m", type=float,
@@ -137,18 +138,18 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--format", choices=FORMATS,
                    help="plan (QGroundControl) or waypoints (QGC WPL 110 with .fence/.rally "
                    "files beside it); default: from the output's suffix, else plan")
-    p.add_argument("--params-out", type=Path, metavar="FILE",
+    p.add_argument("--params-out", type=output_path, metavar="FILE",
                    help="the parameter file to write for the vehicle to fly with (default: "
                    "the output with suffix .param): WPNAV_SPEED/ACCEL/JERK/RADIUS for "
                    "ArduPilot, MPC_XY_CRUISE, MPC_XY_VEL_MAX, MPC_ACC_HOR, MPC_JERK_AUTO, "
                    "NAV_ACC_RAD for PX4; the other commands read it as --params FILE")
-    add_deprecated(p, "--params", "--params-out", dest="params_out", type=Path,
+    add_deprecated(p, "--params", "--params-out", dest="params_out", type=output_path,
                    metavar="FILE")
     p.add_argument("--no-merge", action="store_true",
                    help="one waypoint per moving slot (default: straight slots at one speed "
                    "merge into one long leg)")
-    p.add_argument("--geojson", type=Path, help="also write a GeoJSON FeatureCollection")
-    p.add_argument("--plot", type=Path, help="also draw the paper's Fig. 3 (PNG)")
+    p.add_argument("--geojson", type=output_path, help="also write a GeoJSON FeatureCollection")
+    p.add_argument("--plot", type=output_path, help="also draw the paper's Fig. 3 (PNG)")
     p.add_argument("--at", metavar="ISO-8601",
                    help="when the mission starts, with its time zone (2026-12-02T10:00+01:00): "
                    "UAS zones of the airspace apply when active then or during the flight "
@@ -156,7 +157,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--authorised", action="append", default=[], metavar="ZONE",
                    help="identifier of a REQ_AUTHORISATION or CONDITIONAL zone the operator "
                    "holds the authorisation for, or meets the conditions of (repeatable)")
-    p.add_argument("--html", type=Path,
+    p.add_argument("--html", type=output_path,
                    help="also write an interactive view: one self-contained HTML page with "
                    "zones, fence, legs, waypoints and the replayed flight on a time slider")
     p.add_argument("--html-map", action="store_true",
@@ -184,6 +185,8 @@ def _plan(args: argparse.Namespace) -> int:
               "deterministic)", file=sys.stderr)
     autopilot: Autopilot = args.autopilot
     fmt = args.format or ("waypoints" if args.output.suffix == ".waypoints" else "plan")
+    if args.params_out is None:  # its name is derived from the output's, which must be a file
+        check_output_paths([args.output], {"the site file": args.site})
     param_file = args.params_out or params_path(args.output)
     if args.html_map and not args.html:
         raise InputError("--html-map: only with --html")
@@ -193,7 +196,7 @@ def _plan(args: argparse.Namespace) -> int:
         from validator.waypoints_format import sidecar_paths
 
         outputs += list(sidecar_paths(args.output))
-    check_output_paths(outputs)
+    check_output_paths(outputs, {"the site file": args.site})
     airspace = AirspaceOptions(parse_at(args.at) if args.at else None,
                                authorised=frozenset(args.authorised))
     wind = parse_wind_arg(args.wind) if args.wind is not None else None

@@ -35,6 +35,7 @@ from validator.errors import InputError
 from validator.fileio import write_all_atomic
 from validator.geojson_format import dumps_geojson, plan_geojson
 from validator.motion.speed_model import top_speed_mps
+from validator.output_paths import check_output_paths  # re-exported: callers look here
 from validator.plan_format import dumps_plan
 from validator.position_loss import (
     Berth,
@@ -162,20 +163,6 @@ def mission_view(mission: Mission, flight: FlightCheck | None = None, name: str 
     title = f"{site.name}: {name or 'mission'} ({mission.solution.scheme})"
     return view_html(ViewInputs(mission.plan, site, resolved, tracks, paths, wind, title=title),
                      map_background=map_background)
-
-
-def check_output_paths(paths: Sequence[Path]) -> None:
-    """Refuse outputs that collide or whose folder does not exist, before any work is done."""
-    seen: set[Path] = set()
-    for p in paths:
-        resolved = p.resolve()
-        if resolved in seen:
-            raise InputError(f"{p}: named for two outputs")
-        seen.add(resolved)
-        if not p.parent.resolve().is_dir():
-            raise InputError(f"{p}: folder {p.parent} does not exist")
-        if p.is_dir():
-            raise InputError(f"{p}: is a folder")
 
 
 def write_outputs(files: dict[Path, str | bytes]) -> None:

@@ -57,6 +57,7 @@ from validator.mavlink.sitl_check import (
 from validator.mavlink.vehicles import choose_vehicle
 from validator.motion.fly import REPLAY_STEP_S
 from validator.motion.profile import ProfileName, parse_param_overrides
+from validator.output_paths import check_output_paths, output_path
 from validator.plan_format import Autopilot
 from validator.replay import TrackReport
 from validator.track_file import write_track
@@ -280,9 +281,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("plan", help="QGroundControl .plan file")
     p.add_argument("--site", required=True, help="site YAML file")
-    p.add_argument("--report", metavar="OUT",
+    p.add_argument("--report", type=output_path, metavar="OUT",
                    help="also write the full report as JSON (as plan-mission --report)")
-    add_deprecated(p, "--json", "--report", dest="report", metavar="OUT")
+    add_deprecated(p, "--json", "--report", dest="report", type=output_path, metavar="OUT")
     p.add_argument("--replay", action="store_true", help="fly the mission in time")
     add_autopilot_arguments(
         p, help="replay with this autopilot's flight model (default: by the plan's firmware); "
@@ -317,7 +318,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--flown", metavar="TRACK.csv",
                    help="a recorded flight of this plan (as --track writes it; .gz too): "
                         "scored like a flight and drawn in --html")
-    p.add_argument("--html", metavar="OUT.html",
+    p.add_argument("--html", type=output_path, metavar="OUT.html",
                    help="also write an interactive view (one self-contained HTML page: "
                         "zones, fence, legs, waypoints, the replay and the flown track on a "
                         "time slider); implies --replay")
@@ -342,9 +343,11 @@ def _validate(args: argparse.Namespace) -> int:
         raise InputError("--html-map: only with --html")
     if args.flown and flying:
         raise InputError("--flown: a recorded flight, or a flight now (--sitl…), not both")
-    for out in (args.html, args.report, args.track):
-        if out and not Path(out).resolve().parent.is_dir():
-            raise InputError(f"{out}: folder {Path(out).parent} does not exist")
+    check_output_paths(
+        [out for out in (args.report, args.html, args.track) if out is not None],
+        {"the plan": args.plan, "the site file": args.site, "the --params file": args.params,
+         "the --flown track": args.flown, "the --signing-key file": args.signing_key,
+         "the --sitl-defaults file": args.sitl_defaults, "the --sitl-binary": args.sitl_binary})
     if args.track and not flying:
         raise InputError("--track: only a flight has a track (add --sitl, --sitl-binary "
                          "or --connect)")

@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
 
 from validator.cli_common import (
@@ -31,6 +32,7 @@ from validator.cli_common import (
     run_command,
 )
 from validator.errors import InputError
+from validator.output_paths import output_path
 from validator.plan_format import Autopilot
 
 if TYPE_CHECKING:
@@ -119,8 +121,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _add_output(p: argparse.ArgumentParser, help: str) -> None:
     # required, but checked after parsing (_main): argparse would not count the old --out
-    p.add_argument("-o", "--output", metavar="DIR", help=help + " (required)")
-    add_deprecated(p, "--out", "--output", dest="output", metavar="DIR")
+    p.add_argument("-o", "--output", type=output_path, metavar="DIR", help=help + " (required)")
+    add_deprecated(p, "--out", "--output", dest="output", type=output_path, metavar="DIR")
 
 
 def _add_trial_options(p: argparse.ArgumentParser) -> None:
@@ -197,7 +199,7 @@ def _wind(args: argparse.Namespace) -> int:
     return _said(result, args.output)
 
 
-def _said(result: Fig4Result | WindResult, out: str) -> int:
+def _said(result: Fig4Result | WindResult, out: Path) -> int:
     """Print what a study run did and wrote; exit 1 when every trial failed."""
     run = result.run
     print(f"{len(run.rows)} trials ({run.executed} run now, {run.skipped} from {out})")

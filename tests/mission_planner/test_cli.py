@@ -6,6 +6,8 @@ import copy
 import io
 import json
 import math
+import os
+import stat
 import subprocess
 import sys
 from pathlib import Path
@@ -474,3 +476,33 @@ def test_html_map_needs_html(tmp_path, capsys, chatty_planner):
                      capsys)
     assert code == 2 and "--html-map: only with --html" in err
     assert not (tmp_path / "m.plan").exists()
+
+
+def test_output_onto_the_site_file_is_refused(tmp_path, capsys, square_planner):
+    site = _write_site(tmp_path, SLOW)
+    before = site.read_bytes()
+    code, err = _run([site, "-o", site], capsys)
+    assert code == 2 and err.count("\n") == 1
+    assert "is an input of this command (the site file)" in err
+    assert site.read_bytes() == before and not (tmp_path / "site.param").exists()
+
+
+def test_report_onto_the_site_file_is_refused(tmp_path, capsys, square_planner):
+    site = _write_site(tmp_path, SLOW)
+    before = site.read_bytes()
+    code, err = _run([site, "-o", tmp_path / "m.plan", "--report", site], capsys)
+    assert code == 2 and "is an input of this command" in err
+    assert site.read_bytes() == before and not (tmp_path / "m.plan").exists()
+
+
+def test_output_onto_a_fifo_is_refused_and_the_fifo_kept(tmp_path, capsys, square_planner):
+    fifo = tmp_path / "m.plan"
+    os.mkfifo(fifo)
+    code, err = _run([_write_site(tmp_path, SLOW), "-o", fifo], capsys)
+    assert code == 2 and err.count("\n") == 1 and "not a regular file" in err
+    assert stat.S_ISFIFO(os.lstat(fifo).st_mode) and not (tmp_path / "m.param").exists()
+
+
+def test_empty_output_path_is_one_line_exit_2(tmp_path, capsys, square_planner):
+    code, err = _run([_write_site(tmp_path, SLOW), "-o", ""], capsys)
+    assert code == 2 and err.count("\n") == 1 and "-o/--output: empty path" in err

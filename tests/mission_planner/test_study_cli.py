@@ -83,3 +83,13 @@ def test_fig4_refuses_to_mix_planner_settings_in_one_directory(
     capsys.readouterr()
     assert main(["fig4", "-o", str(out), *SMALL, "--max-iterations", "11"]) == 2
     assert "planner_options" in capsys.readouterr().err
+
+
+def test_empty_output_is_refused_not_the_working_folder(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    assert main(["fig4", "-o", "", *SMALL, *FAST]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "-o/--output: empty path" in err
+    assert list(tmp_path.iterdir()) == []

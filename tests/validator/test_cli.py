@@ -146,3 +146,46 @@ def test_the_report_says_what_a_fault_flight_did(files, clearance, says):
     assert text[at + 1:at + 5] == ["  rc-loss injected (SIM_RC_FAIL 1) at t = 164.0 s",
                                    "  then flew SMART_RTL", "  ended landed, 0.0 m from home",
                                    says]
+
+
+def test_report_onto_the_plan_is_refused_and_the_plan_kept(files, capsys):
+    _, site, good, _ = files
+    before = good.read_bytes()
+    assert validate_mission_main([str(good), "--site", str(site), "--report", str(good)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "is an input of this command (the plan)" in err
+    assert good.read_bytes() == before
+
+
+def test_report_onto_the_params_file_is_refused(files, capsys):
+    tmp, site, good, _ = files
+    params = tmp / "v.param"
+    params.write_text("WPNAV_SPEED 500\n")
+    assert validate_mission_main([str(good), "--site", str(site), "--params", str(params),
+                                  "--report", str(params)]) == 2
+    assert "is an input of this command (the --params file)" in capsys.readouterr().err
+    assert params.read_text() == "WPNAV_SPEED 500\n"
+
+
+def test_report_and_html_on_one_path_are_refused(files, capsys):
+    tmp, site, good, _ = files
+    out = tmp / "v.json"
+    assert validate_mission_main([str(good), "--site", str(site), "--report", str(out),
+                                  "--html", str(out)]) == 2
+    assert "named for two outputs" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_report_to_a_folder_names_the_folder_not_a_temporary(files, capsys):
+    tmp, site, good, _ = files
+    folder = tmp / "out"
+    folder.mkdir()
+    assert validate_mission_main([str(good), "--site", str(site), "--report", str(folder)]) == 2
+    err = capsys.readouterr().err
+    assert err == f"validate-mission: {folder}: is a folder\n"
+
+
+def test_empty_report_path_is_refused(files, capsys):
+    _, site, good, _ = files
+    assert validate_mission_main([str(good), "--site", str(site), "--report", ""]) == 2
+    assert "--report: empty path" in capsys.readouterr().err

@@ -41,6 +41,7 @@ from validator.cli_common import (
     run_command,
 )
 from validator.errors import InputError
+from validator.output_paths import output_path
 from validator.plan_format import Autopilot
 
 # Profile parameters that are the model's, not an autopilot's: never sent with PARAM_SET.
@@ -122,12 +123,14 @@ def download_parser() -> argparse.ArgumentParser:
         "QGroundControl .plan (to audit with validate-mission).",
     )
     add_link_arguments(p, connect_help=CONNECT_HELP, required=True)
-    p.add_argument("-o", "--output", required=True, metavar="PLAN", help="the .plan to write")
-    p.add_argument("--params-out", metavar="FILE",
+    p.add_argument("-o", "--output", type=output_path, required=True, metavar="PLAN",
+                   help="the .plan to write")
+    p.add_argument("--params-out", type=output_path, metavar="FILE",
                    help="also fetch every parameter the vehicle holds and write them as a "
                         "parameter file (ArduPilot NAME VALUE lines, QGroundControl format for "
                         "PX4), to audit with validate-mission --params")
-    add_deprecated(p, "--params", "--params-out", dest="params_out", metavar="FILE")
+    add_deprecated(p, "--params", "--params-out", dest="params_out", type=output_path,
+                   metavar="FILE")
     add_quiet_argument(p, "no notes on stderr (warnings, errors and the result still print)")
     return p
 
@@ -142,8 +145,11 @@ def _download(args: argparse.Namespace) -> int:
     from validator.fileio import write_all_atomic
     from validator.mavlink.link import download_plan
     from validator.mavlink.param_download import download_params_text
+    from validator.output_paths import check_output_paths
     from validator.plan_format import dumps_plan
 
+    check_output_paths([out for out in (args.output, args.params_out) if out is not None],
+                       {"the --signing-key file": args.signing_key})
     key = read_signing_key_arg(args.signing_key)
     plan = download_plan(args.connect, timeout_s=args.timeout, sysid=args.sysid,
                          signing_key=key)

@@ -36,6 +36,7 @@ from validator.mavlink.vehicles import (
     VehicleKind,
     start_vehicle,
 )
+from validator.output_paths import output_path
 
 if TYPE_CHECKING:
     from validator.mavlink.faults import FaultInjector
@@ -96,7 +97,7 @@ def add_sitl_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--sitl-time-limit", type=positive, metavar="S",
                    help="longest mission to record, vehicle seconds (default: twice the "
                         "replayed mission plus 120 s)")
-    g.add_argument("--track", metavar="OUT.csv",
+    g.add_argument("--track", type=output_path, metavar="OUT.csv",
                    help="also write what the vehicle flew (position, velocity, mission item "
                         "per report; .gz compresses) for scoring or plotting later")
     g.add_argument("--fault", choices=FAULTS,

@@ -164,3 +164,19 @@ def test_sitl_vehicle_command_serves_and_stops_on_sigterm(plan, listen):
                                             ("example.org", False)])
 def test_sitl_vehicle_warns_when_not_on_loopback(host, loopback):
     assert is_loopback(host) == loopback
+
+
+def test_download_mission_to_one_path_twice_is_refused_before_connecting(tmp_path, capsys):
+    out = tmp_path / "held.plan"
+    status = download_mission_main(["--connect", f"udpout:127.0.0.1:{free_udp_port()}",
+                                    "--timeout", "1", "-o", str(out), "--params-out", str(out)])
+    assert status == 2 and list(tmp_path.iterdir()) == []
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "named for two outputs" in err
+
+
+def test_download_mission_to_a_folder_names_the_folder(tmp_path, capsys):
+    status = download_mission_main(["--connect", f"udpout:127.0.0.1:{free_udp_port()}",
+                                    "--timeout", "1", "-o", str(tmp_path)])
+    assert status == 2
+    assert capsys.readouterr().err == f"download-mission: {tmp_path}: is a folder\n"
