@@ -81,7 +81,7 @@ MAX_REACH_M = 100_000.0
 
 class _Strict(BaseModel):
     # NaN and infinities are refused everywhere (YAML's .nan / .inf parse as floats).
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
 
 
 class OriginModel(_Strict):

@@ -293,3 +293,17 @@ def test_duplicate_zone_names_across_circles_and_polygons() -> None:
 
 def test_an_airspace_key_needs_a_site_file_on_disk() -> None:
     _rejects(_base() | {"airspace": "zones.geojson"}, "airspace", "site file read from disk")
+
+
+@pytest.mark.parametrize("value", [True, "10"])
+def test_a_number_written_as_a_boolean_or_a_string_is_refused(value: object) -> None:
+    # coerced, `max_speed: true` had planned the site at 1 m/s
+    data = _base()
+    data["uav"]["max_speed"] = value
+    _rejects(data, "site.yaml: uav.max_speed: Input should be a valid number")
+
+
+def test_a_count_written_with_a_fraction_is_refused() -> None:
+    data = _base()
+    data["uav"]["slots"] = 64.0
+    _rejects(data, "site.yaml: uav.slots: Input should be a valid integer")
