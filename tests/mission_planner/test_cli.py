@@ -172,6 +172,8 @@ def test_waypoints_geojson_plot_and_px4(tmp_path, capsys):
     ({}, ["--cycles", "0"], "cycles: must be >= 1"),
     ({}, ["--fence-margin-m", "5"], "larger than the planned clearance"),
     ({"uav": {**SMALL["uav"], "period": 0.99}}, [], "uav.period: 0.99 s is shorter than the 1 s"),
+    ({"uav": {**SMALL["uav"], "max_jerk": 1e-12}}, [], "uav.max_jerk: Input should be greater"),
+    ({"uav": {**SMALL["uav"], "max_accel": 1e-12}}, [], "uav.max_accel: Input should be greater"),
 ])
 def test_bad_input_is_one_line_exit_2_and_no_file(tmp_path, capsys, change, args, message):
     site_path = _write_site(tmp_path, {**SMALL, **change})
