@@ -257,8 +257,8 @@ class Site:
 
     def with_buffer(self, buffer_m: float) -> Site:
         """The same site with another safety buffer (m), re-checked."""
-        if buffer_m < 0:
-            raise InputError(f"buffer_m: must be >= 0, got {buffer_m}")
+        if not 0 <= buffer_m <= MAX_DISTANCE_M:  # (NaN too) the schema's bound on a buffer
+            raise InputError(f"buffer_m: must be >= 0 and <= {MAX_DISTANCE_M:g} m, got {buffer_m}")
         site = dataclasses.replace(self, buffer_m=float(buffer_m))
         _check_home_clear(site, "buffer_m")
         return site

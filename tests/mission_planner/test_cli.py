@@ -172,6 +172,8 @@ def test_waypoints_geojson_plot_and_px4(tmp_path, capsys):
     ({}, ["--cycles", "0"], "cycles: must be >= 1"),
     ({}, ["--fence-margin-m", "5"], "larger than the planned clearance"),
     ({"uav": {**SMALL["uav"], "period": 0.99}}, [], "uav.period: 0.99 s is shorter than the 1 s"),
+    ({}, ["--buffer-m", "nan"], "buffer_m: must be >= 0 and <= 1e+06 m, got nan"),
+    ({}, ["--at", "9999-12-31T23:59+00:00"], "--at: '9999-12-31T23:59+00:00' is outside"),
     ({"uav": {**SMALL["uav"], "max_jerk": 1e-12}}, [], "uav.max_jerk: Input should be greater"),
     ({"uav": {**SMALL["uav"], "max_accel": 1e-12}}, [], "uav.max_accel: Input should be greater"),
 ])

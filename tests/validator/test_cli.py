@@ -95,6 +95,14 @@ def test_a_step_finer_than_100_hz_is_refused(files, capsys):
     assert "--dt: must be >= 0.01 s" in capsys.readouterr().err
 
 
+def test_an_at_with_no_day_left_in_the_calendar_is_refused(files, capsys):
+    _, site, good, _ = files
+    assert validate_mission_main([str(good), "--site", str(site), "--at",
+                                  "9999-12-31T23:59+00:00"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--at: '9999-12-31T23:59+00:00' is outside" in err
+
+
 def test_a_param_acceleration_near_zero_is_refused(files, capsys):
     _, site, good, _ = files
     assert validate_mission_main([str(good), "--site", str(site), "--param",
