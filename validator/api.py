@@ -31,7 +31,7 @@ from validator.errors import InputError
 from validator.flight import Flight, resolve_flight
 from validator.mavlink.connection import DEFAULT_TIMEOUT_S
 from validator.mavlink.vehicles import VehicleChoice, VehicleKind, choose_vehicle, start_vehicle
-from validator.motion.fly import REPLAY_STEP_S
+from validator.motion.fly import REPLAY_STEP_S, check_step
 from validator.motion.limits import site_limits
 from validator.motion.profile import Profile, ProfileName, flown_params, make_profile
 from validator.plan_format import Autopilot, Plan, read_plan
@@ -126,8 +126,7 @@ def replay_plan(
     """Fly ``plan`` with the validator's model of its autopilot (:func:`flight_profile`) in the
     site's wind, sampled every ``dt_s`` seconds, and score the track against ``site``. What
     if the wind is other than planned: ``site.with_forecast(Wind(9, 300))``."""
-    if not (0 < dt_s <= REPLAY_STEP_S):
-        raise InputError(f"dt_s: must be > 0 and <= {REPLAY_STEP_S} s, got {dt_s}")
+    check_step(dt_s, "dt_s", REPLAY_STEP_S)
     flight = _flight(plan, site, source)
     prof = flight_profile(plan, site, profile, params)
     track = replay(flight, prof, dt_s=dt_s)

@@ -55,7 +55,7 @@ from validator.mavlink.sitl_check import (
     split_sitl_url,
 )
 from validator.mavlink.vehicles import choose_vehicle
-from validator.motion.fly import REPLAY_STEP_S
+from validator.motion.fly import MIN_REPLAY_STEP_S, REPLAY_STEP_S
 from validator.motion.profile import ProfileName, parse_param_overrides
 from validator.output_paths import check_output_paths, output_path
 from validator.plan_format import Autopilot
@@ -307,7 +307,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "was made for); implies --replay")
     p.add_argument("--dt", type=float, default=REPLAY_STEP_S, metavar="SECONDS",
                    help=f"replay sample interval (default {REPLAY_STEP_S:g} = "
-                        f"{1 / REPLAY_STEP_S:g} Hz; at most {REPLAY_STEP_S:g})")
+                        f"{1 / REPLAY_STEP_S:g} Hz; {MIN_REPLAY_STEP_S:g} to {REPLAY_STEP_S:g})")
     p.add_argument("--at", metavar="ISO-8601",
                    help="when the plan flies, with its time zone: the site's UAS zones are "
                         "decided for then and the flight's duration (default: every zone "

@@ -11,6 +11,7 @@ Results go to stdout; progress, notes, warnings and errors to stderr.
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 import textwrap
 from collections.abc import Callable, Sequence
@@ -149,6 +150,15 @@ def sysid(text: str) -> int:
     return value
 
 
+def connect_url(text: str) -> str:
+    """A connection string whose UDP or TCP port (``[SCHEME:][HOST:]PORT``), if it names one,
+    is one a socket takes: 0..65535 (else the socket library raised OverflowError)."""
+    m = re.fullmatch(r"(?:[a-z]+:)?(?:[^:]*:)?(-?\d+)", text)
+    if m is not None and not 0 <= int(m.group(1)) <= 65535:
+        raise argparse.ArgumentTypeError(f"port {m.group(1)} is outside 0..65535")
+    return text
+
+
 def _autopilot(text: str) -> Autopilot:
     try:
         return Autopilot.named(text)
@@ -176,15 +186,16 @@ def add_link_arguments(
     one argument group. ``old`` maps a new option to its former spelling in this command
     (``{"--connect": "--sitl-url"}``), kept as a deprecated alias."""
     g = p.add_argument_group("MAVLink link")
-    g.add_argument("--connect", required=required, metavar="URL", help=connect_help)
+    g.add_argument("--connect", type=connect_url, required=required, metavar="URL",
+                   help=connect_help)
     if timeout:
         g.add_argument("--timeout", type=positive, default=LINK_TIMEOUT_S, metavar="S",
                        help="give up when the vehicle does not answer for S seconds "
                             f"(default {LINK_TIMEOUT_S:g})")
     g.add_argument("--sysid", type=sysid, default=sysid_default, metavar="N", help=sysid_help)
     g.add_argument("--signing-key", metavar="FILE", help=signing_help)
-    types: dict[str, Callable[[str], object] | None] = {"--connect": None, "--timeout": positive,
-                                                     "--sysid": sysid, "--signing-key": None}
+    types: dict[str, Callable[[str], object] | None] = {
+        "--connect": connect_url, "--timeout": positive, "--sysid": sysid, "--signing-key": None}
     for new, former in (old or {}).items():
         add_deprecated(g, former, new, dest=new[2:].replace("-", "_"), type=types[new])
 

@@ -41,6 +41,7 @@ from numpy.typing import NDArray
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from validator.autopilot.ardupilot import PARAMS as ARDUPILOT_PARAMS
+from validator.autopilot.spec import MIN_ACCEL_MPS2, MIN_JERK_MPS3
 from validator.channel import db_to_linear, dbm_to_w
 from validator.errors import InputError
 from validator.geodesy import LocalFrame, check_latitude
@@ -154,9 +155,9 @@ class UavModel(_Strict):
                              description="the vehicle's real top speed V, m/s")
     period: float = Field(gt=0, le=MAX_PERIOD_S, description="service period T, s")
     slots: int = Field(gt=0, le=MAX_SLOTS, description="number of time slots N")
-    max_accel: float = Field(default=DEFAULT_MAX_ACCEL_MPS2, gt=0, le=MAX_ACCEL_MPS2,
+    max_accel: float = Field(default=DEFAULT_MAX_ACCEL_MPS2, ge=MIN_ACCEL_MPS2, le=MAX_ACCEL_MPS2,
                              description="m/s^2")
-    max_jerk: float = Field(default=DEFAULT_MAX_JERK_MPS3, gt=0, le=MAX_JERK_MPS3,
+    max_jerk: float = Field(default=DEFAULT_MAX_JERK_MPS3, ge=MIN_JERK_MPS3, le=MAX_JERK_MPS3,
                             description="m/s^3")
     endurance: float | None = Field(default=None, gt=0, le=MAX_PERIOD_S,
                                     description="flight time from take-off until the vehicle "
@@ -256,8 +257,8 @@ class Site:
 
     def with_buffer(self, buffer_m: float) -> Site:
         """The same site with another safety buffer (m), re-checked."""
-        if buffer_m < 0:
-            raise InputError(f"buffer_m: must be >= 0, got {buffer_m}")
+        if not 0 <= buffer_m <= MAX_DISTANCE_M:  # (NaN too) the schema's bound on a buffer
+            raise InputError(f"buffer_m: must be >= 0 and <= {MAX_DISTANCE_M:g} m, got {buffer_m}")
         site = dataclasses.replace(self, buffer_m=float(buffer_m))
         _check_home_clear(site, "buffer_m")
         return site

@@ -16,10 +16,9 @@ from pathlib import Path
 from typing import Any
 
 from validator.audit import AuditReport, audit
-from validator.errors import InputError
 from validator.failsafe import FailsafeReport, audit_failsafes
 from validator.flight import Finding, Flight, Severity, resolve_flight
-from validator.motion.fly import REPLAY_STEP_S
+from validator.motion.fly import REPLAY_STEP_S, check_step
 from validator.motion.limits import site_limits
 from validator.motion.profile import Profile, flown_params, make_profile
 from validator.plan_format import Autopilot, Plan, read_plan
@@ -195,9 +194,7 @@ def validate_mission(
     (:attr:`Validation.wind_as_planned`). Raises :class:`InputError` for bad input, and for a
     wind the vehicle cannot fly against (naming the leg).
     """
-    if not (dt_s > 0 and dt_s <= REPLAY_STEP_S):
-        raise InputError(f"--dt: must be > 0 and <= {REPLAY_STEP_S:g} s (at least 20 Hz), "
-                         f"got {dt_s}")
+    check_step(dt_s, "--dt", REPLAY_STEP_S)
     site = load_site(site_path, airspace)
     plan = read_plan(plan_path)
     flight = resolve_flight(plan, site, str(plan_path))

@@ -10,7 +10,7 @@ from validator.autopilot.waypoint_radius import fence_margin_m, waypoint_radius_
 from validator.errors import InputError
 from validator.geodesy import E7_ROUNDING_MARGIN_M
 from validator.plan_format import Autopilot
-from validator.site import Site
+from validator.site import MAX_REACH_M, Site
 
 AUTOPILOTS = {a.key: a for a in (Autopilot.ARDUPILOTMEGA, Autopilot.PX4)}  # --autopilot
 OPERATING_AREAS = ("polygon", "circle")
@@ -56,7 +56,7 @@ def check_options(site: Site, options: MissionOptions) -> None:
     if options.cycles < 1:
         raise InputError(f"cycles: must be >= 1, got {options.cycles}")
     margin = fence_margin_for(site, options)
-    if margin < 0:
+    if not margin >= 0:  # (NaN too: it compared false with the buffer and planned on)
         raise InputError(f"fence_margin_m: must be >= 0, got {margin:g}")
     if margin > site.buffer_m:
         raise InputError(
@@ -67,9 +67,9 @@ def check_options(site: Site, options: MissionOptions) -> None:
         raise InputError(
             f"operating_area: expected one of {', '.join(OPERATING_AREAS)}, "
             f"got {options.operating_area!r}")
-    if not options.operating_area_margin_m > 0:
-        raise InputError(
-            f"operating_area_margin_m: must be > 0, got {options.operating_area_margin_m:g}")
+    if not 0 < options.operating_area_margin_m <= MAX_REACH_M:  # no mission reaches further
+        raise InputError(f"operating_area_margin_m: must be > 0 and <= {MAX_REACH_M:g} m, "
+                         f"got {options.operating_area_margin_m:g}")
     if options.transit_speed_mps is not None and not (
         0 < options.transit_speed_mps <= site.max_speed_mps
     ):

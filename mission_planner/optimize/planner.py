@@ -14,6 +14,7 @@ from mission_planner.optimize.bcd import (
     plan_paper,
 )
 from mission_planner.optimize.flyable import plan_flyable
+from mission_planner.optimize.retime import MIN_HOLD_S
 from mission_planner.optimize.solution import SCHEMES, Solution
 from validator.errors import InputError
 from validator.site import Site
@@ -61,6 +62,12 @@ def plan(
         else:
             air = commanded_top_speed_mps(site, opt.autopilot)
             check_flyable(air, wind, "wind", gusts=air < cruise_speed_mps(site, opt.autopilot))
+    if opt.dynamics != "none" and site.period_s < MIN_HOLD_S:
+        # Even a cycle that never leaves its first waypoint holds there this long, so no
+        # speed fits and the search would have no overrun to slow down by.
+        raise InputError(f"uav.period: {site.period_s:g} s is shorter than the {MIN_HOLD_S:g} s "
+                         f"the vehicle holds at a waypoint at least; give at least "
+                         f"{MIN_HOLD_S:g} s")
     started = time.perf_counter()
     if opt.dynamics == "none":
         return plan_paper(site, scheme, opt, progress, started)

@@ -173,6 +173,14 @@ def test_waypoints_geojson_plot_and_px4(tmp_path, capsys):
     ({}, ["--buffer-m", "-1"], "buffer_m: must be >= 0"),
     ({}, ["--cycles", "0"], "cycles: must be >= 1"),
     ({}, ["--fence-margin-m", "5"], "larger than the planned clearance"),
+    ({"uav": {**SMALL["uav"], "period": 0.99}}, [], "uav.period: 0.99 s is shorter than the 1 s"),
+    ({}, ["--buffer-m", "nan"], "buffer_m: must be >= 0 and <= 1e+06 m, got nan"),
+    ({}, ["--at", "9999-12-31T23:59+00:00"], "--at: '9999-12-31T23:59+00:00' is outside"),
+    ({}, ["--fence-margin-m", "nan"], "fence_margin_m: must be >= 0, got nan"),
+    ({}, ["--operating-area", "circle", "--operating-area-margin-m", "1e9"],
+     "operating_area_margin_m: must be > 0 and <= 100000 m"),
+    ({"uav": {**SMALL["uav"], "max_jerk": 1e-12}}, [], "uav.max_jerk: Input should be greater"),
+    ({"uav": {**SMALL["uav"], "max_accel": 1e-12}}, [], "uav.max_accel: Input should be greater"),
 ])
 def test_bad_input_is_one_line_exit_2_and_no_file(tmp_path, capsys, change, args, message):
     site_path = _write_site(tmp_path, {**SMALL, **change})

@@ -88,6 +88,28 @@ def test_slower_than_20_hz_is_refused(files, capsys):
     assert "--dt" in capsys.readouterr().err
 
 
+def test_a_step_finer_than_100_hz_is_refused(files, capsys):
+    _, site, good, _ = files
+    assert validate_mission_main([str(good), "--site", str(site), "--replay", "--dt",
+                                  "1e-9"]) == 2
+    assert "--dt: must be >= 0.01 s" in capsys.readouterr().err
+
+
+def test_an_at_with_no_day_left_in_the_calendar_is_refused(files, capsys):
+    _, site, good, _ = files
+    assert validate_mission_main([str(good), "--site", str(site), "--at",
+                                  "9999-12-31T23:59+00:00"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--at: '9999-12-31T23:59+00:00' is outside" in err
+
+
+def test_a_param_acceleration_near_zero_is_refused(files, capsys):
+    _, site, good, _ = files
+    assert validate_mission_main([str(good), "--site", str(site), "--param",
+                                  "WPNAV_ACCEL=1e-9"]) == 2
+    assert "--param WPNAV_ACCEL: 1e-09 cm/s/s is below 10" in capsys.readouterr().err
+
+
 def test_param_implies_replay_and_follows_the_plan_firmware(files):
     _, site, good, _ = files
     v = validate_mission(good, site, params={"WPNAV_ACCEL": 500.0})

@@ -17,6 +17,14 @@ MAV_PARAM_TYPE_REAL32 = 9
 LimitName = Literal["speed_mps", "accel_mps2", "jerk_mps3", "alt_amsl_m", "wind_speed_mps",
                     "wind_from_deg", "wind_turbulence_mps"]
 
+# The least acceleration (m/s²) and jerk (m/s³) any flight model takes: a fifth of the least
+# either autopilot documents (WPNAV_ACCEL 50 cm/s², MPC_ACC_HOR 2 m/s²) and a tenth of the
+# least jerk (1 m/s³ both). A vehicle slower to speed up hovers; and the models' S-curves
+# and corner searches grow as these shrink (WPNAV_ACCEL 1e-9 cm/s² took 25 GiB).
+MIN_ACCEL_MPS2 = 0.1
+MIN_JERK_MPS3 = 0.1
+_FLOOR_SI = {"cm/s/s": MIN_ACCEL_MPS2, "m/s/s": MIN_ACCEL_MPS2, "m/s/s/s": MIN_JERK_MPS3}
+
 
 @dataclass(frozen=True)
 class ParamSpec:
@@ -43,6 +51,10 @@ class ParamSpec:
     def in_range(self, value: float) -> bool:
         """Whether ``value`` (the autopilot's units) lies in the documented range."""
         return self.minimum <= value <= self.maximum
+
+    def least(self) -> float:
+        """The least value a flight model takes (the autopilot's units; 0 for no floor but 0)."""
+        return _FLOOR_SI.get(self.unit, 0.0) / self.to_si
 
     def from_si(self, value_si: float) -> float:
         """``value_si`` in the autopilot's units."""

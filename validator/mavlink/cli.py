@@ -43,6 +43,7 @@ from validator.cli_common import (
 from validator.errors import InputError
 from validator.output_paths import output_path
 from validator.plan_format import Autopilot
+from validator.site import MAX_ALT_M
 
 # Profile parameters that are the model's, not an autopilot's: never sent with PARAM_SET.
 MODEL_ONLY_PARAMS = frozenset({"VEHICLE_SPEED_MAX", "SPEED", "SPEED_UP", "SPEED_DN",
@@ -180,6 +181,8 @@ def parse_home(text: str) -> tuple[float, float, float]:
                          ) from None
     if not (-90 <= lat <= 90 and -180 <= lon <= 180):
         raise InputError(f"--home {text}: latitude or longitude out of range")
+    if not abs(alt) <= MAX_ALT_M:  # (NaN too) as a site's origin: it travels in mm as int32
+        raise InputError(f"--home {text}: altitude must be within ±{MAX_ALT_M:g} m")
     return lat, lon, alt
 
 

@@ -134,6 +134,10 @@ def make_profile(
         v = float(value)
         if not math.isfinite(v) or v < 0 or (v == 0 and not PARAM_SPECS[pname][key].zero_ok):
             raise InputError(f"--param {key}: must be a number > 0, got {value}")
+        floor = PARAM_SPECS[pname][key].least()
+        if 0 < v < floor:
+            raise InputError(f"--param {key}: {v:g} {PARAM_SPECS[pname][key].unit} is below "
+                             f"{floor:g}, the least acceleration or jerk the replay flies")
         params[key] = v
     return Profile(pname, params)
 

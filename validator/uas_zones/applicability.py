@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from datetime import datetime, timedelta
+from datetime import UTC, datetime, timedelta
 from typing import Any
 
 from validator.errors import InputError
@@ -61,6 +61,13 @@ def parse_at(text: str) -> datetime:
         raise InputError(f"--at: {text!r} is not an ISO-8601 date and time") from None
     if at.tzinfo is None:
         raise InputError(f"--at: {text!r} has no time zone (add Z or +hh:mm)")
+    try:
+        # The zones are decided, in UTC, until the flight ends: up to a day later (the
+        # longest mission, validator.flight.model.MAX_MISSION_S).
+        at.astimezone(UTC) + timedelta(days=1)
+    except OverflowError:
+        raise InputError(f"--at: {text!r} is outside the calendar for a flight of up to a "
+                         f"day (0001-01-01 to 9999-12-30 UTC)") from None
     return at
 
 

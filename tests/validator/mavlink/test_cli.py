@@ -114,6 +114,26 @@ def test_sitl_vehicle_bad_home_exits_2(capsys):
                                        "out of range\n")
 
 
+def test_sitl_vehicle_home_altitude_beyond_reach_exits_2(capsys):
+    assert sitl_vehicle_main(["--connect", "udpin:127.0.0.1:0", "--home", "37.5,127,1e9"]) == 2
+    assert capsys.readouterr().err == ("sitl-vehicle: --home 37.5,127,1e9: altitude must be "
+                                       "within ±100000 m\n")
+
+
+def test_sitl_vehicle_port_beyond_65535_exits_2(capsys):
+    assert sitl_vehicle_main(["--connect", "udpin:127.0.0.1:99999", "--home", "37.5,127,1"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--connect: port 99999 is outside 0..65535" in err
+
+
+@pytest.mark.parametrize("port", ["99999", "-1"])
+def test_upload_mission_port_outside_0_65535_exits_2(tmp_path, capsys, port):
+    assert upload_mission_main([str(tmp_path / "m.plan"), "--connect", f"udpout:127.0.0.1:{port}",
+                                "--timeout", "1"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"--connect: port {port} is outside 0..65535" in err
+
+
 def test_sitl_vehicle_bad_loss_exits_2(capsys):
     assert sitl_vehicle_main(["--connect", "udpin:127.0.0.1:0", "--home", "1,2,3",
                               "--loss", "1.5"]) == 2
