@@ -79,3 +79,12 @@ def test_a_bad_airspace_file_is_one_line_naming_it_and_nothing_is_written(tmp_pa
     assert err == [f"plan-mission: {tmp_path / 'zones.geojson'}: features[0] (R).geometry: a "
                    "LineString cannot be a zone (Polygon, MultiPolygon, or Point with radius_m)"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["site.yaml", "zones.geojson"]
+
+
+@pytest.mark.parametrize("value", ["inf", "nan", "0"])
+def test_a_timeout_that_never_ends_is_refused(value: str, tmp_path, capsys) -> None:
+    # inf had been taken: a link that waits forever for a vehicle that does not answer
+    assert upload_mission_main([str(tmp_path / "m.plan"), "--connect", "udpout:127.0.0.1:9",
+                                "--timeout", value]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--timeout" in err and "finite number > 0" in err

@@ -17,6 +17,7 @@ stderr, exit 0 (exit 1 if every trial failed). Results (figures, tables) on stdo
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -46,13 +47,16 @@ STUDY_EXTRA = ("tqdm", "dask", "distributed")
 
 def _list_of(kind: Callable[[str], T]) -> Callable[[str], tuple[T, ...]]:
     def parse(text: str) -> tuple[T, ...]:
-        try:
-            values = tuple(kind(v) for v in text.split(",") if v.strip())
+        parts = text.split(",")
+        if not text.strip():
+            raise argparse.ArgumentTypeError("give at least one value")
+        try:  # an empty item ("10,,20") is a typo, not a value to skip
+            values = tuple(kind(v) for v in parts)
         except ValueError:
             raise argparse.ArgumentTypeError(
                 f"expected comma-separated numbers, got {text!r}") from None
-        if not values:
-            raise argparse.ArgumentTypeError("give at least one value")
+        if not all(math.isfinite(float(v)) for v in values):  # type: ignore[arg-type]
+            raise argparse.ArgumentTypeError(f"expected finite numbers, got {text!r}")
         return values
 
     parse.__name__ = "list"

@@ -22,6 +22,8 @@ FAST = ["--max-iterations", "10"]
     [
         (["--trials", "0"], "--trials"),
         (["--radii", "10,x"], "--radii"),
+        (["--radii", "10,,20"], "--radii"),  # had been read as 10,20
+        (["--radii", "10,inf"], "--radii"),
         (["--counts", "-1"], "--counts"),
         (["--slots", "1"], "--slots"),
         (["--workers", "0"], "--workers"),
