@@ -169,15 +169,16 @@ def _invalid_reason(poly: shapely.Polygon) -> str:
 def _check_fence(plan: Plan, flight: Flight, site: Site, tol: float) -> list[Finding]:
     out: list[Finding] = []
     fence = local_fence(plan, site.frame)
-    circles, polygons = fence.circles, [(p, inc) for p, inc in fence.polygons
-                                        if p.is_valid and p.area >= MIN_FENCE_AREA_M2]
+    circles, polygons = fence.circles, []
     for i, (poly, inclusion) in enumerate(fence.polygons):
-        if not (poly.is_valid and poly.area >= MIN_FENCE_AREA_M2):  # no use in the checks below
-            why = (_invalid_reason(poly) if not poly.is_valid else
-                   f"it has no area (under {MIN_FENCE_AREA_M2:g} m²: collinear vertices)")
-            out.append(Finding("violation", f"fence polygon {i} "
-                               f"({'inclusion' if inclusion else 'exclusion'}): {why}: the "
-                               "autopilot's breach test of it is not the shape drawn", None))
+        if poly.is_valid and poly.area >= MIN_FENCE_AREA_M2:
+            polygons.append((poly, inclusion))
+            continue  # the others are of no use in the checks below
+        why = (_invalid_reason(poly) if not poly.is_valid else
+               f"it has no area (under {MIN_FENCE_AREA_M2:g} m²: collinear vertices)")
+        out.append(Finding("violation", f"fence polygon {i} "
+                           f"({'inclusion' if inclusion else 'exclusion'}): {why}: the "
+                           "autopilot's breach test of it is not the shape drawn", None))
     excl_c = [(c, r) for c, r, inc in circles if not inc]
     incl_c = [(c, r) for c, r, inc in circles if inc]
     excl_p = [p for p, inc in polygons if not inc]
