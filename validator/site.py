@@ -56,7 +56,13 @@ from validator.model_errors import first_error
 from validator.site_airspace import SiteAirspace, site_airspace
 from validator.uas_zones.applicability import AirspaceOptions, Band
 from validator.wind import Wind, WindModel
-from validator.zones import MAX_VERTICES, PolygonZone, point_clearance_m, polygon_zone
+from validator.zones import (
+    MAX_VERTICES,
+    PolygonZone,
+    buffer_intrusion,
+    point_clearance_m,
+    polygon_zone,
+)
 
 DEFAULT_BUFFER_M = 2.0
 # A site without uav limits gets ArduCopter's defaults, read from its one parameter table.
@@ -283,19 +289,9 @@ def _resolve(frame: LocalFrame, p: PointModel | NoFlyZoneModel) -> NDArray[np.fl
 
 
 def _check_home_clear(site: Site, field: str) -> None:
-    d = np.linalg.norm(site.nfz_xy_m - site.home_xy_m, axis=1) if site.num_nfzs else np.zeros(0)
-    for m in range(site.num_nfzs):
-        if d[m] < site.nfz_radius_m[m] + site.buffer_m:
-            raise InputError(
-                f"{field}: home lies inside {site.nfz_names[m]} plus its {site.buffer_m:g} m "
-                f"safety buffer ({d[m]:.1f} m from its centre)"
-            )
-    for zone in site.polygon_zones:
-        c = float(point_clearance_m(zone, site.home_xy_m))
-        if c < site.buffer_m:
-            where = f"{-c:.1f} m inside it" if c < 0 else f"{c:.1f} m from it"
-            raise InputError(f"{field}: home lies inside {zone.name} plus its "
-                             f"{site.buffer_m:g} m safety buffer ({where})")
+    inside = buffer_intrusion(site, site.home_xy_m)
+    if inside:
+        raise InputError(f"{field}: home lies inside {inside}")
 
 
 @dataclass(frozen=True)

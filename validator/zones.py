@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import Protocol
 
 import numpy as np
 import shapely
@@ -156,6 +157,43 @@ def point_clearance_m(zone: PolygonZone, xy_m: ArrayLike) -> NDArray[np.float64]
     inside = shapely.distance(zone.shape.exterior, pts)
     d = np.where(outside > 0.0, outside, -inside)
     return np.asarray(d.reshape(xy.shape[:-1]), dtype=float)
+
+
+class ZoneSet(Protocol):
+    """Every zone of a site and its buffer: :class:`validator.site.Site` is one."""
+
+    @property
+    def nfz_xy_m(self) -> NDArray[np.float64]: ...
+    @property
+    def nfz_radius_m(self) -> NDArray[np.float64]: ...
+    @property
+    def polygon_zones(self) -> tuple[PolygonZone, ...]: ...
+    @property
+    def zone_names(self) -> tuple[str, ...]: ...
+    @property
+    def buffer_m(self) -> float: ...
+
+
+def zone_point_clearances_m(zones: ZoneSet, xy_m: ArrayLike) -> NDArray[np.float64]:
+    """Signed clearance (m) of the point ``xy_m`` from every zone, circles then polygons
+    (``zone_names`` order): distance outside, minus the depth inside."""
+    xy = np.asarray(xy_m, dtype=float)
+    circles = np.linalg.norm(np.asarray(zones.nfz_xy_m, dtype=float).reshape(-1, 2) - xy,
+                             axis=1) - zones.nfz_radius_m
+    polygons = [float(point_clearance_m(z, xy)) for z in zones.polygon_zones]
+    return np.concatenate([circles, polygons]).astype(float)
+
+
+def buffer_intrusion(zones: ZoneSet, xy_m: ArrayLike) -> str:
+    """The zone whose buffer the point ``xy_m`` lies in, in words ("NFZ1 plus its 2 m safety
+    buffer (3.0 m inside it)", the nearest zone when several); "" when it lies clear of all."""
+    clear = zone_point_clearances_m(zones, xy_m)
+    if not len(clear) or float(np.min(clear)) >= zones.buffer_m:
+        return ""
+    m = int(np.argmin(clear))
+    c = float(clear[m])
+    where = f"{-c:.1f} m inside it" if c < 0 else f"{c:.1f} m from it"
+    return f"{zones.zone_names[m]} plus its {zones.buffer_m:g} m safety buffer ({where})"
 
 
 def leg_clearance_m(zone: PolygonZone, a_m: ArrayLike, b_m: ArrayLike) -> float:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pytest
 import shapely
@@ -11,12 +13,14 @@ from hypothesis import strategies as st
 from validator.errors import InputError
 from validator.zones import (
     MIN_AREA_M2,
+    buffer_intrusion,
     convex_parts,
     fence_outline_m,
     leg_clearance_m,
     point_clearance_m,
     polygon_zone,
     support_m,
+    zone_point_clearances_m,
 )
 
 SQUARE = [(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)]
@@ -71,6 +75,37 @@ def test_point_clearance_is_distance_outside_and_minus_depth_inside():
     z = polygon_zone("Z", SQUARE, "z")
     got = point_clearance_m(z, [[13.0, 5.0], [5.0, 1.0], [13.0, 14.0]])
     assert got == pytest.approx([3.0, -1.0, 5.0])
+
+
+@dataclass(frozen=True)
+class _Zones:
+    nfz_xy_m: np.ndarray
+    nfz_radius_m: np.ndarray
+    polygon_zones: tuple
+    buffer_m: float
+
+    @property
+    def zone_names(self) -> tuple[str, ...]:
+        return ("C1", *(z.name for z in self.polygon_zones))
+
+
+# a circle of radius 5 at (30, 5) and the square (0, 0)-(10, 10); buffer 2 m
+ZONES = _Zones(np.array([[30.0, 5.0]]), np.array([5.0]), (polygon_zone("Z", SQUARE, "z"),), 2.0)
+
+
+def test_a_points_clearance_from_every_zone_is_signed_circles_then_polygons():
+    assert zone_point_clearances_m(ZONES, [12.0, 5.0]) == pytest.approx([13.0, 2.0])
+    assert zone_point_clearances_m(ZONES, [29.0, 5.0]) == pytest.approx([-4.0, 19.0])
+
+
+@pytest.mark.parametrize(("xy", "words"), [
+    ((12.0, 5.0), ""),  # 2 m from the square: on its buffer's edge, clear
+    ((11.5, 5.0), "Z plus its 2 m safety buffer (1.5 m from it)"),
+    ((5.0, 9.0), "Z plus its 2 m safety buffer (1.0 m inside it)"),
+    ((23.5, 5.0), "C1 plus its 2 m safety buffer (1.5 m from it)"),
+])
+def test_buffer_intrusion_names_the_zone_whose_buffer_holds_a_point(xy, words):
+    assert buffer_intrusion(ZONES, xy) == words
 
 
 def test_leg_clearance_is_exact_outside_and_the_depth_inside():

@@ -47,7 +47,7 @@ from validator.flight.model import (
 from validator.flight.service import ServicePlan, parse_service
 from validator.plan_format import Autopilot, Cmd, Frame, MissionItem, Plan
 from validator.site import MAX_REACH_M, Site
-from validator.zones import point_clearance_m
+from validator.zones import buffer_intrusion
 
 HOME = "plannedHomePosition"  # the plan's home, as QGroundControl's .plan names it
 
@@ -352,16 +352,10 @@ class _Resolver:
     def set_home_finding(self, pc: int) -> None:
         """What a DO_SET_HOME does: moves the RTL destination; a violation where the new home
         lies in a zone or its buffer (every return lands there)."""
-        xy = self.state.home_xy
-        site = self.site
-        clear = [(float(np.hypot(*(xy - c))) - r, n) for c, r, n in
-                 zip(site.nfz_xy_m, site.nfz_radius_m, site.nfz_names, strict=True)]
-        clear += [(float(point_clearance_m(z, xy)), z.name) for z in site.polygon_zones]
-        c, name = min(clear, default=(math.inf, ""))
-        if c < site.buffer_m:
-            where = f"{-c:.1f} m inside it" if c < 0 else f"{c:.1f} m from it"
-            self.find("violation", f"DO_SET_HOME moves home into {name} plus its "
-                      f"{site.buffer_m:g} m safety buffer ({where}): a return lands there", pc)
+        inside = buffer_intrusion(self.site, self.state.home_xy)
+        if inside:
+            self.find("violation", f"DO_SET_HOME moves home into {inside}: a return lands "
+                      "there", pc)
         else:
             self.find("note", "DO_SET_HOME moves the RTL destination", pc)
 
