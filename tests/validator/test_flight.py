@@ -15,7 +15,7 @@ from tests.validator.builders import (
 )
 from validator.errors import InputError
 from validator.flight import DO_SET_HOME, parse_service, resolve_flight
-from validator.plan_format import Cmd, Frame, MissionItem
+from validator.plan_format import Autopilot, Cmd, Frame, MissionItem
 
 
 @pytest.fixture(scope="module")
@@ -243,3 +243,89 @@ def test_a_home_moved_into_a_zone_is_a_violation(site):
     found = [(f.severity, f.item) for f in resolve_flight(plan_of(site, items), site).findings
              if "DO_SET_HOME" in f.message]
     assert found == [("note", 3)]
+
+
+# --------------------------------------------------------------------------------------------
+# DO_SET_HOME: the home in force on each leg (validator.flight.home)
+
+
+def _set_home(p1: float, lat_deg: float, lon_deg: float, alt_m: float,
+              frame: int = int(Frame.GLOBAL_RELATIVE_ALT)) -> MissionItem:
+    return MissionItem(DO_SET_HOME, [p1, 0.0, 0.0, 0.0, lat_deg, lon_deg, alt_m], frame)
+
+
+def _around(site, set_home: MissionItem, px4: bool = False):
+    items = [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), nav(site, Cmd.NAV_WAYPOINT, (40, -40)),
+             set_home, nav(site, Cmd.NAV_WAYPOINT, (0, -40))]
+    plan = plan_of(site, items)
+    return dataclasses.replace(plan, firmware_type=int(Autopilot.PX4)) if px4 else plan
+
+
+def test_each_leg_carries_the_home_in_force_while_it_is_flown(site):
+    lat, lon = site.frame.to_geodetic(np.array([60.0, -60.0]))
+    flight = resolve_flight(_around(site, _set_home(0.0, lat, lon, 30.0)), site)
+    homes = [flight.home_of(k) for k in range(len(flight.legs))]
+    assert [h.set_by_item for h in homes] == [None, None, 2]
+    np.testing.assert_allclose(homes[0].xy_m, site.home_xy_m, atol=1e-9)
+    np.testing.assert_allclose(homes[2].xy_m, [60, -60], atol=1e-3)
+
+
+def test_the_missions_rtl_after_a_do_set_home_flies_to_the_new_home(site):
+    items = [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), nav(site, Cmd.NAV_WAYPOINT, (40, -40)),
+             _set_home(1.0, 0.0, 0.0, 0.0), nav(site, Cmd.NAV_WAYPOINT, (0, -40)),
+             MissionItem(int(Cmd.NAV_RETURN_TO_LAUNCH), [0.0] * 7, int(Frame.MISSION))]
+    rtl = next(leg for leg in resolve_flight(plan_of(site, items), site).legs
+               if leg.kind == "rtl")
+    np.testing.assert_allclose(rtl.end_xy_m, [40, -40], atol=1e-3)
+
+
+def test_an_arducopter_do_set_home_at_0_0_with_an_altitude_moves_home_off_the_site(site):
+    """AP_AHRS::set_home refuses only latitude, longitude and altitude all 0: with an
+    altitude, a DO_SET_HOME without coordinates (param1 0) sends home to 0°N 0°E."""
+    found = [(f.severity, f.item) for f in
+             resolve_flight(_around(site, _set_home(0.0, 0.0, 0.0, 30.0)), site).findings
+             if "0°N 0°E" in f.message]
+    assert found == [("violation", 2)]
+
+
+def test_an_arducopter_do_set_home_with_coordinates_in_the_mission_frame_is_refused(site):
+    lat, lon = site.frame.to_geodetic(np.array([60.0, -60.0]))
+    flight = resolve_flight(_around(site, _set_home(0.0, lat, lon, 30.0, int(Frame.MISSION))),
+                            site)
+    found = [(f.severity, f.item) for f in flight.findings if "degrees x 1e7" in f.message]
+    assert found == [("violation", 2)]
+    assert flight.home_of(2).set_by_item is None  # where it goes is not the item's position
+
+
+def test_px4_refuses_a_do_set_home_in_a_global_frame(site):
+    flight = resolve_flight(_around(site, _set_home(1.0, 0.0, 0.0, 0.0), px4=True), site)
+    found = [(f.severity, f.item) for f in flight.findings
+             if "MAV_MISSION_UNSUPPORTED" in f.message]
+    assert found == [("violation", 2)]
+
+
+def test_px4_cannot_take_a_do_set_home_at_coordinates(site):
+    lat, lon = site.frame.to_geodetic(np.array([60.0, -60.0]))
+    item = _set_home(0.0, lat, lon, 30.0, int(Frame.MISSION))
+    found = [(f.severity, f.item) for f in
+             resolve_flight(_around(site, item, px4=True), site).findings
+             if "unscaled" in f.message]
+    assert found == [("violation", 2)]
+
+
+def test_px4_takes_any_param1_above_one_half_as_the_current_position(site):
+    item = _set_home(0.7, 0.0, 0.0, 0.0, int(Frame.MISSION))
+    flight = resolve_flight(_around(site, item, px4=True), site)
+    assert flight.home_of(2).set_by_item == 2
+    np.testing.assert_allclose(flight.home_of(2).xy_m, [40, -40], atol=1e-3)
+
+
+def test_a_do_set_home_behind_a_condition_is_a_warning(site):
+    """A CONDITION_* item holds back the DO items after it until it is met, or for ever when
+    the next waypoint comes first: when home moves is not known."""
+    delay = MissionItem(112, [5.0, 0, 0, 0, 0, 0, 0], int(Frame.MISSION))  # CONDITION_DELAY
+    items = [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), nav(site, Cmd.NAV_WAYPOINT, (40, -40)),
+             delay, _set_home(1.0, 0.0, 0.0, 0.0), nav(site, Cmd.NAV_WAYPOINT, (0, -40))]
+    found = [(f.severity, f.item) for f in resolve_flight(plan_of(site, items), site).findings
+             if "waits for CONDITION_DELAY (item 2)" in f.message]
+    assert found == [("warning", 3)]

@@ -5,15 +5,17 @@ the simulated vehicle:
 
 - :mod:`.resolve`: :func:`resolve_flight` walks the items as ArduCopter executes them (the
   conventions: item numbering, jumps, RTL, loiters, "where the vehicle is");
-- :mod:`.model`: what it returns, a :class:`Flight` of straight :class:`Leg` s with the
-  service cycle among them (:class:`CycleSpan`) and :class:`Finding` s;
+- :mod:`.model`: what it returns, a :class:`Flight` of straight :class:`Leg` s, each with the
+  :class:`Home` in force on it, the service cycle among them (:class:`CycleSpan`) and
+  :class:`Finding` s;
+- :mod:`.home`: what a mission's DO_SET_HOME does to that home, on ArduCopter and PX4;
 - :mod:`.service`: the planner's metadata a plan carries (:class:`ServicePlan`,
   :func:`parse_service`);
 - :mod:`.bounds`: how long a mission may last (:data:`MAX_MISSION_S`).
 """
 
 from validator.flight.bounds import MAX_MISSION_S
-from validator.flight.model import CycleSpan, Finding, Flight, Leg, LegKind, Severity
+from validator.flight.model import CycleSpan, Finding, Flight, Home, Leg, LegKind, Severity
 from validator.flight.resolve import (
     DO_FENCE_ENABLE,
     DO_SET_HOME,
@@ -37,6 +39,7 @@ __all__ = [
     "CycleSpan",
     "Finding",
     "Flight",
+    "Home",
     "Leg",
     "LegKind",
     "ServicePlan",

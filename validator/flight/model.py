@@ -1,6 +1,6 @@
-"""What a resolved plan is: the straight :class:`Leg` s the vehicle flies, the service cycle
-among them (:class:`CycleSpan`), what could not be resolved (:class:`Finding`), all in one
-:class:`Flight`.
+"""What a resolved plan is: the straight :class:`Leg` s the vehicle flies, the :class:`Home` in
+force on each, the service cycle among them (:class:`CycleSpan`), what could not be resolved
+(:class:`Finding`), all in one :class:`Flight`.
 
 Positions are metres east/north of the site origin, altitudes metres above home; items are
 numbered from 0 as in the ``.plan`` file.
@@ -35,6 +35,19 @@ class Finding:
 
 
 @dataclass(frozen=True)
+class Home:
+    """Where a return (RTL, Return) lands: the plan's home, or where a mission's DO_SET_HOME
+    (item ``set_by_item``) moved it (:mod:`validator.flight.home`)."""
+
+    xy_m: NDArray[np.float64]
+    set_by_item: int | None = None  # None: the plan's own home
+
+    @property
+    def label(self) -> str:
+        return "home" if self.set_by_item is None else f"home set by item {self.set_by_item}"
+
+
+@dataclass(frozen=True)
 class Leg:
     """One straight leg the vehicle flies toward mission item ``item`` (its destination).
 
@@ -44,6 +57,7 @@ class Leg:
     the commanded horizontal speed in force (None: the autopilot's default). The vehicle stays
     ``hold_s`` seconds at the destination. ``pass_through`` is True when the autopilot may
     blend this leg into the next one (no hold, and the next leg is another waypoint leg).
+    ``home`` is the home in force while the leg is flown (None: the flight's own home).
     """
 
     item: int
@@ -57,6 +71,7 @@ class Leg:
     hold_s: float = 0.0
     loiter_radius_m: float = 0.0
     pass_through: bool = False
+    home: Home | None = None
 
     @property
     def length_m(self) -> float:
@@ -114,8 +129,9 @@ class CycleSpan:
 
 @dataclass(frozen=True)
 class Flight:
-    """A plan resolved into legs (conventions: :mod:`validator.flight.resolve`); ``source``
-    names the plan's file in errors about it."""
+    """A plan resolved into legs (conventions: :mod:`validator.flight.resolve`); ``home_xy_m``
+    is the plan's home, where it takes off (:meth:`home_of`: the home in force on a leg);
+    ``source`` names the plan's file in errors about it."""
 
     legs: tuple[Leg, ...]
     home_xy_m: NDArray[np.float64]
@@ -133,6 +149,11 @@ class Flight:
             return self.home_xy_m.reshape(1, 2).copy()
         pts = [self.legs[0].start_xy_m] + [leg.end_xy_m for leg in self.legs]
         return np.asarray(pts, dtype=float)
+
+    def home_of(self, leg: int) -> Home:
+        """The home in force on leg ``leg``: a return from it lands there (or at a rally point
+        chosen against it); the plan's home until a DO_SET_HOME moves it."""
+        return self.legs[leg].home or Home(self.home_xy_m)
 
     @property
     def is_ardupilot(self) -> bool:

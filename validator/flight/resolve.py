@@ -10,9 +10,10 @@ Conventions:
   sequence number (QGroundControl's ``doJumpId``), so it targets item ``param1 - 1``.
 - NAV_TAKEOFF climbs straight up where the vehicle is. NAV_WAYPOINT flies a straight leg and
   holds param1 seconds. DO_CHANGE_SPEED (param2 m/s, param1 0/1 = horizontal) applies at once
-  and holds until changed. DO_JUMP repeats param2 times (-1: forever). RTL flies a straight leg
-  to the nearest of home and the rally points, then lands; LAND flies to its position (if
-  given) and descends. Both end the mission, as does an unlimited loiter.
+  and holds until changed. DO_JUMP repeats param2 times (-1: forever). RTL flies straight to
+  the nearest of the rally points and the home in force (DO_SET_HOME moves it: each leg carries
+  it, :mod:`.home`), then lands; LAND flies to its position (if given) and descends. Both end
+  the mission, as does an unlimited loiter.
 - A position of (0, 0) or NaN in an item means "where the vehicle is"; an altitude of 0 or NaN
   in a waypoint means "the current altitude" (ArduPilot's rule).
 
@@ -36,10 +37,12 @@ from numpy.typing import NDArray
 from validator.autopilot.ardupilot import PARAMS as ARDUPILOT_PARAMS
 from validator.errors import InputError
 from validator.flight.bounds import MAX_MISSION_S
+from validator.flight.home import CONDITIONS, home_finding, set_home_source
 from validator.flight.model import (
     CycleSpan,
     Finding,
     Flight,
+    Home,
     Leg,
     LegKind,
     Severity,
@@ -47,7 +50,6 @@ from validator.flight.model import (
 from validator.flight.service import ServicePlan, parse_service
 from validator.plan_format import Autopilot, Cmd, Frame, MissionItem, Plan
 from validator.site import MAX_REACH_M, Site
-from validator.zones import buffer_intrusion
 
 HOME = "plannedHomePosition"  # the plan's home, as QGroundControl's .plan names it
 
@@ -116,7 +118,7 @@ class _State:
     xy: NDArray[np.float64]
     alt_m: float
     speed_mps: float | None
-    home_xy: NDArray[np.float64]
+    home: Home
     airborne: bool = False
 
 
@@ -129,7 +131,8 @@ class _Resolver:
         self.source = source
         self._idx = 0  # the item being resolved, for error messages
         self.home_xy = self.local(plan.home_lat_deg, plan.home_lon_deg, HOME)
-        self.state = _State(self.home_xy.copy(), 0.0, None, self.home_xy.copy())
+        self.state = _State(self.home_xy.copy(), 0.0, None, Home(self.home_xy.copy()))
+        self.gate: tuple[int, str] | None = None  # a CONDITION_* holding back the DO items
         self.legs: list[Leg] = []
         self.findings: list[Finding] = []
         self.fence_disabled: list[int] = []
@@ -211,15 +214,17 @@ class _Resolver:
                 speed_mps=self.state.speed_mps,
                 hold_s=max(0.0, float(hold_s)),
                 loiter_radius_m=loiter_radius_m,
+                home=self.state.home,
             )
         )
         self.pending_first = None
+        self.gate = None
         self.state.xy = np.asarray(end_xy, dtype=float).copy()
         self.state.alt_m = float(end_alt)
 
     def return_point(self) -> NDArray[np.float64]:
-        """ArduCopter RTL goes to the nearest of home and the rally points."""
-        candidates = [self.state.home_xy, *self.rally_xy]
+        """ArduCopter RTL goes to the nearest of the home in force and the rally points."""
+        candidates = [self.state.home.xy_m, *self.rally_xy]
         d = [float(np.hypot(*(c - self.state.xy))) for c in candidates]
         return candidates[int(np.argmin(d))]
 
@@ -273,17 +278,14 @@ class _Resolver:
                     delay = 0.0
                 self.add_leg(pc, "waypoint", self.state.xy, self.state.alt_m, hold_s=delay)
             elif cmd == DO_SET_HOME:
-                if it.params[0] == 1:
-                    self.state.home_xy = self.state.xy.copy()
-                else:
-                    self.state.home_xy = self.position(it)
-                self.set_home_finding(pc)
+                self.set_home(pc, it)
             elif cmd == DO_FENCE_ENABLE:
                 if it.params[0] == 0:
                     self.fence_disabled.append(pc)
                     self.find("violation", "DO_FENCE_ENABLE disables the geofence", pc)
             elif cmd in PASSIVE_COMMANDS:
-                pass
+                if cmd in CONDITIONS:
+                    self.gate = (pc, CONDITIONS[cmd])
             elif cmd in UNSUPPORTED_NAV or 16 <= cmd < 100:
                 self.unsupported_nav(pc, it)
             elif cmd in (
@@ -349,15 +351,19 @@ class _Resolver:
         self.add_leg(pc, "waypoint", self.position(it),
                      self.altitude(it, pc, zero_is_current=True), hold_s=hold)
 
-    def set_home_finding(self, pc: int) -> None:
-        """What a DO_SET_HOME does: moves the RTL destination; a violation where the new home
-        lies in a zone or its buffer (every return lands there)."""
-        inside = buffer_intrusion(self.site, self.state.home_xy)
-        if inside:
-            self.find("violation", f"DO_SET_HOME moves home into {inside}: a return lands "
-                      "there", pc)
-        else:
-            self.find("note", "DO_SET_HOME moves the RTL destination", pc)
+    def set_home(self, pc: int, it: MissionItem) -> None:
+        """DO_SET_HOME: the home later legs return to, if known (:mod:`validator.flight.home`)."""
+        at_current, unknown = set_home_source(it, self.plan.firmware_type == Autopilot.PX4)
+        if unknown:
+            self.find("violation", unknown, pc)
+            return
+        xy = self.state.xy.copy() if at_current else self.position(it)
+        self.state.home = Home(xy, pc)
+        self.find(*home_finding(self.site, xy), pc)
+        if self.gate is not None:
+            self.find("warning", f"DO_SET_HOME waits for {self.gate[1]} (item {self.gate[0]}): "
+                      "home moves once it is met, never if the next waypoint comes first; "
+                      "the audit moves it at the leg's start", pc)
 
     def loiter_turns(self, pc: int, it: MissionItem) -> None:
         turns = abs(it.params[0]) if not math.isnan(it.params[0]) else 1.0

@@ -1,0 +1,104 @@
+"""What a mission's DO_SET_HOME (MAV_CMD_DO_SET_HOME, 179) does to the home a return flies to.
+
+A return, the mission's own NAV_RETURN_TO_LAUNCH as much as a failsafe's RTL or Return, flies
+to the home in force when it starts (or to a rally point chosen against that home), so the
+resolved flight carries the :class:`~validator.flight.model.Home` in force on each leg: the
+plan's home until a DO_SET_HOME moves it, then the new one.
+
+ArduCopter 4.5, as read in ArduPilot's sources (``AP_Mission::advance_current_nav_cmd``,
+``ModeAuto::do_set_home``, ``Copter::set_home``, ``AP_AHRS::set_home``,
+``ModeRTL::compute_return_target``, ``AP_SmartRTL::set_home``; copies from before 4.5 to
+after it, which agree on all of this):
+
+- AP_Mission runs the DO items after a navigation item when that item completes, as it starts
+  the next navigation item: the new home is in force for the whole leg to it. A CONDITION_*
+  item before it holds it back until the condition is met, or for ever when the next
+  navigation item completes first: that is a warning here, and the home is taken as moved at
+  the leg's start.
+- param1 1, or latitude, longitude and altitude all 0: home becomes where the vehicle is
+  (``set_home_to_current_location``); anything else takes the item's location, read as
+  degrees x 1e7 in any frame, which MISSION_ITEM_INT carries only in a global frame. A 0°, 0°
+  with another altitude is taken as it is (AP_AHRS refuses only all three 0): home moves to
+  0°N 0°E. Both are violations here, the home left where it was.
+- RTL, as a mode or as the mission's item, builds its path when it starts, to the nearest rally
+  point or ``ahrs.get_home()``: the home in force (RALLY_INCL_HOME compares with it too).
+- SmartRTL: a DO_SET_HOME at the current position restarts SmartRTL's path there; one at a
+  location leaves it retracing to where it began. Either way it flies the flown path, clear
+  wherever the mission is, so only a straight return's destination moves.
+- "Where the vehicle is" is where the previous waypoint counted as reached: within its radius,
+  or on the corner it cuts; taken as the waypoint, the few metres left to the buffer as for
+  corners. Altitudes above home (frame 3) after the item are above the new home; the audit is
+  horizontal (zones are walls), so that changes no verdict here.
+
+PX4 v1.15 does not ignore it (``MavlinkMissionManager::parse_mavlink_mission_item``,
+``MissionBlock::issue_command``, the commander's VEHICLE_CMD_DO_SET_HOME,
+``HomePosition::setManually``, copies from around v1.15 and main; Return's destination comes
+from the home position the commander publishes):
+
+- it takes DO_SET_HOME only in MAV_FRAME_MISSION (2); in a global frame the upload is refused
+  (MAV_MISSION_UNSUPPORTED);
+- the mission issues it as a vehicle command when it becomes the active item, and the commander
+  applies it (COM_HOME_EN 1, the default): param1 above 0.5 is the current position, as
+  ArduCopter's 1;
+- otherwise it passes MISSION_ITEM_INT's x and y on unscaled, as degrees: home moves to whole
+  degrees (how frame 2 carries them), or nowhere on Earth (sent as degrees x 1e7): a violation
+  here, the home left where it was.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numpy.typing import ArrayLike
+
+from validator.flight.model import Severity
+from validator.item_lists import GLOBAL_FRAMES
+from validator.plan_format import Frame, MissionItem
+from validator.site import Site
+from validator.zones import buffer_intrusion
+
+# CONDITION_DELAY, CONDITION_DISTANCE, CONDITION_YAW: they hold back the DO items after them
+CONDITIONS = {112: "CONDITION_DELAY", 114: "CONDITION_DISTANCE", 115: "CONDITION_YAW"}
+PX4_CURRENT_ABOVE = 0.5  # the commander's "use current position" threshold on param1
+
+
+def _missing(value: float) -> bool:
+    """A param MISSION_ITEM_INT's x or y carries as 0 (our wire sends NaN as 0)."""
+    return math.isnan(value) or value == 0.0
+
+
+def set_home_source(it: MissionItem, px4: bool) -> tuple[bool, str]:
+    """How the autopilot takes DO_SET_HOME ``it`` (see the module doc): (True: where the
+    vehicle is, else at the item's latitude/longitude; why its home is not known, "" when it
+    is)."""
+    p1, lat, lon, alt = it.params[0], it.params[4], it.params[5], it.params[6]
+    if px4:
+        if it.frame != Frame.MISSION:
+            return False, (f"PX4 refuses a DO_SET_HOME in frame {it.frame} at upload "
+                           "(MAV_MISSION_UNSUPPORTED): it takes one only in frame 2 (MISSION)")
+        if p1 > PX4_CURRENT_ABOVE:
+            return True, ""
+        return False, ("PX4 takes a DO_SET_HOME's latitude and longitude unscaled from "
+                       "MISSION_ITEM_INT (whole degrees in frame 2): home would not be this "
+                       "item's position; give param1 1 at the new home instead")
+    if (math.isfinite(p1) and int(p1) == 1) or (_missing(lat) and _missing(lon) and alt == 0.0):
+        return True, ""
+    if _missing(lat) and _missing(lon):
+        return False, ("ArduCopter moves home to 0°N 0°E: param1 is not 1, latitude and "
+                       "longitude are 0 and the altitude is not; give param1 1 for the "
+                       "current position, or the new home's coordinates")
+    if it.frame not in GLOBAL_FRAMES:
+        return False, (f"ArduCopter reads a DO_SET_HOME's latitude and longitude as degrees "
+                       f"x 1e7, which MISSION_ITEM_INT carries only in a global frame, not "
+                       f"frame {it.frame}: home would not be this item's position; use "
+                       "frame 3 or 0")
+    return False, ""
+
+
+def home_finding(site: Site, home_xy_m: ArrayLike) -> tuple[Severity, str]:
+    """(severity, message) of a home a DO_SET_HOME moves to ``home_xy_m`` (m): a violation in a
+    zone or its buffer, where every return lands."""
+    inside = buffer_intrusion(site, home_xy_m)
+    if inside:
+        return "violation", f"DO_SET_HOME moves home into {inside}: a return lands there"
+    return "note", "DO_SET_HOME moves the RTL destination"
