@@ -11,6 +11,9 @@ is checked, fallbacks included:
   picks from where it is (ArduCopter: the nearest, unless further than RALLY_LIMIT_KM, and home
   when RALLY_INCL_HOME and home is nearer; PX4: the nearest of home and the rally points more
   than 10 m from home, a rally point only when 2 m nearer; RTL_TYPE 1 prefers any rally point).
+  "Home" is the home in force on the leg (``Flight.home_of``): the plan's until a mission's
+  DO_SET_HOME moves it, as both autopilots pick the destination against the home they hold
+  when the return starts (:mod:`validator.flight.home`).
   The straight lines from every point of a leg to one destination fill the triangle of the leg's
   ends and the destination, so each leg is cut where the destination changes (found to 1e-9 of
   the leg; a destination region shorter than :data:`SPLIT_STEP_M` along a leg could be missed)
@@ -28,6 +31,7 @@ the buffer. Each path that enters a zone or its buffer is a :class:`PathFinding`
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -40,7 +44,7 @@ from numpy.typing import NDArray
 from validator.audit import zone_leg_clearances
 from validator.autopilot import failsafe as fs
 from validator.autopilot.tables import param_table
-from validator.flight import Flight, Leg
+from validator.flight import Flight, Home, Leg
 from validator.geodesy import E7_ROUNDING_MARGIN_M
 from validator.geometry import segment_point_distance
 from validator.plan_format import Autopilot, Plan
@@ -176,7 +180,8 @@ class FailsafeReport:
 
 @dataclass(frozen=True)
 class _Destinations:
-    """The points a straight return may fly to and the rule choosing among them."""
+    """The points a straight return may fly to and the rule choosing among them: the home in
+    force (``home_label`` names it) and the rally points."""
 
     autopilot: str
     home_xy_m: NDArray[np.float64]
@@ -184,6 +189,12 @@ class _Destinations:
     incl_home: bool = True
     limit_m: float = 0.0  # ArduCopter RALLY_LIMIT_KM in m; 0: none
     prefer_rally: bool = False  # PX4 RTL_TYPE 1
+    home_label: str = "home"
+
+    def with_home(self, home: Home) -> _Destinations:
+        """The same rule from a leg where ``home`` is in force: both autopilots choose against
+        the home they hold when the return starts (:mod:`validator.flight.home`)."""
+        return dataclasses.replace(self, home_xy_m=home.xy_m, home_label=home.label)
 
     def choose(self, p: NDArray[np.float64]) -> int:
         """The destination of a return from ``p``: -1 home, else the rally point's index."""
@@ -206,9 +217,8 @@ class _Destinations:
     def point(self, k: int) -> NDArray[np.float64]:
         return self.home_xy_m if k < 0 else self.rally_xy_m[k]
 
-    @staticmethod
-    def name(k: int) -> str:
-        return "home" if k < 0 else f"rally point {k + 1}"
+    def name(self, k: int) -> str:
+        return self.home_label if k < 0 else f"rally point {k + 1}"
 
 
 def _pieces(a: NDArray[np.float64], b: NDArray[np.float64], dest: _Destinations
@@ -291,22 +301,27 @@ def _worst_start(site: Site, m: int, start: NDArray[np.float64], end: NDArray[np
 
 @dataclass(frozen=True)
 class _Exposure:
-    """The least clearance of the straight returns from one leg piece to each zone."""
+    """The least clearance of the straight returns from one leg piece to each zone, and the
+    destination they fly to."""
 
     leg: int
     start: NDArray[np.float64]
     end: NDArray[np.float64]
-    dest: int
+    target: str
+    target_xy_m: NDArray[np.float64]
     clearance_m: NDArray[np.float64]  # per zone
     region: shapely.Geometry
 
 
-def _return_exposures(flight: Flight, site: Site, dest: _Destinations) -> list[_Exposure]:
+def _return_exposures(flight: Flight, site: Site, rule: _Destinations) -> list[_Exposure]:
     out = []
     for k, leg in enumerate(flight.legs):
+        dest = rule.with_home(flight.home_of(k))
         for start, end, d in _pieces(leg.start_xy_m, leg.end_xy_m, dest):
-            region = _region(start, end, leg.loiter_radius_m, dest.point(d))
-            out.append(_Exposure(k, start, end, d, _zone_clearances(site, region), region))
+            target = dest.point(d)
+            region = _region(start, end, leg.loiter_radius_m, target)
+            out.append(_Exposure(k, start, end, dest.name(d), target,
+                                 _zone_clearances(site, region), region))
     return out
 
 
@@ -397,11 +412,11 @@ def audit_failsafes(plan: Plan, site: Site, flight: Flight,
                     worst[e.leg] = e
             for k, e in sorted(worst.items()):
                 leg = flight.legs[k]
-                xy, _ = _worst_start(site, m, e.start, e.end, dest.point(e.dest))
+                xy, _ = _worst_start(site, m, e.start, e.end, e.target_xy_m)
                 findings.append(PathFinding(
                     c.trigger, c.param, c.value, c.action, "rtl", zone, k,
                     _from_item(flight, k), leg.item, float(e.clearance_m[m]), site.buffer_m,
-                    _pair(xy), dest.name(e.dest), _pair(dest.point(e.dest))))
+                    _pair(xy), e.target, _pair(e.target_xy_m)))
     if autopilot == "ardupilot" and any("smartrtl" in c.paths for c in checks):
         notes += _smartrtl_notes(flight, site, values["SRTL_ACCURACY"])
         need = smartrtl_points_needed(flight)
@@ -413,7 +428,7 @@ def audit_failsafes(plan: Plan, site: Site, flight: Flight,
     if autopilot == "ardupilot" and flight.legs:
         lost = tuple(audit_position_loss(flight, site, params))
     return FailsafeReport(autopilot, tuple(checks), tuple(findings), tuple(notes),
-                          _worst_return(flight, site, exposures, dest), dict(values),
+                          _worst_return(flight, site, exposures), dict(values),
                           _outline(exposures) if flies_rtl else (), lost,
                           coasting_failsafe(autopilot, params))
 
@@ -451,15 +466,14 @@ def _from_item(flight: Flight, k: int) -> int:
     return -1 if k == 0 else flight.legs[k - 1].item
 
 
-def _worst_return(flight: Flight, site: Site, exposures: list[_Exposure],
-                  dest: _Destinations) -> ReturnPoint | None:
+def _worst_return(flight: Flight, site: Site, exposures: list[_Exposure]) -> ReturnPoint | None:
     """The point of the mission whose straight return comes closest to a zone."""
     if not exposures:
         return None
     least = [float(np.min(e.clearance_m)) for e in exposures]
     e = exposures[int(np.argmin(least))]
     m = int(np.argmin(e.clearance_m))
-    xy, _ = _worst_start(site, m, e.start, e.end, dest.point(e.dest))
+    xy, _ = _worst_start(site, m, e.start, e.end, e.target_xy_m)
     leg: Leg = flight.legs[e.leg]
     return ReturnPoint(e.leg, leg.item, _pair(xy), float(e.clearance_m[m]),
-                       site.zone_names[m], dest.name(e.dest), _pair(dest.point(e.dest)))
+                       site.zone_names[m], e.target, _pair(e.target_xy_m))

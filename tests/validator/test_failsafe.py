@@ -9,6 +9,7 @@ line to the destination the firmware picks, and measures it against every zone.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -17,12 +18,20 @@ import numpy as np
 import pytest
 import shapely
 
-from tests.validator.builders import make_site, waypoint_plan
+from tests.validator.builders import make_site, nav, plan_of, speed, waypoint_plan
 from validator.autopilot.param_file import read_params
 from validator.cli import validate_mission_main
 from validator.failsafe import audit_failsafes
-from validator.flight import resolve_flight
-from validator.plan_format import Autopilot, Plan, read_plan
+from validator.flight import DO_SET_HOME, resolve_flight
+from validator.plan_format import (
+    Autopilot,
+    Cmd,
+    Frame,
+    MissionItem,
+    Plan,
+    read_plan,
+    write_plan,
+)
 from validator.site import Site, load_site
 from validator.validation import validate_mission
 
@@ -148,6 +157,69 @@ def test_smartrtl_land_and_continue_are_clear_wherever_the_mission_is():
 
 
 # --------------------------------------------------------------------------------------------
+# a home moved mid-mission (DO_SET_HOME): returns go to the home in force on each leg
+
+RTL_ITEM = MissionItem(int(Cmd.NAV_RETURN_TO_LAUNCH), [0.0] * 7, int(Frame.MISSION))
+
+
+def _moved_home_beyond_the_zone(site: Site) -> Plan:
+    # the mission stays west of home, so returns to home at (0, 0) keep off NFZ1 (100, 0);
+    # item 2 moves home to (200, 0), east of NFZ1, before the leg to item 3
+    return plan_of(site, [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), speed(5.0),
+                          nav(site, DO_SET_HOME, (200.0, 0.0)),
+                          nav(site, Cmd.NAV_WAYPOINT, (-50.0, 50.0)),
+                          nav(site, Cmd.NAV_WAYPOINT, (-50.0, -50.0)),
+                          nav(site, Cmd.NAV_LAND, (-50.0, -50.0), 0.0)])
+
+
+def test_a_return_after_a_do_set_home_flies_to_the_new_home_across_a_zone():
+    site = make_site()
+    plan = _moved_home_beyond_the_zone(site)
+    report = audit_failsafes(plan, site, resolve_flight(plan, site), {"FS_THR_ENABLE": 1})
+    found = {(f.zone, f.item, f.destination) for f in report.findings}
+    assert found == {("NFZ1", 3, "home set by item 2"), ("NFZ1", 4, "home set by item 2"),
+                     ("NFZ1", 5, "home set by item 2")}
+    assert all(f.destination_xy_m == pytest.approx((200.0, 0.0), abs=1e-6)
+               for f in report.findings)
+    rc = next(f for f in report.findings if f.param == "FS_THR_ENABLE" and f.item == 4)
+    assert "RTL straight to home set by item 2 and enters NFZ1 20.00 m deep, from the leg " \
+           "item 3 -> item 4" in rc.message
+
+
+def test_returns_before_a_do_set_home_still_fly_to_the_plans_home():
+    site = make_site()
+    plan = _moved_home_beyond_the_zone(site)
+    flight = resolve_flight(plan, site)
+    report = audit_failsafes(plan, site, flight, {"FS_THR_ENABLE": 1})
+    takeoff = [f for f in report.findings if f.item == 0]
+    assert takeoff == [] and flight.home_of(0).set_by_item is None
+
+
+def _moved_home_past_the_zone(site: Site, firmware: Autopilot) -> Plan:
+    # the leg (200, 60) -> (200, -60) passes NFZ1 (100, 0) on its far side from home (0, 0),
+    # so a return to home from it crosses NFZ1; item 3 makes (200, 60) home first
+    here = MissionItem(DO_SET_HOME, [1.0, 0, 0, 0, 0, 0, 0], int(Frame.MISSION))  # PX4's frame
+    items = [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), speed(5.0),
+             nav(site, Cmd.NAV_WAYPOINT, (200.0, 60.0)), here,
+             nav(site, Cmd.NAV_WAYPOINT, (200.0, -60.0)), RTL_ITEM]
+    return dataclasses.replace(plan_of(site, items), firmware_type=int(firmware))
+
+
+def test_a_home_moved_past_the_zone_makes_the_returns_beyond_it_clear():
+    site = _square_site()
+    plan = _moved_home_past_the_zone(site, Autopilot.ARDUPILOTMEGA)
+    report = audit_failsafes(plan, site, resolve_flight(plan, site), {"FS_THR_ENABLE": 1})
+    assert report.findings == ()
+
+
+def test_px4_returns_to_a_home_its_mission_moved_to_the_current_position():
+    site = _square_site()
+    plan = _moved_home_past_the_zone(site, Autopilot.PX4)
+    report = audit_failsafes(plan, site, resolve_flight(plan, site), {"NAV_RCL_ACT": 2})
+    assert report.findings == ()
+
+
+# --------------------------------------------------------------------------------------------
 # validate-mission --params
 
 
@@ -168,6 +240,26 @@ def test_validate_mission_fails_a_file_whose_failsafe_crosses_a_zone_unless_forc
     forced = capsys.readouterr().out
     assert "warning   item 6: failsafe RC loss" in forced and "Result: CLEAR" in forced
     assert validate_mission_main([str(plan), "--site", str(site), "--params", str(good)]) == 0
+
+
+def test_validate_mission_fails_a_return_to_a_home_moved_behind_a_zone(tmp_path, capsys):
+    """The open site's plan is clear under a plain RTL (home sees the whole cycle); a
+    DO_SET_HOME before the last leg moving home south of NFZ1 (no rally point to go to
+    instead) puts NFZ1 between that leg and the home its returns fly to."""
+    site_file = DATA / "sites/open.yaml"
+    site, plan = load_site(site_file), read_plan(DATA / "plans/open-ardupilot.plan")
+    lat, lon = site.frame.to_geodetic(np.array([250.0, -100.0]))
+    moved = MissionItem(DO_SET_HOME, [0.0, 0.0, 0.0, math.nan, float(lat), float(lon), 30.0],
+                        int(Frame.GLOBAL_RELATIVE_ALT))
+    items = [*plan.items[:9], moved, *plan.items[9:]]  # after the cycle's last waypoint
+    path = tmp_path / "moved-home.plan"
+    write_plan(dataclasses.replace(plan, items=items, rally=[]), path)
+    assert validate_mission_main([str(path), "--site", str(site_file), "--params",
+                                  str(DATA / "params/thr-rtl.param")]) == 1
+    text = capsys.readouterr().out
+    assert "VIOLATION item 11: failsafe RC loss: FS_THR_ENABLE 1 (Enabled always RTL) flies " \
+           "RTL straight to home set by item 9 and enters NFZ1 35.00 m deep, from the leg " \
+           "item 8 -> item 11" in text
 
 
 def test_without_a_parameter_file_there_is_no_failsafe_audit():

@@ -14,7 +14,9 @@ included ("SmartRTL or RTL" may fly RTL when SmartRTL has no path). The path kin
 - ``land``, ``brake``, ``hold``: where the vehicle is (a Land descends vertically; AltHold and
   PX4's Altitude mode hold position only as well as the vehicle drifts);
 - ``rtl``: climb (ArduCopter RTL_ALT, PX4 RTL_RETURN_ALT) where it is, then a straight line to
-  home or the nearest rally point: the path the audit must prove clear from every point.
+  home or the nearest rally point: the path the audit must prove clear from every point. Home
+  is the one in force when the failsafe fires, which a mission's DO_SET_HOME may have moved
+  (:mod:`validator.flight.home`).
 
 Sources, read for exactly these firmware versions: ArduCopter 4.5.6 (7ce11b41:
 ArduCopter/Parameters.cpp, AP_BattMonitor_Params.cpp, AC_Fence, AP_SmartRTL, AP_Rally,
