@@ -205,8 +205,8 @@ def _from_wire(items: tuple[WireItem, ...]) -> tuple[ListItem, ...]:
 
 def plan_to_wire(plan: Plan, *, home_item: bool) -> WireLists:
     """All three lists of ``plan`` as they go over the wire. With ``home_item`` (ArduPilot)
-    the plan's home comes first at seq 0 and DO_JUMP targets keep their ``doJumpId`` as seq;
-    without it (PX4) seq = doJumpId - 1 (:func:`validator.item_lists.mission_items`)."""
+    the plan's home comes first at seq 0 and a DO_JUMP's target is its item number as seq;
+    without it (PX4) that number - 1 (:func:`validator.item_lists.mission_items`)."""
     lists = plan_items(plan, home_item=home_item)
     return WireLists(_to_wire(lists.mission, MissionType.MISSION),
                      _to_wire(lists.fence, MissionType.FENCE),

@@ -1,3 +1,4 @@
+import json
 import math
 
 import numpy as np
@@ -12,7 +13,7 @@ from validator.mavlink.wire import (
     plan_to_wire,
     wire_to_plan,
 )
-from validator.plan_format import Cmd, FenceCircle
+from validator.plan_format import Cmd, FenceCircle, loads_plan, plan_to_dict
 
 
 def test_ardupilot_mission_starts_with_home_and_keeps_plan_order(plan):
@@ -41,6 +42,17 @@ def test_do_jump_target_is_a_wire_sequence_number(plan, home_item, target_seq):
     jumps = [w for w in wire if w.command == Cmd.DO_JUMP]
     assert [j.param1 for j in jumps] == [target_seq]
     assert wire[target_seq].command == Cmd.NAV_WAYPOINT  # the item the plan's doJumpId names
+
+
+@pytest.mark.parametrize("home_item, target_seq", [(True, 3), (False, 2)])
+def test_a_plan_files_jump_goes_up_as_the_sequence_number_of_the_item_with_its_doJumpId(
+        plan, home_item, target_seq):
+    data = plan_to_dict(plan)
+    for entry, jump_id in zip(data["mission"]["items"], range(11, 17), strict=True):
+        entry["doJumpId"] = jump_id  # as another tool may number them
+    data["mission"]["items"][4]["params"][0] = 13  # item 2, the first waypoint
+    wire = plan_to_wire(loads_plan(json.dumps(data)), home_item=home_item).mission
+    assert [w.param1 for w in wire if w.command == Cmd.DO_JUMP] == [target_seq]
 
 
 def test_fence_circle_polygon_and_return_point(plan):
