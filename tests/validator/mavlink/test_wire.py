@@ -109,6 +109,36 @@ def test_an_ardupilot_home_of_0_0_is_no_home_and_the_first_waypoint_stands_in(pl
     assert (said.home_lat_deg, said.home_lon_deg, said.home_alt_m) == (1.0, 2.0, 3.0)
 
 
+def _without_home(plan):
+    import dataclasses
+
+    wire = plan_to_wire(plan, home_item=True)
+    return dataclasses.replace(wire, mission=(dataclasses.replace(wire.mission[0], x=0, y=0),
+                                              *wire.mission[1:]))
+
+
+def test_the_first_waypoint_standing_in_for_a_missing_home_is_told(plan):
+    notes: list[str] = []
+    wire_to_plan(_without_home(plan), home_item=True, note=notes.append)
+    assert notes == ["the vehicle reported no home (its seq 0 at 0°, 0°); the plan's home is "
+                     "the position of mission.items[0], the first item with one, at altitude "
+                     "0 m AMSL"]
+
+
+def test_a_home_the_vehicle_said_through_home_position_is_not_remarked(plan):
+    notes: list[str] = []
+    wire_to_plan(_without_home(plan), home_item=True, home=(1.0, 2.0, 3.0), note=notes.append)
+    assert notes == []
+
+
+def test_a_px4_mission_without_home_position_tells_whose_position_stands_in(plan):
+    notes: list[str] = []
+    wire_to_plan(plan_to_wire(plan, home_item=False), home_item=False, note=notes.append)
+    assert len(notes) == 1 and notes[0].startswith("the vehicle reported no home (no "
+                                                   "HOME_POSITION); the plan's home is the "
+                                                   "position of mission.items[0]")
+
+
 def test_latitude_out_of_range_names_the_item(plan):
     plan.items[2].params[4] = 95.0
     with pytest.raises(InputError, match=r"mission.items\[2\]: latitude 95.0"):
