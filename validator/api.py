@@ -33,7 +33,7 @@ from validator.mavlink.connection import DEFAULT_TIMEOUT_S
 from validator.mavlink.vehicles import VehicleChoice, VehicleKind, choose_vehicle, start_vehicle
 from validator.motion.fly import REPLAY_STEP_S, check_step
 from validator.motion.limits import site_limits
-from validator.motion.profile import Profile, ProfileName, flown_params, make_profile
+from validator.motion.profile import Profile, ProfileName, make_profile
 from validator.plan_format import Autopilot, Plan, read_plan
 from validator.replay import Track, TrackReport, replay, score_replay, score_track
 from validator.site import Site
@@ -111,7 +111,7 @@ def flight_profile(plan: Plan, site: Site, profile: ProfileName | None = None,
     default by the plan's firmware) at the site's limits and ``params`` (autopilot names and
     units, e.g. the parameter file the vehicle flies with)."""
     name = profile or Autopilot.of(plan).profile_name
-    return make_profile(name, site_limits(site), flown_params(name, dict(params or {})))
+    return make_profile(name, site_limits(site), vehicle_params=params)
 
 
 def replay_plan(

@@ -5,8 +5,9 @@ stores the numbers (int32 1e-7°, float32, text) is its own business.
 
 - mission: with ``home_item`` (ArduPilot, and every ``.waypoints`` file) the plan's home comes
   first (NAV_WAYPOINT, frame GLOBAL, altitude AMSL) and the plan's items follow, so item i is
-  number i + 1 and a DO_JUMP's param1 is its target's number, as the plan's ``doJumpId``; without
-  it (PX4) item i is number i and a DO_JUMP's param1 is ``doJumpId − 1``. The first item is
+  number i + 1, and a DO_JUMP's param1 is its target's number as in the :class:`Plan` (where
+  :mod:`validator.plan_format` put a ``.plan``'s ``doJumpId``), as QGroundControl uploads it;
+  without it (PX4) item i is number i and a DO_JUMP's param1 is one less. The first item is
   the current one (QGroundControl and MAVSDK flag it; ArduPilot ignores it).
 - fence: each polygon as one NAV_FENCE_POLYGON_VERTEX_* item per vertex (param1 = vertex
   count), then each circle as one NAV_FENCE_CIRCLE_* item (param1 = radius, m), frame GLOBAL;
@@ -147,7 +148,7 @@ def plan_items(plan: Plan, *, home_item: bool) -> ItemLists:
 def mission_from_items(items: Sequence[ListItem], *, home_item: bool
                        ) -> tuple[list[MissionItem], Point | None]:
     """A plan's mission items from a mission list, and the home the list starts with
-    (``home_item``; None otherwise). DO_JUMP targets become ``doJumpId`` s again."""
+    (``home_item``; None otherwise). DO_JUMP targets become the plan's item numbers again."""
     rest = list(items)
     home: Point | None = None
     offset = 0

@@ -3,9 +3,10 @@
 A :class:`Plan` holds what the file holds: mission items with MAVLink command numbers, the
 planned home, geofence circles and polygons, rally points, and one extra key of our own
 (``EXTRA_KEY``, ignored by QGroundControl) that carries the planner's schedule and power so the
-validator can score a flown track. Angles are degrees WGS84; altitudes metres (item altitudes
-in the item's frame; the planned home AMSL; rally and breach-return points above home, as
-QGroundControl and ArduPilot read them).
+validator can score a flown track. A DO_JUMP's param1 is its target's number (item i is i + 1,
+ArduPilot's seq); the file names the target by ``doJumpId`` instead, written as that number.
+Angles are degrees WGS84; altitudes metres (item altitudes in the item's frame; the planned home
+AMSL; rally and breach-return points above home, as QGroundControl and ArduPilot read them).
 """
 
 from __future__ import annotations
@@ -385,6 +386,31 @@ def _item(raw_entry: object, where: str) -> MissionItem:
     return MissionItem(command, params, frame, auto)
 
 
+def _number_jump_targets(items: list[MissionItem], ids: list[object], where: str) -> None:
+    """Each DO_JUMP's param1 from its target's ``doJumpId`` to the target's number (from 1), as
+    QGroundControl loads a plan (MissionController: the item carrying that id; none is a load
+    error): ids written by hand or by another tool need not be the numbers. An item without
+    ``doJumpId`` has its number, the id QGroundControl would write for it."""
+    first: dict[int, int] = {}  # doJumpId -> the first item carrying it
+    second: dict[int, int] = {}  # doJumpId -> a later item carrying it too
+    for i, raw in enumerate(ids):
+        jump_id = _int(raw, f"{where}[{i}].doJumpId", -(2**31), 2**31 - 1)
+        (second if jump_id in first else first).setdefault(jump_id, i)
+    for i, it in enumerate(items):
+        if it.command != Cmd.DO_JUMP:
+            continue
+        p1 = it.params[0]
+        named = int(p1) if math.isfinite(p1) and p1.is_integer() else None
+        if named is None or named not in first:
+            raise InputError(f"{where}[{i}] (DO_JUMP): no item has doJumpId {p1:g}, the target "
+                             "its param1 names")
+        if named in second:  # QGroundControl takes the first; another tool may not
+            raise InputError(f"{where}[{i}] (DO_JUMP): its target, doJumpId {named}, is "
+                             f"ambiguous: items[{first[named]}] and items[{second[named]}] "
+                             "both have it")
+        it.params[0] = float(first[named] + 1)
+
+
 def plan_from_dict(raw: object, source: str = "plan") -> Plan:
     """Parse a QGroundControl plan structure, raising :class:`InputError` naming the field.
 
@@ -401,6 +427,8 @@ def plan_from_dict(raw: object, source: str = "plan") -> Plan:
                    f"{source}.mission.plannedHomePosition", 3)
     raw_items = _list(_need(mission, "items", f"{source}.mission"), f"{source}.mission.items")
     items = [_item(e, f"{source}.mission.items[{i}]") for i, e in enumerate(raw_items)]
+    ids = [_object(e, "").get("doJumpId", i + 1) for i, e in enumerate(raw_items)]
+    _number_jump_targets(items, ids, f"{source}.mission.items")
 
     fence = _object(data.get("geoFence") or {}, f"{source}.geoFence")
     if fence:

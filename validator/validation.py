@@ -20,7 +20,7 @@ from validator.failsafe import FailsafeReport, audit_failsafes
 from validator.flight import Finding, Flight, Severity, resolve_flight
 from validator.motion.fly import REPLAY_STEP_S, check_step
 from validator.motion.limits import site_limits
-from validator.motion.profile import Profile, flown_params, make_profile
+from validator.motion.profile import Profile, make_profile
 from validator.plan_format import Autopilot, Plan, read_plan
 from validator.replay import Track, TrackReport, replay, score_replay, score_track
 from validator.site import Site, load_site
@@ -200,7 +200,7 @@ def validate_mission(
     flight = resolve_flight(plan, site, str(plan_path))
     if airspace is not None and airspace.at is not None and site.airspace.uas and flight.legs:
         name = profile or default_profile_name(plan)
-        prof = make_profile(name, site_limits(site), flown_params(name, vehicle_params or {}))
+        prof = make_profile(name, site_limits(site), vehicle_params=vehicle_params)
         duration_s = float(replay(flight, prof, dt_s=dt_s).t_s[-1])
         site = load_site(site_path, replace(airspace, duration_s=duration_s))
         flight = resolve_flight(plan, site, str(plan_path))
@@ -222,8 +222,7 @@ def validate_mission(
         v.failsafe = audit_failsafes(plan, site, flight, vehicle_params)
     if replay_flight or profile is not None or params or vehicle_params:
         name = profile or default_profile_name(plan)
-        merged = {**flown_params(name, vehicle_params or {}), **(params or {})}
-        prof = make_profile(name, site_limits(site), merged)
+        prof = make_profile(name, site_limits(site), params, vehicle_params=vehicle_params)
         v.profile = prof
         if flight.legs:
             v.replay_track = replay(flight, prof, dt_s=dt_s)

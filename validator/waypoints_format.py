@@ -5,7 +5,7 @@ line per item: ``seq current frame command param1 param2 param3 param4 lat lon a
 autocontinue``. The lines are the item lists a vehicle holds, in the order they go over the
 wire (:mod:`validator.item_lists`): the mission file's line 0 is the home position (AMSL), so
 mission item i of a :class:`~validator.plan_format.Plan` is line i + 1, which is also its
-ArduPilot sequence number and the number a DO_JUMP names (as the plan's doJumpId does). The
+ArduPilot sequence number and the number a DO_JUMP names (a ``.plan`` names it by doJumpId). The
 fence and rally files that sit beside it (``NAME.fence.waypoints``, ``NAME.rally.waypoints``)
 have no home line: MAVProxy's ``fence load`` and ``rally load`` and pymavlink's ``mavwp`` read
 them as they are.

@@ -116,7 +116,8 @@ def _speed(speed_mps: float) -> MissionItem:
 
 
 def _jump(target_item: int, repeats: int) -> MissionItem:
-    # param1 is the target's doJumpId (1-based item number; ArduPilot's seq, home being 0).
+    # param1 is the target's 1-based item number (ArduPilot's seq, home being 0); the .plan
+    # writes each item's number as its doJumpId, so QGroundControl reads the same target.
     return MissionItem(int(Cmd.DO_JUMP), [float(target_item + 1), float(repeats), 0, 0, 0, 0, 0],
                        int(Frame.MISSION))
 

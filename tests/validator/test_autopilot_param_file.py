@@ -20,6 +20,13 @@ def test_written_files_read_back(autopilot):
     assert parse_params(format_params(VALUES, autopilot, ["a comment"])) == VALUES
 
 
+def test_each_value_names_its_file_and_line_the_last_for_a_name_given_twice():
+    values = parse_params("# head\nWPNAV_SPEED 500\n\nWPNAV_ACCEL 100\nWPNAV_SPEED 700\n",
+                          "m.param")
+    assert values.where("WPNAV_ACCEL") == "m.param:4: WPNAV_ACCEL"
+    assert values.where("WPNAV_SPEED") == "m.param:5: WPNAV_SPEED"
+
+
 def test_a_binary_file_is_one_clean_error(tmp_path: Path):
     path = tmp_path / "x.param"
     path.write_bytes(b"\xff\xfe\x00WPNAV")

@@ -6,6 +6,7 @@ import pytest
 import yaml
 
 from tests.validator.builders import make_site, service_plan, waypoint_plan
+from validator.autopilot.param_file import read_params
 from validator.cli import validate_mission, validate_mission_main
 from validator.plan_format import write_plan
 from validator.site import site_to_dict
@@ -108,6 +109,45 @@ def test_a_param_acceleration_near_zero_is_refused(files, capsys):
     assert validate_mission_main([str(good), "--site", str(site), "--param",
                                   "WPNAV_ACCEL=1e-9"]) == 2
     assert "--param WPNAV_ACCEL: 1e-09 cm/s/s is below 10" in capsys.readouterr().err
+
+
+def test_a_parameter_files_acceleration_near_zero_is_refused_naming_the_file_and_line(
+        files, capsys):
+    tmp, site, good, _ = files
+    params = tmp / "mission.param"
+    params.write_text("# what the vehicle holds\nWPNAV_SPEED 500\nWPNAV_ACCEL 1e-9\n")
+    assert validate_mission_main([str(good), "--site", str(site), "--params", str(params)]) == 2
+    assert capsys.readouterr().err == (f"validate-mission: {params}:3: WPNAV_ACCEL: 1e-09 cm/s/s "
+                                       "is below 10, the least acceleration or jerk the replay "
+                                       "flies\n")
+
+
+def test_a_parameter_files_speed_of_0_is_refused_naming_the_file_and_line(files, capsys):
+    tmp, site, good, _ = files
+    params = tmp / "mission.param"
+    params.write_text("WPNAV_SPEED 0\n")
+    assert validate_mission_main([str(good), "--site", str(site), "--params", str(params)]) == 2
+    assert capsys.readouterr().err == (f"validate-mission: {params}:1: WPNAV_SPEED: must be a "
+                                       "number > 0, got 0.0\n")
+
+
+def test_a_bad_param_flag_over_a_good_file_value_names_the_flag(files, capsys):
+    tmp, site, good, _ = files
+    params = tmp / "mission.param"
+    params.write_text("WPNAV_ACCEL 250\n")
+    assert validate_mission_main([str(good), "--site", str(site), "--params", str(params),
+                                  "--param", "WPNAV_ACCEL=1e-9"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("validate-mission: --param WPNAV_ACCEL: 1e-09 cm/s/s is below 10")
+
+
+def test_a_good_param_flag_over_a_bad_file_value_is_flown(files):
+    tmp, site, good, _ = files
+    params = tmp / "mission.param"
+    params.write_text("WPNAV_ACCEL 1e-9\n")
+    v = validate_mission(good, site, params={"WPNAV_ACCEL": 250.0},
+                         vehicle_params=read_params(params))
+    assert v.profile is not None and v.profile.params["WPNAV_ACCEL"] == 250.0
 
 
 def test_param_implies_replay_and_follows_the_plan_firmware(files):

@@ -2,8 +2,9 @@
 
 ArduPilot tools (Mission Planner, MAVProxy) write ``NAME VALUE`` (or ``NAME,VALUE``) per line;
 QGroundControl saves PX4 parameters as ``SYSID COMPID NAME VALUE TYPE``, tab-separated. ``#``
-starts a comment in both. :func:`parse_params` reads either; :func:`format_params` writes the
-one that suits the autopilot.
+starts a comment in both. :func:`parse_params` reads either, into a :class:`ParamFile` that
+remembers each value's line, so that whoever refuses a value later (a flight model's bounds)
+names the file and line; :func:`format_params` writes the one that suits the autopilot.
 """
 
 from __future__ import annotations
@@ -20,11 +21,30 @@ from validator.input_files import read_text
 _PARAM_NAME = re.compile(r"^[A-Za-z0-9_]{1,16}$")
 
 
-def parse_params(text: str, source: str = "params") -> dict[str, float]:
+def _at(source: str, lineno: int) -> str:
+    """Where in a parameter file, as every message about one starts."""
+    return f"{source}:{lineno}"
+
+
+class ParamFile(dict[str, float]):
+    """A parameter file's values by name (autopilot units), as a dict, with the file's name
+    (``source``) and the line each value was read from (the last, for a name given twice)."""
+
+    def __init__(self, source: str) -> None:
+        super().__init__()
+        self.source = source
+        self.lines: dict[str, int] = {}
+
+    def where(self, name: str) -> str:
+        """``FILE:LINE: NAME``: how a message about ``name``'s value starts."""
+        return f"{_at(self.source, self.lines[name])}: {name}"
+
+
+def parse_params(text: str, source: str = "params") -> ParamFile:
     """Parameters from a ``.param`` / ``.parm`` file (``NAME VALUE`` or ``NAME,VALUE`` per line,
     as ArduPilot tools write) or a QGroundControl parameter file (``SYSID COMPID NAME VALUE
     TYPE``, tab-separated, as PX4 users save). ``#`` starts a comment."""
-    out: dict[str, float] = {}
+    out = ParamFile(source)
     for lineno, raw in enumerate(text.splitlines(), start=1):
         line = raw.split("#", 1)[0].strip()
         if not line:
@@ -33,22 +53,25 @@ def parse_params(text: str, source: str = "params") -> dict[str, float]:
         if len(parts) == 5 and parts[0].isdigit() and parts[1].isdigit():
             parts = parts[2:4]
         if len(parts) != 2:
-            raise InputError(f"{source}:{lineno}: expected 'NAME VALUE', got {raw.strip()!r}")
+            raise InputError(f"{_at(source, lineno)}: expected 'NAME VALUE', got "
+                             f"{raw.strip()!r}")
         name, value_text = parts
         if not _PARAM_NAME.match(name):
-            raise InputError(f"{source}:{lineno}: {name!r} is not a parameter name "
+            raise InputError(f"{_at(source, lineno)}: {name!r} is not a parameter name "
                              "(letters, digits, _; at most 16)")
         try:
             value = float(value_text)
         except ValueError:
-            raise InputError(f"{source}:{lineno}: {name}: {value_text!r} is not a number") from None
+            raise InputError(f"{_at(source, lineno)}: {name}: {value_text!r} is not a "
+                             "number") from None
         if not math.isfinite(value):
-            raise InputError(f"{source}:{lineno}: {name}: value must be finite")
+            raise InputError(f"{_at(source, lineno)}: {name}: value must be finite")
         out[name] = value
+        out.lines[name] = lineno
     return out
 
 
-def read_params(path: str | Path) -> dict[str, float]:
+def read_params(path: str | Path) -> ParamFile:
     """Read a parameter file (see :func:`parse_params`); size and encoding are checked as for
     every input file (:func:`validator.input_files.read_text`)."""
     return parse_params(read_text(path, "parameter"), str(path))

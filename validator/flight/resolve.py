@@ -7,7 +7,7 @@ Conventions:
 
 - Items are numbered from 0 as in the ``.plan`` file. On the wire ArduPilot puts home at
   mission sequence 0, so item ``i`` is ``seq = i + 1`` there; a DO_JUMP's param1 is that
-  sequence number (QGroundControl's ``doJumpId``), so it targets item ``param1 - 1``.
+  number (a ``.plan`` names its target by doJumpId: read as this), so it targets ``param1 - 1``.
 - NAV_TAKEOFF climbs straight up where the vehicle is. NAV_WAYPOINT flies a straight leg and
   holds param1 seconds. DO_CHANGE_SPEED (param2 m/s, param1 0/1 = horizontal) applies at once
   and holds until changed. DO_JUMP repeats param2 times (-1: forever). RTL flies straight to

@@ -121,7 +121,8 @@ def download_parser() -> argparse.ArgumentParser:
     p = command_parser(
         "download-mission",
         "Download the mission, geofence and rally points a vehicle holds and write them as a "
-        "QGroundControl .plan (to audit with validate-mission).",
+        "QGroundControl .plan (to audit with validate-mission). A vehicle that reports no home "
+        "gets its first positioned item as the plan's home, with a warning.",
     )
     add_link_arguments(p, connect_help=CONNECT_HELP, required=True)
     p.add_argument("-o", "--output", type=output_path, required=True, metavar="PLAN",
@@ -152,8 +153,11 @@ def _download(args: argparse.Namespace) -> int:
     check_output_paths([out for out in (args.output, args.params_out) if out is not None],
                        {"the --signing-key file": args.signing_key})
     key = read_signing_key_arg(args.signing_key)
+    # a warning, not a note (so also with --quiet): the plan's home is not where the vehicle
+    # would return to, and an audit of the plan judges its returns to it
     plan = download_plan(args.connect, timeout_s=args.timeout, sysid=args.sysid,
-                         signing_key=key)
+                         signing_key=key, note=lambda text: print(
+                             f"download-mission: warning: {text}", file=sys.stderr))
     text = (download_params_text(args.connect, timeout_s=args.timeout, sysid=args.sysid,
                                  signing_key=key) if args.params_out else None)
     files: dict[Path, str | bytes] = {Path(args.output): dumps_plan(plan)}

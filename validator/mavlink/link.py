@@ -12,7 +12,7 @@ by item, to what was sent. The names of those modules stay importable from here.
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
@@ -278,20 +278,24 @@ def home_of(link: Link) -> tuple[float, float, float] | None:
     return None
 
 
-def download_from(link: Link) -> Plan:
-    """The three lists the vehicle holds, as a :class:`Plan`."""
+def download_from(link: Link, note: Callable[[str], None] | None = None) -> Plan:
+    """The three lists the vehicle holds, as a :class:`Plan`; ``note`` is told in one line
+    when the vehicle reported no home and the plan's stands in for it
+    (:func:`~validator.mavlink.wire.wire_to_plan`)."""
     lists = link.download()
     home = None if link.vehicle.is_ardupilot and lists.mission else home_of(link)
     firmware = int(Autopilot.known(link.vehicle.autopilot) or Autopilot.GENERIC)
     return wire_to_plan(lists, home_item=link.vehicle.is_ardupilot, home=home,
-                        firmware_type=firmware)
+                        firmware_type=firmware, note=note)
 
 
 def download_plan(url: str, *, timeout_s: float = DEFAULT_TIMEOUT_S,
-                  sysid: int | None = None, signing_key: bytes | None = None) -> Plan:
+                  sysid: int | None = None, signing_key: bytes | None = None,
+                  note: Callable[[str], None] | None = None) -> Plan:
     """What the vehicle at ``url`` holds, as a plan (``download-mission``); with
-    ``signing_key``, over a signed link (:mod:`.signing`)."""
+    ``signing_key``, over a signed link (:mod:`.signing`); ``note`` as for
+    :func:`download_from`."""
     with Link(url, timeout_s=timeout_s, target_system=sysid, signing_key=signing_key) as link, \
             _explaining(link, sysid):
-        return download_from(link)
+        return download_from(link, note)
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import os
 import struct
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import IntEnum
 from typing import Any
@@ -205,8 +206,8 @@ def _from_wire(items: tuple[WireItem, ...]) -> tuple[ListItem, ...]:
 
 def plan_to_wire(plan: Plan, *, home_item: bool) -> WireLists:
     """All three lists of ``plan`` as they go over the wire. With ``home_item`` (ArduPilot)
-    the plan's home comes first at seq 0 and DO_JUMP targets keep their ``doJumpId`` as seq;
-    without it (PX4) seq = doJumpId - 1 (:func:`validator.item_lists.mission_items`)."""
+    the plan's home comes first at seq 0 and a DO_JUMP's target is its item number as seq;
+    without it (PX4) that number - 1 (:func:`validator.item_lists.mission_items`)."""
     lists = plan_items(plan, home_item=home_item)
     return WireLists(_to_wire(lists.mission, MissionType.MISSION),
                      _to_wire(lists.fence, MissionType.FENCE),
@@ -219,13 +220,15 @@ def wire_to_plan(
     home_item: bool,
     home: tuple[float, float, float] | None = None,
     firmware_type: int = int(Autopilot.ARDUPILOTMEGA),
+    note: Callable[[str], None] | None = None,
 ) -> Plan:
     """A plan from the three lists a vehicle holds.
 
     With ``home_item`` (ArduPilot) seq 0 is the vehicle's home and becomes the plan's
     ``plannedHomePosition``; otherwise (and when seq 0 is at 0°, 0°: a vehicle without a home
     yet) ``home`` (lat, lon, alt AMSL) is used, or the first positioned item at altitude 0
-    when the vehicle reported none.
+    when the vehicle reported none, which ``note`` is told in one line: that plan's home is
+    not where the vehicle returns to.
     """
     decoded = ItemLists(_from_wire(lists.mission), _from_wire(lists.fence),
                         _from_wire(lists.rally))
@@ -236,6 +239,13 @@ def wire_to_plan(
         pos = [w for w in lists.mission if w.frame in GLOBAL_FRAMES and (w.x or w.y)]
         home = ((float(from_int_e7(pos[0].x)), float(from_int_e7(pos[0].y)), 0.0) if pos
                 else (0.0, 0.0, 0.0))
+        if note is not None:
+            why = ("its seq 0 at 0°, 0°" if first is not None else
+                   "no mission, no HOME_POSITION" if home_item else "no HOME_POSITION")
+            stand_in = (f"the position of mission.items[{pos[0].seq - int(home_item)}], the "
+                        "first item with one, at altitude 0 m AMSL" if pos else
+                        "0°, 0°: no item has a position")
+            note(f"the vehicle reported no home ({why}); the plan's home is {stand_in}")
     circles, polygons, breach = fence_from_items(decoded.fence, home[2], "fence")
     return Plan(
         items=items,

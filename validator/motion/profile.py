@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from validator.autopilot import ardupilot, px4
+from validator.autopilot.param_file import ParamFile
 from validator.autopilot.spec import ParamSpec, model_param
 from validator.errors import InputError
 from validator.motion.limits import SITL_QUAD_DRAG_PER_M, VehicleLimits
@@ -112,34 +113,45 @@ def profile_wind(profile: Profile) -> Wind | None:
 
 
 def make_profile(
-    name: str, vehicle: VehicleLimits, overrides: Mapping[str, float] | None = None
+    name: str, vehicle: VehicleLimits, overrides: Mapping[str, float] | None = None, *,
+    vehicle_params: Mapping[str, float] | None = None,
 ) -> Profile:
-    """The profile ``name`` for a vehicle with these limits, with ``overrides`` (autopilot
-    units); a site's vehicle is :func:`~validator.motion.limits.site_limits` of it.
+    """The profile ``name`` for a vehicle with these limits, with the parameters it flies of
+    ``vehicle_params`` (what the vehicle holds: a parameter file, :func:`flown_params`) and
+    then ``overrides`` (``--param`` flags), autopilot units; a site's vehicle is
+    :func:`~validator.motion.limits.site_limits` of it.
 
     Raises :class:`InputError` for an unknown profile or parameter, or a value that is not a
     finite number > 0 (>= 0 where 0 is a setting, ``ParamSpec.zero_ok``: WPNAV_ACCEL_C,
-    RTL_LOIT_TIME, PSC_ANGLE_MAX, WP_YAW_BEHAVIOR, VEHICLE_DRAG, ALT_AMSL, the wind's).
+    RTL_LOIT_TIME, PSC_ANGLE_MAX, WP_YAW_BEHAVIOR, VEHICLE_DRAG, ALT_AMSL, the wind's), naming
+    where the value came from: its flag, or its file and line (a
+    :class:`~validator.autopilot.param_file.ParamFile`).
     """
     if name not in PROFILES:
         raise InputError(f"--profile: unknown profile {name!r} (choose from {', '.join(PROFILES)})")
     pname: ProfileName = name
     params = _defaults(pname, vehicle)
-    for key, value in (overrides or {}).items():
+    flags = overrides or {}
+    for key, value in {**flown_params(pname, vehicle_params or {}), **flags}.items():
+        where = f"--param {key}" if key in flags else _file_where(vehicle_params, key)
         if key not in params:
             known = ", ".join(sorted(params))
-            raise InputError(
-                f"--param {key}: unknown parameter for profile {name} (known: {known})"
-            )
+            raise InputError(f"{where}: unknown parameter for profile {name} (known: {known})")
         v = float(value)
         if not math.isfinite(v) or v < 0 or (v == 0 and not PARAM_SPECS[pname][key].zero_ok):
-            raise InputError(f"--param {key}: must be a number > 0, got {value}")
+            raise InputError(f"{where}: must be a number > 0, got {value}")
         floor = PARAM_SPECS[pname][key].least()
         if 0 < v < floor:
-            raise InputError(f"--param {key}: {v:g} {PARAM_SPECS[pname][key].unit} is below "
+            raise InputError(f"{where}: {v:g} {PARAM_SPECS[pname][key].unit} is below "
                              f"{floor:g}, the least acceleration or jerk the replay flies")
         params[key] = v
     return Profile(pname, params)
+
+
+def _file_where(values: Mapping[str, float] | None, key: str) -> str:
+    """How a message about ``key``'s value in a vehicle's parameters starts: its file and line
+    when they were read from one."""
+    return values.where(key) if isinstance(values, ParamFile) else f"parameter {key}"
 
 
 def flown_params(name: str, params: Mapping[str, float]) -> dict[str, float]:

@@ -1,6 +1,7 @@
 """upload-mission, download-mission and sitl-vehicle as commands: exit status, one-line
 errors, no partial output file."""
 
+import dataclasses
 import signal
 import subprocess
 import sys
@@ -19,6 +20,7 @@ from validator.mavlink.cli import (
     upload_mission_main,
 )
 from validator.mavlink.link import download_plan
+from validator.mavlink.wire import plan_to_wire
 from validator.plan_format import read_plan, write_plan
 from validator.site import site_to_dict
 
@@ -96,6 +98,19 @@ def test_download_mission_writes_what_the_vehicle_holds(tmp_path, plan, start_ve
     held = read_plan(out)
     assert [it.command for it in held.items] == [it.command for it in plan.items]
     assert len(held.polygons) == 1 and len(held.rally) == 2
+
+
+def test_download_mission_warns_when_the_first_waypoint_stands_in_for_home(tmp_path, plan,
+                                                                            capsys):
+    wire = plan_to_wire(plan, home_item=True)
+    out = tmp_path / "held.plan"
+    with FakeVehicle() as fake:  # an ArduPilot before its GPS fix: seq 0 at 0°, 0°
+        fake.lists[0] = [dataclasses.replace(wire.mission[0], x=0, y=0), *wire.mission[1:]]
+        assert download_mission_main(["--connect", fake.url, "-o", str(out), "--quiet"]) == 0
+    assert capsys.readouterr().err == (
+        "download-mission: warning: the vehicle reported no home (its seq 0 at 0°, 0°); the "
+        "plan's home is the position of mission.items[0], the first item with one, at "
+        "altitude 0 m AMSL\n")
 
 
 def test_download_mission_from_a_dead_link_writes_nothing(tmp_path, capsys):

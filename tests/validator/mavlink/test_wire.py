@@ -1,3 +1,4 @@
+import json
 import math
 
 import numpy as np
@@ -12,7 +13,7 @@ from validator.mavlink.wire import (
     plan_to_wire,
     wire_to_plan,
 )
-from validator.plan_format import Cmd, FenceCircle
+from validator.plan_format import Cmd, FenceCircle, loads_plan, plan_to_dict
 
 
 def test_ardupilot_mission_starts_with_home_and_keeps_plan_order(plan):
@@ -41,6 +42,17 @@ def test_do_jump_target_is_a_wire_sequence_number(plan, home_item, target_seq):
     jumps = [w for w in wire if w.command == Cmd.DO_JUMP]
     assert [j.param1 for j in jumps] == [target_seq]
     assert wire[target_seq].command == Cmd.NAV_WAYPOINT  # the item the plan's doJumpId names
+
+
+@pytest.mark.parametrize("home_item, target_seq", [(True, 3), (False, 2)])
+def test_a_plan_files_jump_goes_up_as_the_sequence_number_of_the_item_with_its_doJumpId(
+        plan, home_item, target_seq):
+    data = plan_to_dict(plan)
+    for entry, jump_id in zip(data["mission"]["items"], range(11, 17), strict=True):
+        entry["doJumpId"] = jump_id  # as another tool may number them
+    data["mission"]["items"][4]["params"][0] = 13  # item 2, the first waypoint
+    wire = plan_to_wire(loads_plan(json.dumps(data)), home_item=home_item).mission
+    assert [w.param1 for w in wire if w.command == Cmd.DO_JUMP] == [target_seq]
 
 
 def test_fence_circle_polygon_and_return_point(plan):
@@ -95,6 +107,36 @@ def test_an_ardupilot_home_of_0_0_is_no_home_and_the_first_waypoint_stands_in(pl
                                                                     first.y / 1e7))
     said = wire_to_plan(lists, home_item=True, home=(1.0, 2.0, 3.0))
     assert (said.home_lat_deg, said.home_lon_deg, said.home_alt_m) == (1.0, 2.0, 3.0)
+
+
+def _without_home(plan):
+    import dataclasses
+
+    wire = plan_to_wire(plan, home_item=True)
+    return dataclasses.replace(wire, mission=(dataclasses.replace(wire.mission[0], x=0, y=0),
+                                              *wire.mission[1:]))
+
+
+def test_the_first_waypoint_standing_in_for_a_missing_home_is_told(plan):
+    notes: list[str] = []
+    wire_to_plan(_without_home(plan), home_item=True, note=notes.append)
+    assert notes == ["the vehicle reported no home (its seq 0 at 0°, 0°); the plan's home is "
+                     "the position of mission.items[0], the first item with one, at altitude "
+                     "0 m AMSL"]
+
+
+def test_a_home_the_vehicle_said_through_home_position_is_not_remarked(plan):
+    notes: list[str] = []
+    wire_to_plan(_without_home(plan), home_item=True, home=(1.0, 2.0, 3.0), note=notes.append)
+    assert notes == []
+
+
+def test_a_px4_mission_without_home_position_tells_whose_position_stands_in(plan):
+    notes: list[str] = []
+    wire_to_plan(plan_to_wire(plan, home_item=False), home_item=False, note=notes.append)
+    assert len(notes) == 1 and notes[0].startswith("the vehicle reported no home (no "
+                                                   "HOME_POSITION); the plan's home is the "
+                                                   "position of mission.items[0]")
 
 
 def test_latitude_out_of_range_names_the_item(plan):
