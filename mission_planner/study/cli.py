@@ -21,7 +21,7 @@ import math
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, NoReturn, TypeVar
 
 from validator.cli_common import (
     EXIT_INPUT,
@@ -32,7 +32,7 @@ from validator.cli_common import (
     add_quiet_argument,
     run_command,
 )
-from validator.errors import InputError
+from validator.errors import CommandParser, InputError
 from validator.output_paths import output_path
 from validator.plan_format import Autopilot
 
@@ -63,8 +63,8 @@ def _list_of(kind: Callable[[str], T]) -> Callable[[str], tuple[T, ...]]:
     return parse
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # type: ignore[override]
+class _Parser(CommandParser):
+    def error(self, message: str) -> NoReturn:
         raise InputError(message)
 
 
