@@ -67,6 +67,27 @@ def test_fig3_bad_site_file_is_exit_2_and_no_output(
     assert not out.exists()
 
 
+@pytest.mark.parametrize(("study", "name"), [("fig3", "fig3_summary.csv"),
+                                            ("wind", "wind_trials.csv")])
+def test_a_study_refuses_to_write_over_the_site_s_airspace_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], study: str, name: str
+) -> None:
+    samples = Path(__file__).parents[2] / "samples"
+    zones = tmp_path / name  # the airspace file, named as a file the study writes
+    zones.write_bytes((samples / "airfield-airspace.geojson").read_bytes())
+    site = tmp_path / "airfield.yaml"
+    site.write_text((samples / "airfield.yaml").read_text().replace(
+        "airspace: airfield-airspace.geojson", f"airspace: {name}"))
+    before = zones.read_bytes()
+    argv = [study, str(site), "-o", str(tmp_path), "--max-iterations", "2"] if study == "fig3" \
+        else [study, str(site), "-o", str(tmp_path), "--speeds", "0", "--directions", "0",
+              "--workers", "1", "--quiet"]
+    assert main(argv) == 2
+    assert capsys.readouterr().err == (f"nfz-study: {zones}: is an input of this command "
+                                       "(the site's airspace file)\n")
+    assert zones.read_bytes() == before
+
+
 def test_fig4_runs_and_a_rerun_resumes(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "out"
     assert main(["fig4", "-o", str(out), *SMALL, *FAST]) == 0
