@@ -82,6 +82,7 @@ from validator.errors import InputError
 from validator.output_paths import output_path
 from validator.plan_format import Autopilot
 from validator.site import Site
+from validator.site_airspace import site_inputs
 from validator.uas_zones.applicability import AirspaceOptions, parse_at
 from validator.wind import parse_wind_arg
 from validator.wind_track import extrapolation_warning
@@ -185,8 +186,9 @@ def _plan(args: argparse.Namespace) -> int:
               "deterministic)", file=sys.stderr)
     autopilot: Autopilot = args.autopilot
     fmt = args.format or ("waypoints" if args.output.suffix == ".waypoints" else "plan")
+    inputs = site_inputs(args.site)
     if args.params_out is None:  # its name is derived from the output's, which must be a file
-        check_output_paths([args.output], {"the site file": args.site})
+        check_output_paths([args.output], inputs)
     param_file = args.params_out or params_path(args.output)
     if args.html_map and not args.html:
         raise InputError("--html-map: only with --html")
@@ -196,7 +198,7 @@ def _plan(args: argparse.Namespace) -> int:
         from validator.waypoints_format import sidecar_paths
 
         outputs += list(sidecar_paths(args.output))
-    check_output_paths(outputs, {"the site file": args.site})
+    check_output_paths(outputs, inputs)
     airspace = AirspaceOptions(parse_at(args.at) if args.at else None,
                                authorised=frozenset(args.authorised))
     wind = parse_wind_arg(args.wind) if args.wind is not None else None

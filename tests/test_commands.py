@@ -143,7 +143,8 @@ ALIASES = [
                          ids=[a[1][0] + "-" + a[0].__name__ for a in ALIASES])
 def test_an_old_spelling_works_and_warns_once(parse, argv: list[str], new: str, attr: str,
                                                value: object, capsys) -> None:
-    args = parse(argv + argv)  # given twice: still one line
+    switches = all(a.startswith("-") for a in argv)  # a value given twice is refused
+    args = parse(argv + argv if switches else argv)  # a switch given twice: still one line
     got = getattr(args, attr)
     assert got == (Path(str(value)) if isinstance(got, Path) else value)  # outputs: Path
     err = capsys.readouterr().err.splitlines()
@@ -163,6 +164,94 @@ def test_profile_is_the_ideal_model_and_an_old_autopilot_word_is_deprecated(pars
     assert capsys.readouterr().err == ("warning: --profile arducopter is deprecated; use "
                                        "--autopilot ardupilot\n")
     assert parse(["--autopilot", "px4"]).autopilot is Autopilot.PX4
+
+
+# a parser, the argv it accepts as it stands (positionals and required options)
+PARSERS: list[tuple[str, Callable[[], argparse.ArgumentParser], list[str]]] = [
+    ("plan-mission", plan_cli._parser, ["s.yaml", "-o", "m.plan"]),
+    ("validate-mission", validate_cli.build_parser, ["x.plan", "--site", "s.yaml"]),
+    ("upload-mission", mavlink_cli.upload_parser, ["x.plan", "--connect", "tcp:h:1"]),
+    ("download-mission", mavlink_cli.download_parser, ["--connect", "tcp:h:1", "-o", "o.plan"]),
+    ("sitl-vehicle", mavlink_cli.sitl_parser, ["--home", "1,2,3"]),
+    ("nfz-study fig3", study_cli.build_parser, ["fig3", "s.yaml", "-o", "d"]),
+    ("nfz-study fig4", study_cli.build_parser, ["fig4", "-o", "d"]),
+    ("nfz-study wind", study_cli.build_parser, ["wind", "s.yaml", "-o", "d"]),
+]
+REPEATABLE = (argparse._AppendAction, argparse._AppendConstAction, argparse._CountAction)
+VALUES = ("1", "1,2,3", "px4", "ideal", "tcp:h:1")  # one of them suits each option
+
+
+def _options(parser: argparse.ArgumentParser, argv: list[str]) -> list[argparse.Action]:
+    """The options of the (sub)command ``argv`` names that take a value."""
+    subs = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    if subs:
+        parser = subs[0].choices[argv[0]]
+    return [a for a in parser._actions if a.option_strings and a.nargs != 0]
+
+
+def _refusal(parser: argparse.ArgumentParser, argv: list[str]) -> str | None:
+    """The error parsing ``argv`` gives (None when it parses)."""
+    import contextlib
+    import io
+
+    from validator.errors import InputError
+
+    err = io.StringIO()
+    try:
+        with contextlib.redirect_stderr(err):
+            parser.parse_args(argv)
+    except SystemExit:
+        return err.getvalue()
+    except InputError as exc:  # nfz-study's parser raises it for the command to print
+        return str(exc)
+    return None
+
+
+def _without(argv: list[str], dest: str, options: list[argparse.Action]) -> list[str]:
+    """``argv`` with the options that set ``dest`` (aliases too) and their values taken out."""
+    spellings = {s for a in options if a.dest == dest for s in a.option_strings}
+    out: list[str] = []
+    it = iter(argv)
+    for a in it:
+        if a in spellings:
+            next(it)
+        else:
+            out.append(a)
+    return out
+
+
+@pytest.mark.parametrize(("name", "build", "argv"), PARSERS, ids=[p[0] for p in PARSERS])
+def test_every_option_that_takes_one_value_refuses_a_second(
+        name: str, build: Callable[[], argparse.ArgumentParser], argv: list[str]) -> None:
+    parser = build()
+    options = _options(parser, argv)
+    for action in options:
+        if isinstance(action, REPEATABLE):
+            continue
+        base, flag = _without(argv, action.dest, options), action.option_strings[-1]
+        value = next((v for v in (*(action.choices or ()), *VALUES)
+                      if _refusal(parser, [*base, flag, v]) is None), None)
+        assert value is not None, f"{name} {flag}: no test value parses"
+        refusal = _refusal(parser, [*base, flag, value, flag, value])
+        assert refusal is not None and f"{flag} given twice" in refusal, f"{name} {flag}"
+
+
+@pytest.mark.parametrize(("name", "build", "argv"), PARSERS, ids=[p[0] for p in PARSERS])
+def test_an_option_meant_to_repeat_keeps_every_value(
+        name: str, build: Callable[[], argparse.ArgumentParser], argv: list[str]) -> None:
+    parser = build()
+    for action in _options(parser, argv):
+        if isinstance(action, argparse._AppendAction):
+            flag = action.option_strings[-1]
+            args = parser.parse_args([*argv, flag, "A=1", flag, "B=2"])
+            assert getattr(args, action.dest)[-2:] == ["A=1", "B=2"], f"{name} {flag}"
+
+
+def test_a_flag_given_twice_is_one_line_exit_2_before_any_work(monkeypatch, capsys) -> None:
+    monkeypatch.setattr(plan_cli, "_plan", lambda _args: pytest.fail("planned"))
+    argv = ["s.yaml", "-o", "a.plan", "--wind", "5@270", "--wind", "7@90"]
+    assert plan_cli.plan_mission_main(argv) == 2
+    assert capsys.readouterr().err == "plan-mission: --wind given twice\n"
 
 
 BAD = {

@@ -60,6 +60,7 @@ from validator.motion.profile import ProfileName, parse_param_overrides
 from validator.output_paths import check_output_paths, output_path
 from validator.plan_format import Autopilot
 from validator.replay import TrackReport
+from validator.site_airspace import site_inputs
 from validator.track_file import write_track
 from validator.uas_zones.applicability import AirspaceOptions, parse_at
 from validator.validation import (
@@ -345,7 +346,7 @@ def _validate(args: argparse.Namespace) -> int:
         raise InputError("--flown: a recorded flight, or a flight now (--sitl…), not both")
     check_output_paths(
         [out for out in (args.report, args.html, args.track) if out is not None],
-        {"the plan": args.plan, "the site file": args.site, "the --params file": args.params,
+        {"the plan": args.plan, **site_inputs(args.site), "the --params file": args.params,
          "the --flown track": args.flown, "the --signing-key file": args.signing_key,
          "the --sitl-defaults file": args.sitl_defaults, "the --sitl-binary": args.sitl_binary})
     if args.track and not flying:

@@ -18,7 +18,7 @@ import textwrap
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from validator.errors import CommandParser, InputError, UserError, report_error
+from validator.errors import CommandParser, InputError, UserError, given_once, report_error
 from validator.mavlink import DEFAULT_TIMEOUT_S
 from validator.plan_format import Autopilot
 
@@ -38,7 +38,8 @@ EXIT_STATUS = """\
 exit status (the same for every nfz-mission command):
   0    done: the mission is clear, written, uploaded as sent
   1    a verdict against the mission: a violation, a refused or unsafe plan,
-       a read-back that differs from what was sent
+       a read-back that differs from what was sent, a study whose every
+       trial failed (its table keeps each trial's error)
   2    the user's input or environment: a bad file, flag or value, a failed
        link, a missing tool (one line on stderr, no output file)
   130  interrupted (Ctrl-C): nothing half-written, a vehicle started here
@@ -106,6 +107,8 @@ class Deprecated(argparse.Action):
 
     def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
                  values: object, option_string: str | None = None) -> None:
+        if self.nargs != 0:  # a switch given twice says nothing new
+            given_once(parser, namespace, self.dest, option_string)
         warned: set[str] = namespace.__dict__.setdefault("_deprecations_warned", set())
         if option_string not in warned:
             warned.add(option_string or "")
@@ -222,10 +225,12 @@ class AutopilotOrProfile(argparse.Action):
 
     def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
                  values: object, option_string: str | None = None) -> None:
+        given_once(parser, namespace, self.dest, option_string)
         if values == "ideal":
             namespace.profile = "ideal"
             return
         autopilot = Autopilot.PX4 if values == "px4" else Autopilot.ARDUPILOTMEGA
+        given_once(parser, namespace, "autopilot", option_string)  # beside --autopilot too
         deprecation(f"{option_string} {values}", f"--autopilot {autopilot.key}")
         namespace.autopilot = autopilot
 

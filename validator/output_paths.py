@@ -11,7 +11,7 @@ from pathlib import Path
 
 from validator.errors import InputError
 
-__all__ = ["check_output_paths", "output_path"]
+__all__ = ["check_not_inputs", "check_output_paths", "output_path"]
 
 
 def output_path(text: str) -> Path:
@@ -34,21 +34,29 @@ def check_output_paths(
 
     Paths are compared resolved and, where both exist, by device and inode, so a symbolic or
     hard link to the same file is caught too."""
-    named = [(what, Path(p)) for what, p in (inputs or {}).items() if p is not None and str(p)]
     seen: list[tuple[str | Path, Path]] = []
     for out in outputs:
         if not str(out):
             raise InputError("output path is empty")
         path = Path(out)
         _check_writable(out, path)
-        for what, inp in named:
-            if _same_file(path, inp):
-                raise InputError(f"{out}: is an input of this command ({what})")
+        check_not_inputs([out], inputs)
         for other, other_path in seen:
             if _same_file(path, other_path):
                 raise InputError(f"{out}: named for two outputs"
                                  + ("" if str(other) == str(out) else f" (also as {other})"))
         seen.append((out, path))
+
+
+def check_not_inputs(outputs: Iterable[str | Path],
+                     inputs: Mapping[str, str | Path | None] | None) -> None:
+    """Refuse an output that is one of ``inputs`` (as :func:`check_output_paths`), alone: for
+    the files a command writes into a folder it may still have to make."""
+    named = [(what, Path(p)) for what, p in (inputs or {}).items() if p is not None and str(p)]
+    for out in outputs:
+        for what, inp in named:
+            if _same_file(Path(out), inp):
+                raise InputError(f"{out}: is an input of this command ({what})")
 
 
 def _check_writable(out: str | Path, path: Path) -> None:

@@ -45,15 +45,9 @@ from validator.autopilot.spec import MIN_ACCEL_MPS2, MIN_JERK_MPS3
 from validator.channel import db_to_linear, dbm_to_w
 from validator.errors import InputError
 from validator.geodesy import LocalFrame, check_latitude
-from validator.input_files import (
-    MAX_SITE_BYTES,
-    check_tree,
-    parse_yaml,
-    read_text,
-    resolve_referenced_path,
-)
+from validator.input_files import MAX_SITE_BYTES, check_tree, parse_yaml, read_text
 from validator.model_errors import first_error
-from validator.site_airspace import SiteAirspace, site_airspace
+from validator.site_airspace import SiteAirspace, airspace_paths, site_airspace
 from validator.uas_zones.applicability import AirspaceOptions, Band
 from validator.wind import Wind, WindModel
 from validator.zones import (
@@ -317,11 +311,7 @@ def _site_zones(model: SiteModel, frame: LocalFrame, source: str, base_file: str
                                                                    f"{where}.polygon")))
         else:
             zones.append(_Zone(where, z.name, _resolve(frame, z), float(z.radius or 0.0)))
-    names = [model.airspace] if isinstance(model.airspace, str) else model.airspace or []
-    if names and base_file is None:
-        raise InputError(f"{source}: airspace: only a site file read from disk may name an "
-                         "airspace file (it is found relative to the site file)")
-    paths = [resolve_referenced_path(base_file, a, field="airspace") for a in names if base_file]
+    paths = airspace_paths(model.airspace, base_file, source)
     buffer_m = (options or AirspaceOptions()).buffer_or(model.safety.buffer_m)
     band = Band(model.uav.altitude + buffer_m, model.origin.alt)
     air = site_airspace(paths, frame, points_m, band, options)

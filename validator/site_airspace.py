@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import shapely
@@ -20,6 +21,7 @@ from numpy.typing import NDArray
 from validator.airspace import read_airspace_file
 from validator.errors import InputError
 from validator.geodesy import LocalFrame
+from validator.input_files import MAX_SITE_BYTES, parse_yaml, read_text, resolve_referenced_path
 from validator.uas_zones.applicability import (
     AirspaceOptions,
     Band,
@@ -73,6 +75,40 @@ class SiteAirspace:
             out.append(f"  zone {d.zone.identifier} ({d.zone.restriction}): "
                        + ("taken, " if d.taken else "not taken: ") + d.why)
         return out
+
+
+def airspace_paths(names: str | Sequence[str] | None, base_file: str | Path | None,
+                   source: str) -> list[Path]:
+    """The files a site's ``airspace:`` names (one or a list), resolved from the site file's
+    folder: the one rule for the loader and for the commands that must not write over them
+    (:func:`site_inputs`)."""
+    listed = [names] if isinstance(names, str) else list(names or [])
+    if not listed:
+        return []
+    if base_file is None:
+        raise InputError(f"{source}: airspace: only a site file read from disk may name an "
+                         "airspace file (it is found relative to the site file)")
+    return [resolve_referenced_path(base_file, a, field="airspace") for a in listed]
+
+
+def site_inputs(path: str | Path) -> dict[str, Path]:
+    """Every file a command that reads the site at ``path`` reads, by what it is to the user:
+    the site file and the airspace files it names, for
+    :func:`validator.output_paths.check_output_paths` (an output there would replace the
+    site's zones with a plan). A site that cannot be read here names only itself: loading it
+    reports why, by the loader's rules."""
+    inputs = {"the site file": Path(path)}
+    try:
+        data: Any = parse_yaml(read_text(Path(path), "site", MAX_SITE_BYTES), str(path))
+        names = data.get("airspace") if isinstance(data, dict) else None
+        if not isinstance(names, str | list | None):
+            return inputs
+        files = airspace_paths(names, path, str(path))
+    except (InputError, OSError):
+        return inputs
+    for i, f in enumerate(files):
+        inputs["the site's airspace" + (f"[{i}]" if len(files) > 1 else "") + " file"] = f
+    return inputs
 
 
 def site_airspace(paths: Sequence[str | Path], frame: LocalFrame,

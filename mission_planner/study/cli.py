@@ -21,7 +21,7 @@ import math
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, NoReturn, TypeVar
 
 from validator.cli_common import (
     EXIT_INPUT,
@@ -32,9 +32,10 @@ from validator.cli_common import (
     add_quiet_argument,
     run_command,
 )
-from validator.errors import InputError
-from validator.output_paths import output_path
+from validator.errors import CommandParser, InputError
+from validator.output_paths import check_not_inputs, output_path
 from validator.plan_format import Autopilot
+from validator.site_airspace import site_inputs
 
 if TYPE_CHECKING:
     from mission_planner.optimize.bcd import PlannerOptions
@@ -63,8 +64,8 @@ def _list_of(kind: Callable[[str], T]) -> Callable[[str], tuple[T, ...]]:
     return parse
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # type: ignore[override]
+class _Parser(CommandParser):
+    def error(self, message: str) -> NoReturn:
         raise InputError(message)
 
 
@@ -159,10 +160,11 @@ def _options(args: argparse.Namespace) -> PlannerOptions:
 
 
 def _fig3(args: argparse.Namespace) -> int:
-    from mission_planner.study.fig3 import run_fig3
+    from mission_planner.study.fig3 import FILES, run_fig3
     from validator.site import load_site
 
     options = _options(args)
+    check_not_inputs([args.output / name for name in FILES], site_inputs(args.site))
     site = load_site(args.site)
     result = run_fig3(site, args.output, options=options, buffer_m=args.buffer_m)
     for sol in result.solutions:
@@ -191,9 +193,11 @@ def _fig4(args: argparse.Namespace) -> int:
 
 
 def _wind(args: argparse.Namespace) -> int:
-    from mission_planner.study.wind import run_wind_study
+    from mission_planner.study.wind import run_wind_study, wind_files
     from validator.site import load_site
 
+    check_not_inputs([args.output / name for name in wind_files(args.table_format)],
+                     site_inputs(args.site))
     result = run_wind_study(
         load_site(args.site), args.output, speeds_mps=args.speeds, directions_deg=args.directions,
         turbulence_mps=args.turbulence, autopilot=args.autopilot.key, workers=args.workers,

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mission_planner.optimize.solution import SCHEMES as PLANNER_SCHEMES
-from mission_planner.study.sites import PAPER_AREA_M
+from mission_planner.study.sites import PAPER_AREA_M, check_zone_fits
 from mission_planner.study.trials import TrialSpec
 from validator.errors import InputError
 
@@ -48,6 +48,9 @@ class Fig4Config:
             raise InputError(f"--slots: must be >= --gns ({self.num_gns}), got {self.slots}")
         if not self.radius_m > 0:
             raise InputError(f"--radius: must be > 0 m, got {self.radius_m}")
+        for radius_m in self.radii_m:
+            check_zone_fits(radius_m, self.area_m, "--radii")
+        check_zone_fits(self.radius_m, self.area_m, "--radius")
         if self.num_nfzs < 0:
             raise InputError(f"--count: must be >= 0, got {self.num_nfzs}")
         if self.buffer_m < 0:

@@ -26,6 +26,9 @@ if TYPE_CHECKING:
     from mission_planner.optimize import PlannerOptions
 
 SCHEMES = ("proposed", "conventional")
+MAP_PNG, SLOTS_PNG = "fig3a_trajectory.png", "fig3b_slots.png"
+SLOTS_CSV, SUMMARY_CSV = "fig3_slots.csv", "fig3_summary.csv"
+FILES = (MAP_PNG, SLOTS_PNG, SLOTS_CSV, SUMMARY_CSV)  # what run_fig3 writes into its folder
 SLOT_COLUMNS = (
     "scheme", "slot", "x_m", "y_m", "delta_s", "power_w", "gn", "leg_length_m",
     "leg_clearance_min_m", "leg_in_nfz", "nfz_entered",
@@ -118,12 +121,12 @@ def run_fig3(
     out_dir.mkdir(parents=True, exist_ok=True)
     slots = [r for sol in solutions for r in slot_rows(sol)]
     files = [
-        save_png(plot_fig3_map(solutions), out_dir / "fig3a_trajectory.png"),
-        save_png(plot_fig3_slots(solutions), out_dir / "fig3b_slots.png"),
+        save_png(plot_fig3_map(solutions), out_dir / MAP_PNG),
+        save_png(plot_fig3_slots(solutions), out_dir / SLOTS_PNG),
     ]
     for name, rows, columns in (
-        ("fig3_slots.csv", slots, SLOT_COLUMNS),
-        ("fig3_summary.csv", [summary_row(s) for s in solutions], SUMMARY_COLUMNS),
+        (SLOTS_CSV, slots, SLOT_COLUMNS),
+        (SUMMARY_CSV, [summary_row(s) for s in solutions], SUMMARY_COLUMNS),
     ):
         write_atomic(out_dir / name, table_csv(rows, columns))
         files.append(out_dir / name)

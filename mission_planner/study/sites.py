@@ -42,6 +42,15 @@ def _draw_clear(
     return None
 
 
+def check_zone_fits(radius_m: float, area_m: float, field: str) -> None:
+    """Refuse, naming ``field``, a zone radius no random site can hold: each zone lies wholly
+    inside the square area (its centre is drawn at least its radius from every side), so a
+    study asked for it would fail every trial rather than say so once."""
+    if not area_m > 2 * radius_m:
+        raise InputError(f"{field}: a zone of radius {radius_m:g} m does not fit in the "
+                         f"{area_m:g} m square of the sites (radius < {area_m / 2:g} m)")
+
+
 def random_site(
     seed: int,
     *,
@@ -83,8 +92,7 @@ def random_site(
         raise InputError(f"num_nfzs: must be >= 0, got {num_nfzs}")
     if not radius_m > 0:
         raise InputError(f"radius_m: must be > 0, got {radius_m}")
-    if not area_m > 2 * radius_m:
-        raise InputError(f"area_m: must exceed the NFZ diameter {2 * radius_m:g} m, got {area_m}")
+    check_zone_fits(radius_m, area_m, "area_m")
     if buffer_m < 0:
         raise InputError(f"buffer_m: must be >= 0, got {buffer_m}")
 

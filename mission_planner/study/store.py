@@ -35,6 +35,7 @@ from validator.fileio import write_atomic
 LOG_NAME = "trials.jsonl"
 LOCK_NAME = ".nfz-study.lock"
 MANIFEST_NAME = "study.json"
+FILES = (LOG_NAME, LOCK_NAME, MANIFEST_NAME)  # what every resumable study keeps in its folder
 TABLE_FORMATS = ("csv", "parquet")
 
 

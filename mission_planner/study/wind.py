@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 import yaml
 
 from mission_planner.study.executors import StudyRun, check_scheduler, run_trials
+from mission_planner.study.store import FILES as STORE_FILES
 from mission_planner.study.store import check_table_format, write_table
 from mission_planner.study.trials import Row
 from validator.errors import InputError
@@ -153,6 +154,11 @@ class WindResult:
     files: list[Path]
 
 
+def wind_files(table_format: str) -> tuple[str, ...]:
+    """What :func:`run_wind_study` writes into its folder: the table, the figure, the log."""
+    return (f"wind_trials.{table_format}", "wind.png", *STORE_FILES)
+
+
 def run_wind_study(
     site: Site,
     out_dir: str | Path,
@@ -184,8 +190,8 @@ def run_wind_study(
                      manifest={"study": "wind", "site": site.name,
                                "spec": asdict(replace(specs[0], speed_mps=0.0, from_deg=0.0,
                                                       turbulence_mps=0.0))})
-    table = write_table(run.rows, out_dir / f"wind_trials.{table_format}", table_format,
-                        WIND_COLUMNS)
+    table_name, figure_name = wind_files(table_format)[:2]
+    table = write_table(run.rows, out_dir / table_name, table_format, WIND_COLUMNS)
     figure = save_png(plot_wind(run.rows, site.name, directions_deg, site.buffer_m),
-                      out_dir / "wind.png")
+                      out_dir / figure_name)
     return WindResult(run=run, files=[table, figure])

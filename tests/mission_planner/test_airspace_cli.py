@@ -112,3 +112,33 @@ def test_the_band_takes_the_buffer_plan_mission_is_given() -> None:
     site, planned = plan_for_time(SAMPLE, AirspaceOptions(parse_at(WEDNESDAY)), 1,
                                   lambda s: s.buffer_m, lambda _: 0.0, buffer_m=5.0)
     assert planned == 5.0 and site.airspace.options.buffer_m == 5.0
+
+
+@pytest.fixture()
+def airfield(tmp_path: Path) -> Path:
+    """samples/airfield.yaml and the airspace file it names, in a folder of their own."""
+    for name in ("airfield.yaml", "airfield-airspace.geojson"):
+        (tmp_path / name).write_bytes((SAMPLE.parent / name).read_bytes())
+    return tmp_path
+
+
+def test_plan_mission_refuses_to_write_over_the_site_s_airspace_file(airfield: Path,
+                                                                      capsys) -> None:
+    zones = airfield / "airfield-airspace.geojson"
+    before = zones.read_bytes()
+    assert plan_mission_main([str(airfield / "airfield.yaml"), "-o", str(airfield / "m.plan"),
+                              "--geojson", str(zones)]) == 2
+    assert capsys.readouterr().err == (f"plan-mission: {zones}: is an input of this command "
+                                       "(the site's airspace file)\n")
+    assert zones.read_bytes() == before and not (airfield / "m.plan").exists()
+
+
+def test_validate_mission_refuses_to_report_over_the_site_s_airspace_file(airfield: Path,
+                                                                           capsys) -> None:
+    zones = airfield / "airfield-airspace.geojson"
+    before = zones.read_bytes()
+    assert validate_mission_main([str(airfield / "m.plan"), "--site",
+                                  str(airfield / "airfield.yaml"), "--report", str(zones)]) == 2
+    assert capsys.readouterr().err == (f"validate-mission: {zones}: is an input of this "
+                                       "command (the site's airspace file)\n")
+    assert zones.read_bytes() == before

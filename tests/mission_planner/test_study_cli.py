@@ -43,6 +43,30 @@ def test_fig4_bad_option_is_one_line_exit_2_and_no_output(
     assert not out.exists()
 
 
+def test_fig4_radius_no_site_can_hold_is_exit_2_and_no_output(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """It ran, failed every trial of that radius and exited 0 with a warning."""
+    out = tmp_path / "out"
+    small = list(SMALL)
+    small[small.index("--radii") + 1] = "1e9"
+    assert main(["fig4", "-o", str(out), *small, *FAST]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("nfz-study: --radii: a zone of radius 1e+09")
+    assert not out.exists()
+
+
+def test_a_study_whose_every_trial_failed_exits_1(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # three zones of radius 190 m fit one 400 m square, not three: every draw fails
+    argv = ["--trials", "1", "--radii", "190", "--counts", "3", "--radius", "190",
+            "--workers", "1", "--quiet"]
+    assert main(["fig4", "-o", str(tmp_path / "out"), *argv]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("warning: 2 trials failed") and "cannot place 3" in err
+
+
 def test_unreachable_scheduler_is_exit_2_and_no_output(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -65,6 +89,27 @@ def test_fig3_bad_site_file_is_exit_2_and_no_output(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "no_fly_zones[1]" in err
     assert not out.exists()
+
+
+@pytest.mark.parametrize(("study", "name"), [("fig3", "fig3_summary.csv"),
+                                            ("wind", "wind_trials.csv")])
+def test_a_study_refuses_to_write_over_the_site_s_airspace_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], study: str, name: str
+) -> None:
+    samples = Path(__file__).parents[2] / "samples"
+    zones = tmp_path / name  # the airspace file, named as a file the study writes
+    zones.write_bytes((samples / "airfield-airspace.geojson").read_bytes())
+    site = tmp_path / "airfield.yaml"
+    site.write_text((samples / "airfield.yaml").read_text().replace(
+        "airspace: airfield-airspace.geojson", f"airspace: {name}"))
+    before = zones.read_bytes()
+    argv = [study, str(site), "-o", str(tmp_path), "--max-iterations", "2"] if study == "fig3" \
+        else [study, str(site), "-o", str(tmp_path), "--speeds", "0", "--directions", "0",
+              "--workers", "1", "--quiet"]
+    assert main(argv) == 2
+    assert capsys.readouterr().err == (f"nfz-study: {zones}: is an input of this command "
+                                       "(the site's airspace file)\n")
+    assert zones.read_bytes() == before
 
 
 def test_fig4_runs_and_a_rerun_resumes(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

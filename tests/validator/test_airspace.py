@@ -105,3 +105,13 @@ def test_unreadable_airspace_names_the_file(tmp_path):
         load_site(site)
     with pytest.raises(InputError, match="cannot read airspace file"):
         load_airspace(tmp_path / "missing.geojson")
+
+
+def test_every_airspace_file_of_a_site_is_one_of_its_inputs(tmp_path):
+    from validator.site_airspace import site_inputs
+
+    site = tmp_path / "site.yaml"
+    site.write_text(yaml.safe_dump(_base() | {"airspace": ["a.geojson", "b.json"]}))
+    assert site_inputs(site) == {"the site file": site,
+                                 "the site's airspace[0] file": tmp_path / "a.geojson",
+                                 "the site's airspace[1] file": tmp_path / "b.json"}

@@ -296,15 +296,16 @@ def _sitl_vehicle(args: argparse.Namespace) -> int:
     if not is_loopback(host):
         print(f"sitl-vehicle: listening on {host}, not loopback: any machine that reaches "
               "this port can command the vehicle", file=sys.stderr)
-    scheme = url.split(":", 1)[0]
-    signed = ", signed" if args.signing_key else ""
-    print(f"sitl-vehicle: listening on {scheme}:{host}:{port} (ArduCopter, system "
-          f"{args.sysid}, {profile}, x{args.speedup:g}{signed})", flush=True)
 
     def stop(_sig: int, _frame: FrameType | None) -> None:
         vehicle.stop()
 
+    # before the address is printed: whoever read it may send SIGTERM at once
     signal.signal(signal.SIGTERM, stop)
+    scheme = url.split(":", 1)[0]
+    signed = ", signed" if args.signing_key else ""
+    print(f"sitl-vehicle: listening on {scheme}:{host}:{port} (ArduCopter, system "
+          f"{args.sysid}, {profile}, x{args.speedup:g}{signed})", flush=True)
     try:
         vehicle.run()
     except KeyboardInterrupt:

@@ -5,6 +5,7 @@ import dataclasses
 import signal
 import subprocess
 import sys
+import time
 
 import pytest
 import yaml
@@ -191,6 +192,29 @@ def test_sitl_vehicle_command_serves_and_stops_on_sigterm(plan, listen):
         proc.send_signal(signal.SIGTERM)
         assert proc.wait(timeout=10) == 0
     assert proc.stderr is not None and "not loopback" not in proc.stderr.read()
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_sitl_vehicle_stops_on_a_signal_within_seconds_at_any_speedup(plan, sig):
+    """SIGTERM waited for the simulation to catch up, which at x1e6 (x1e4 on a slower machine)
+    grows without end: it never stopped, where SIGINT stopped it at once."""
+    code = "import sys; from validator.mavlink.cli import sitl_vehicle_main as m; sys.exit(m())"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code, "--connect", "0", "--home",
+         f"{plan.home_lat_deg},{plan.home_lon_deg},{plan.home_alt_m}", "--speedup", "1e6",
+         "--quiet"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    try:
+        assert proc.stdout is not None
+        assert proc.stdout.readline().startswith("sitl-vehicle: listening on")
+        time.sleep(1.0)  # deep into a catch-up of simulated time
+        proc.send_signal(sig)
+        assert proc.wait(timeout=5) == 0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
 
 
 @pytest.mark.parametrize("host, loopback", [("127.0.0.1", True), ("127.0.0.2", True),

@@ -108,7 +108,10 @@ class SitlVehicle(Copter):
                 # Starved of CPU: let simulated time slip rather than burst.
                 wall0 += (sim_now - next_step) / cfg.speedup
                 sim_now = next_step
-            while next_step <= sim_now:
+            # A catch-up may hold up to a wall second of simulated time, far more than a wall
+            # second of work at a high speed-up (x1e4: 200 000 steps), and it grows while the
+            # machine cannot keep up: stop between steps, or stop() (SIGTERM) waits it out.
+            while next_step <= sim_now and not self._stop.is_set():
                 self.step(next_step, step_s)
                 if next_step - last_slow_sim >= 1.0 or now - last_slow_wall >= 1.0:
                     self.send_slow()
