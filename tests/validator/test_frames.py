@@ -65,3 +65,15 @@ def test_an_arducopter_takeoff_with_coordinates_in_the_mission_frame_climbs_wher
     takeoff = resolve_flight(plan, site).legs[0]
     np.testing.assert_allclose(takeoff.end_xy_m, site.home_xy_m, atol=1e-9)
     assert takeoff.end_alt_m == pytest.approx(25.0)
+
+
+@pytest.mark.parametrize("frame", [10, 11])  # GLOBAL_TERRAIN_ALT, its _INT twin
+def test_px4_refuses_a_position_above_terrain(site, frame):
+    """PX4 takes a position only in frames 0, 3, 5 and 6: a terrain frame had been read as
+    above home with a warning, as ArduPilot may fly it."""
+    plan = dataclasses.replace(waypoint_plan(site, [(50, -40), (150, -40)]),
+                               firmware_type=int(Autopilot.PX4))
+    plan.items[3] = dataclasses.replace(plan.items[3], frame=frame)
+    with pytest.raises(InputError, match=rf"^p\.plan: item 3: frame {frame} \(above terrain\): "
+                                         r"PX4 refuses the item \(MAV_MISSION_UNSUPPORTED_FRAME\)"):
+        resolve_flight(plan, site, "p.plan")

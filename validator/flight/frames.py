@@ -16,9 +16,11 @@ altitude absolute, 3 and 6 above home, 10 and 11 above terrain, any other is ref
 therefore flies toward 0°N 0°E; without them (x and y 0) it flies from where the vehicle is,
 as in any frame. ArduCopter's NAV_TAKEOFF uses only the altitude (it climbs where it is).
 
-PX4 v1.15 (``MavlinkMissionManager::parse_mavlink_mission_item``): frame 2 takes only commands
-without a position (DO items, RTL, NAV_DELAY...), so NAV_WAYPOINT, the loiters, LAND and
-TAKEOFF there are refused (MAV_MISSION_UNSUPPORTED), with or without coordinates.
+PX4 v1.15 (``MavlinkMissionManager::parse_mavlink_mission_item``): a position only in frames
+0 and 3 and, sent as MISSION_ITEM_INT, 5 and 6; frame 2 takes only commands without one (DO
+items, RTL, NAV_DELAY...), so NAV_WAYPOINT, the loiters, LAND and TAKEOFF there are refused
+(MAV_MISSION_UNSUPPORTED), with or without coordinates; every other frame, the terrain frames
+10 and 11 too, is refused (MAV_MISSION_UNSUPPORTED_FRAME).
 
 A refusal here is an :class:`~validator.errors.InputError` of the resolver, as for any plan the
 autopilot would not take or not fly as written.
@@ -33,6 +35,7 @@ from validator.plan_format import Cmd, Frame, MissionItem
 AMSL_FRAMES = frozenset({Frame.GLOBAL, Frame.MISSION, 5})  # 5: GLOBAL_INT
 RELATIVE_FRAMES = frozenset({Frame.GLOBAL_RELATIVE_ALT, 6})  # 6: GLOBAL_RELATIVE_ALT_INT
 TERRAIN_FRAMES = frozenset({Frame.GLOBAL_TERRAIN_ALT, 11})  # 11: GLOBAL_TERRAIN_ALT_INT
+PX4_FRAMES = frozenset({Frame.GLOBAL, Frame.GLOBAL_RELATIVE_ALT, 5, 6})
 USE_INSTEAD = "use 3 (above home) or 0 (AMSL)"
 
 
@@ -59,6 +62,9 @@ def nav_frame_refusal(it: MissionItem, px4: bool, *, at_position: bool) -> str |
     if px4 and frame == Frame.MISSION:
         return (f"frame 2 (MISSION) is for items without a position: PX4 refuses "
                 f"{_name(it.command)} in it (MAV_MISSION_UNSUPPORTED); {USE_INSTEAD}")
+    if px4 and frame not in PX4_FRAMES:
+        return (f"frame {frame} (above terrain): PX4 refuses the item "
+                f"(MAV_MISSION_UNSUPPORTED_FRAME); {USE_INSTEAD}")
     lat, lon = it.params[4], it.params[5]
     if (frame == Frame.MISSION and at_position
             and not (no_coordinate(lat) and no_coordinate(lon))):
