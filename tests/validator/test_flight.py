@@ -188,7 +188,7 @@ def test_a_position_in_a_frame_the_autopilot_refuses_is_refused(site, frame):
         resolve_flight(plan, site, "p.plan")
 
 
-@pytest.mark.parametrize("frame", [0, 2, 5])  # GLOBAL, MISSION, GLOBAL_INT: AMSL to ArduPilot
+@pytest.mark.parametrize("frame", [0, 5])  # GLOBAL, GLOBAL_INT (MISSION: test_frames)
 def test_an_absolute_frame_is_altitude_above_sea_level(site, frame):
     plan = waypoint_plan(site, [(50, -40), (150, -40)])
     plan.items[3] = dataclasses.replace(plan.items[3], frame=frame,

@@ -9,6 +9,8 @@ the simulated vehicle:
   :class:`Home` in force on it, the service cycle among them (:class:`CycleSpan`) and
   :class:`Finding` s;
 - :mod:`.home`: what a mission's DO_SET_HOME does to that home, on ArduCopter and PX4;
+- :mod:`.frames`: the frames each autopilot takes a navigation item's position in, and how it
+  reads the coordinates there (frame 2: unscaled on the wire);
 - :mod:`.service`: the planner's metadata a plan carries (:class:`ServicePlan`,
   :func:`parse_service`);
 - :mod:`.bounds`: how long a mission may last (:data:`MAX_MISSION_S`).

@@ -51,6 +51,7 @@ import math
 
 from numpy.typing import ArrayLike
 
+from validator.flight.frames import no_coordinate
 from validator.flight.model import Severity
 from validator.item_lists import GLOBAL_FRAMES
 from validator.plan_format import Frame, MissionItem
@@ -60,11 +61,6 @@ from validator.zones import buffer_intrusion
 # CONDITION_DELAY, CONDITION_DISTANCE, CONDITION_YAW: they hold back the DO items after them
 CONDITIONS = {112: "CONDITION_DELAY", 114: "CONDITION_DISTANCE", 115: "CONDITION_YAW"}
 PX4_CURRENT_ABOVE = 0.5  # the commander's "use current position" threshold on param1
-
-
-def _missing(value: float) -> bool:
-    """A param MISSION_ITEM_INT's x or y carries as 0 (our wire sends NaN as 0)."""
-    return math.isnan(value) or value == 0.0
 
 
 def set_home_source(it: MissionItem, px4: bool) -> tuple[bool, str]:
@@ -81,9 +77,10 @@ def set_home_source(it: MissionItem, px4: bool) -> tuple[bool, str]:
         return False, ("PX4 takes a DO_SET_HOME's latitude and longitude unscaled from "
                        "MISSION_ITEM_INT (whole degrees in frame 2): home would not be this "
                        "item's position; give param1 1 at the new home instead")
-    if (math.isfinite(p1) and int(p1) == 1) or (_missing(lat) and _missing(lon) and alt == 0.0):
+    unplaced = no_coordinate(lat) and no_coordinate(lon)
+    if (math.isfinite(p1) and int(p1) == 1) or (unplaced and alt == 0.0):
         return True, ""
-    if _missing(lat) and _missing(lon):
+    if unplaced:
         return False, ("ArduCopter moves home to 0°N 0°E: param1 is not 1, latitude and "
                        "longitude are 0 and the altitude is not; give param1 1 for the "
                        "current position, or the new home's coordinates")

@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 from validator.autopilot.ardupilot import PARAMS as ARDUPILOT_PARAMS
 from validator.errors import InputError
 from validator.flight.bounds import MAX_MISSION_S
+from validator.flight.frames import AMSL_FRAMES, TERRAIN_FRAMES, nav_frame_refusal
 from validator.flight.home import CONDITIONS, home_finding, set_home_source
 from validator.flight.model import (
     CycleSpan,
@@ -48,16 +49,11 @@ from validator.flight.model import (
     Severity,
 )
 from validator.flight.service import ServicePlan, parse_service
-from validator.plan_format import Autopilot, Cmd, Frame, MissionItem, Plan
+from validator.plan_format import Autopilot, Cmd, MissionItem, Plan
 from validator.site import MAX_REACH_M, Site
 
 HOME = "plannedHomePosition"  # the plan's home, as QGroundControl's .plan names it
 
-# The frames ArduPilot takes a positioned item in (AP_Mission::mavlink_int_to_mission_cmd; PX4
-# likewise); any other it refuses. MISSION (2) and the _INT variants count as their base frame.
-AMSL_FRAMES = frozenset({Frame.GLOBAL, Frame.MISSION, 5})  # 5: GLOBAL_INT
-RELATIVE_FRAMES = frozenset({Frame.GLOBAL_RELATIVE_ALT, 6})  # 6: GLOBAL_RELATIVE_ALT_INT
-TERRAIN_FRAMES = frozenset({Frame.GLOBAL_TERRAIN_ALT, 11})  # 11: GLOBAL_TERRAIN_ALT_INT
 MAX_LEGS = 200_000  # a resolved mission longer than this is a runaway loop, not a flight
 FOREVER_REPEATS = 1  # a DO_JUMP that repeats forever is resolved with this many repeats
 
@@ -163,7 +159,14 @@ class _Resolver:
             raise InputError(f"{self.source}: {what} at {why}")
         return xy
 
+    def refuse_frame(self, it: MissionItem, *, at_position: bool) -> None:
+        why = nav_frame_refusal(it, self.plan.firmware_type == Autopilot.PX4,
+                                at_position=at_position)
+        if why is not None:
+            raise InputError(f"{self.source}: item {self._idx}: {why}")
+
     def position(self, it: MissionItem) -> NDArray[np.float64]:
+        self.refuse_frame(it, at_position=True)
         lat, lon = it.params[4], it.params[5]
         if math.isnan(lat) or math.isnan(lon) or (lat == 0.0 and lon == 0.0):
             return self.state.xy.copy()
@@ -174,6 +177,7 @@ class _Resolver:
         return self.local(lat, lon, f"item {self._idx}")
 
     def altitude(self, it: MissionItem, i: int, *, zero_is_current: bool) -> float:
+        self.refuse_frame(it, at_position=False)
         alt = it.params[6]
         if math.isnan(alt) or (zero_is_current and alt == 0.0):
             return self.state.alt_m
@@ -181,10 +185,6 @@ class _Resolver:
             return float(alt - self.plan.home_alt_m)
         if it.frame in TERRAIN_FRAMES:
             self.find("warning", "altitude above terrain treated as above home", i)
-        elif it.frame not in RELATIVE_FRAMES:
-            raise InputError(f"{self.source}: item {i}: frame {it.frame} is no frame for a "
-                             "position: the autopilot refuses the item (MAV_MISSION_UNSUPPORTED_"
-                             "FRAME); use 3 (above home) or 0 (AMSL)")
         return float(alt)
 
     def add_leg(

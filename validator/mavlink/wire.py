@@ -5,6 +5,11 @@ circles and the breach return point, rally points) are :mod:`validator.item_list
 with ``.waypoints`` files. Here they travel: latitude and longitude as int32 degrees x 1e7
 (rounded to nearest, :func:`validator.geodesy.to_int_e7`), local x/y as int32 metres x 1e4,
 params and z as float32, each item with its ``mission_type`` (0 mission, 1 fence, 2 rally).
+In any other frame, frame 2 (MISSION) above all, params 5 and 6 go unscaled, as
+QGroundControl and MAVSDK send a ``.plan`` item's (what autopilots make of that is
+:mod:`validator.flight.frames`): a whole number as it is, a fraction refused, since they would
+cut it and the item read back would not be the item sent. Read back, x and y are decoded by the
+same frame rules, so a list sent and read back unchanged gives back the plan sent.
 Importing this module selects pymavlink's MAVLink 2 ArduPilot dialect (MAVLink 1 has no
 ``mission_type``, so fences and rally points would be lost).
 """
@@ -168,8 +173,14 @@ def _xy_int(value: float, frame: int, what: str) -> int:
         return 0
     if frame in GLOBAL_FRAMES:
         out = int(to_int_e7(value))
+    elif frame in LOCAL_FRAMES:
+        out = int(round(value * LOCAL_SCALE))
+    elif float(value).is_integer():
+        out = int(value)
     else:
-        out = int(round(value * (LOCAL_SCALE if frame in LOCAL_FRAMES else 1.0)))
+        raise InputError(f"{what}: {value:g} is no whole number, and frame {frame} carries it "
+                         "unscaled (QGroundControl would cut the fraction); a latitude or "
+                         "longitude belongs in frame 3 or 0")
     if abs(out) > INT32_MAX:
         raise InputError(f"{what}: {value} does not fit MISSION_ITEM_INT (int32)")
     return out

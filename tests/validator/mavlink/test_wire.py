@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from validator.errors import InputError
+from validator.flight import resolve_flight
 from validator.mavlink.wire import (
     MissionType,
     WireItem,
@@ -13,7 +14,7 @@ from validator.mavlink.wire import (
     plan_to_wire,
     wire_to_plan,
 )
-from validator.plan_format import Cmd, FenceCircle, loads_plan, plan_to_dict
+from validator.plan_format import Cmd, FenceCircle, Frame, MissionItem, loads_plan, plan_to_dict
 
 
 def test_ardupilot_mission_starts_with_home_and_keeps_plan_order(plan):
@@ -180,3 +181,50 @@ def test_ardupilot_home_item_is_not_compared():
 def test_mission_result_names():
     assert mission_result_name(4) == "MAV_MISSION_NO_SPACE"
     assert mission_result_name(200) == "MAV_MISSION_RESULT 200"
+
+
+# --------------------------------------------------------------------------------------------
+# Frame 2 (MISSION): params 5 and 6 go unscaled, as QGroundControl sends them
+
+
+def _in_mission_frame(plan, lat: float, lon: float):
+    """``plan`` with its first waypoint (item 2) in frame 2 at ``lat``, ``lon``."""
+    wp = plan.items[2]
+    plan.items[2] = MissionItem(wp.command, [*wp.params[:4], lat, lon, wp.params[6]],
+                                int(Frame.MISSION))
+    return plan
+
+
+def test_mission_frame_numbers_travel_unscaled_and_come_back_as_sent(plan):
+    plan.items.append(MissionItem(203, [1.0, 0.0, 0.0, 0.0, 1.0, 7.0, 0.0], int(Frame.MISSION)))
+    wire = plan_to_wire(plan, home_item=True)
+    assert (wire.mission[-1].x, wire.mission[-1].y) == (1, 7)  # DO_DIGICAM_CONTROL's shot, id
+    assert wire_to_plan(wire, home_item=True).items[-1].params[4:6] == [1.0, 7.0]
+
+
+def test_a_fraction_in_the_mission_frame_is_refused_rather_than_cut(plan):
+    """It went up rounded (a latitude of 37.56 as 38) and came back changed: no list sent
+    and read back could give the plan back."""
+    _in_mission_frame(plan, plan.home_lat_deg, plan.home_lon_deg)
+    with pytest.raises(InputError, match=r"^mission.items\[2\] param5: 37.5\d* is no whole "
+                                         r"number, and frame 2 carries it unscaled"):
+        plan_to_wire(plan, home_item=True)
+
+
+def test_a_mission_frame_waypoint_without_coordinates_goes_up_where_it_resolves(site, plan):
+    # x and y 0 are where ArduPilot stays; the resolver keeps the vehicle where it is too
+    _in_mission_frame(plan, math.nan, math.nan)
+    wp = plan_to_wire(plan, home_item=True).mission[3]
+    leg = resolve_flight(plan, site).legs[1]
+    assert (wp.x, wp.y) == (0, 0)
+    np.testing.assert_allclose(leg.end_xy_m, leg.start_xy_m, atol=1e-9)
+
+
+def test_a_mission_frame_waypoint_the_wire_can_send_is_refused_by_the_resolver(site, plan):
+    """Whole degrees go up as they are, and ArduPilot reads them as degrees x 1e7: a
+    waypoint the resolver had put 62 km off at 37°N 127°E flies to 0°N 0°E."""
+    _in_mission_frame(plan, 37.0, 127.0)
+    wp = plan_to_wire(plan, home_item=True).mission[3]
+    assert (wp.x, wp.y) == (37, 127)
+    with pytest.raises(InputError, match=r"item 2: frame 2 \(MISSION\) carries latitude"):
+        resolve_flight(plan, site)
