@@ -300,8 +300,11 @@ def _sitl_vehicle(args: argparse.Namespace) -> int:
     def stop(_sig: int, _frame: FrameType | None) -> None:
         vehicle.stop()
 
-    # before the address is printed: whoever read it may send SIGTERM at once
+    # Before the address is printed: whoever read it may signal at once. SIGINT too, not left
+    # to KeyboardInterrupt: a process started with SIGINT ignored (a background job of a
+    # shell without job control) keeps it ignored, and both then stop between two steps.
     signal.signal(signal.SIGTERM, stop)
+    signal.signal(signal.SIGINT, stop)
     scheme = url.split(":", 1)[0]
     signed = ", signed" if args.signing_key else ""
     print(f"sitl-vehicle: listening on {scheme}:{host}:{port} (ArduCopter, system "

@@ -210,7 +210,28 @@ def test_sitl_vehicle_stops_on_a_signal_within_seconds_at_any_speedup(plan, sig)
         assert proc.stdout.readline().startswith("sitl-vehicle: listening on")
         time.sleep(1.0)  # deep into a catch-up of simulated time
         proc.send_signal(sig)
-        assert proc.wait(timeout=5) == 0
+        assert proc.wait(timeout=15) == 0  # (before: never, at x1e6)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+
+
+def test_sitl_vehicle_started_with_sigint_ignored_still_stops_on_it(plan):
+    """A shell without job control starts a background job with SIGINT ignored, and Python
+    keeps it so: ``kill -INT`` did nothing there."""
+    code = "import sys; from validator.mavlink.cli import sitl_vehicle_main as m; sys.exit(m())"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code, "--connect", "0", "--home",
+         f"{plan.home_lat_deg},{plan.home_lon_deg},{plan.home_alt_m}", "--quiet"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN),
+    )
+    try:
+        assert proc.stdout is not None
+        assert proc.stdout.readline().startswith("sitl-vehicle: listening on")
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=15) == 0
     finally:
         if proc.poll() is None:
             proc.kill()
