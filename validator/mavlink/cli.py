@@ -309,8 +309,5 @@ def _sitl_vehicle(args: argparse.Namespace) -> int:
     signed = ", signed" if args.signing_key else ""
     print(f"sitl-vehicle: listening on {scheme}:{host}:{port} (ArduCopter, system "
           f"{args.sysid}, {profile}, x{args.speedup:g}{signed})", flush=True)
-    try:
-        vehicle.run()
-    except KeyboardInterrupt:
-        pass  # the way to stop it: not an interruption of a job
+    vehicle.run()  # until a signal's stop: the way to end it, not an interruption of a job
     return EXIT_OK
