@@ -366,3 +366,17 @@ def test_no_do_set_home_or_one_the_autopilot_refuses_draws_no_moved_home(validat
     v = validate_mission(refused, SITE)
     assert any(f.item == 9 and f.severity == "violation" for f in v.flight.findings)
     assert layer(view_figure(validation_inputs(v)), "set-home") == []
+
+
+def test_the_map_background_puts_the_moved_home_on_the_map_in_view(tmp_path):
+    site = load_site(SITE)
+    far = (150.0, -900.0)  # well south of everything else the map holds
+    v = validate_mission(_with_set_home(tmp_path, _set_home_at(site, far)), SITE)
+    (moved,) = layer(view_figure(validation_inputs(v), map_background=True), "set-home")
+    lat, lon = site.frame.to_geodetic(np.array(far))
+    assert moved["type"] == "scattermap"
+    assert np.allclose([moved["lat"][0], moved["lon"][0]], [lat, lon], atol=1e-7)
+    assert "%{lat:.6f}°" in moved["hovertemplate"]
+    plain = view_figure(validation_inputs(validate_mission(PLAN, SITE)), map_background=True)
+    centre = view_figure(validation_inputs(v), map_background=True)["layout"]["map"]["center"]
+    assert centre["lat"] < plain["layout"]["map"]["center"]["lat"]  # moved to take it in
