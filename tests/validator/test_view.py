@@ -4,16 +4,22 @@ shows, a self-contained page, and the commands' --html, --html-map and --flown."
 from __future__ import annotations
 
 import dataclasses
+import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 import shapely
 
+from tests.validator.builders import make_site, nav, plan_of, speed
 from tests.view_figure import layer, page_figure
 from validator.autopilot.param_file import read_params
 from validator.cli import validate_mission_main
+from validator.failsafe import audit_failsafes
+from validator.flight import DO_SET_HOME, resolve_flight
 from validator.geometry import segment_point_distance
+from validator.plan_format import Cmd, Frame, MissionItem, read_plan, write_plan
+from validator.site import load_site
 from validator.validation import validate_mission
 from validator.view import (
     STILL_AIR,
@@ -266,3 +272,111 @@ def test_validate_mission_html_without_params_or_wind_draws_neither(tmp_path, ca
     assert _failsafe(fig) == []
     assert not any("wind" in a["text"] or "flown in" in a["text"]
                    for a in fig["layout"].get("annotations", []))
+
+
+# --------------------------------------------------------------------------------------------
+# a home moved mid-mission (DO_SET_HOME): its marker, and the returns drawn to it
+
+
+def _set_home_at(site, xy, frame: Frame = Frame.GLOBAL_RELATIVE_ALT) -> MissionItem:
+    lat, lon = site.frame.to_geodetic(np.asarray(xy, dtype=float))
+    return MissionItem(DO_SET_HOME, [0.0, 0.0, 0.0, math.nan, float(lat), float(lon), 30.0],
+                       int(frame))
+
+
+def _with_set_home(tmp_path, item: MissionItem) -> Path:
+    """The quick start's plan with ``item`` after its waypoint 8, in the service cycle."""
+    plan = read_plan(PLAN)
+    assert plan.extra is not None and plan.extra["cycle_items"] == [3, 12]
+    path = tmp_path / "set-home.plan"
+    # inside the service cycle: its last item moves one on, so the planned slots still match
+    write_plan(dataclasses.replace(plan, items=[*plan.items[:9], item, *plan.items[9:]],
+                                   extra={**plan.extra, "cycle_items": [3, 13]}), path)
+    return path
+
+
+def test_a_do_set_home_draws_the_home_it_puts_in_force_and_the_returns_go_there(tmp_path):
+    site = load_site(SITE)
+    path = _with_set_home(tmp_path, _set_home_at(site, (150.0, 250.0)))
+    v = validate_mission(path, SITE, vehicle_params=read_params(FAILSAFE / "params/thr-rtl.param"))
+    fig = view_figure(validation_inputs(v))
+    (moved,) = layer(fig, "set-home")
+    assert (moved["x"], moved["y"]) == ([150.0], [250.0])
+    assert moved["text"] == ["home set by item 9"] and moved["meta"]["items"] == [9]
+    assert moved["name"] == "home set by DO_SET_HOME" and moved["marker"]["symbol"] == \
+        "square-open"
+    # the legs after it, to the landing: the item 10 waypoint ... the LAND, item 15
+    assert "in force on the legs to items 10 ... 15" in moved["customdata"][0]
+    (home,) = layer(fig, "home")
+    assert home["marker"]["symbol"] == "square" and home["text"] == ["home (the plan's)"]
+    assert "until the DO_SET_HOME of item 9" in home["hovertemplate"]
+    # the deepest RTL into NFZ1 starts after item 9: it is drawn to the moved home; those
+    # into NFZ2 and NFZ3 start before it and go to the plan's
+    ends = {(t["hovertext"].split("<br>")[-1].split(" ")[-1], t["x"][-1], t["y"][-1])
+            for t in _failsafe(fig) if t["meta"]["kind"] == "line"}
+    assert ends == {("NFZ1", 150.0, 250.0), ("NFZ2", *home["x"], *home["y"]),
+                    ("NFZ3", *home["x"], *home["y"])}
+
+
+def test_the_closest_clear_return_is_drawn_to_the_home_in_force():
+    # home (0, 0); item 3 moves it to (150, 100), so the returns from the leg after it, the
+    # closest to NFZ1 (100, 0), fly there: the green line ends at the moved home's marker
+    site = make_site()
+    plan = plan_of(site, [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), speed(5.0),
+                          nav(site, Cmd.NAV_WAYPOINT, (0.0, 100.0)),
+                          _set_home_at(site, (150.0, 100.0)),
+                          nav(site, Cmd.NAV_WAYPOINT, (150.0, 60.0)),
+                          nav(site, Cmd.NAV_LAND, (150.0, 60.0), 0.0)])
+    flight = resolve_flight(plan, site)
+    report = audit_failsafes(plan, site, flight, {"FS_THR_ENABLE": 1})
+    assert report.ok and report.worst_return is not None
+    assert report.worst_return.destination == "home set by item 3"
+    fig = view_figure(ViewInputs(plan, site, flight,
+                                 failsafe_paths=failsafe_paths(report, flight)))
+    (line,) = [t for t in _failsafe(fig) if t["meta"]["kind"] == "line"]
+    (moved,) = layer(fig, "set-home")
+    assert line["meta"]["ok"] and (line["x"][-1], line["y"][-1]) == (150.0, 100.0)
+    assert (moved["x"], moved["y"]) == ([150.0], [100.0])
+    assert "in force on the legs to items 4 ... 5" in moved["customdata"][0]
+
+
+def test_a_home_set_where_the_vehicle_is_is_drawn_at_the_waypoint_before_it():
+    site = make_site()
+    here = MissionItem(DO_SET_HOME, [1.0, 0, 0, 0, 0, 0, 0], int(Frame.MISSION))
+    plan = plan_of(site, [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), speed(5.0),
+                          nav(site, Cmd.NAV_WAYPOINT, (0.0, 100.0)), here,
+                          nav(site, Cmd.NAV_WAYPOINT, (150.0, 60.0)),
+                          nav(site, Cmd.NAV_WAYPOINT, (150.0, 60.0), p1=5.0)])
+    (moved,) = layer(view_figure(ViewInputs(plan, site, resolve_flight(plan, site))),
+                     "set-home")
+    assert (moved["x"], moved["y"]) == ([0.0], [100.0])
+    assert "home set by item 3</b> (DO_SET_HOME, where the vehicle is)" in \
+        moved["customdata"][0]
+    assert "in force on the legs to items 4 ... 5" in moved["customdata"][0]
+
+
+def test_no_do_set_home_or_one_the_autopilot_refuses_draws_no_moved_home(validation, tmp_path):
+    fig = view_figure(validation_inputs(validation))
+    assert layer(fig, "set-home") == []
+    (home,) = layer(fig, "home")
+    assert "text" not in home and home["hovertemplate"].startswith("home<br>")
+    # ArduCopter reads no coordinates in the mission frame: home stays where it was
+    site = load_site(SITE)
+    refused = _with_set_home(tmp_path, _set_home_at(site, (150.0, 250.0), Frame.MISSION))
+    v = validate_mission(refused, SITE)
+    assert any(f.item == 9 and f.severity == "violation" for f in v.flight.findings)
+    assert layer(view_figure(validation_inputs(v)), "set-home") == []
+
+
+def test_the_map_background_puts_the_moved_home_on_the_map_in_view(tmp_path):
+    site = load_site(SITE)
+    far = (150.0, -900.0)  # well south of everything else the map holds
+    v = validate_mission(_with_set_home(tmp_path, _set_home_at(site, far)), SITE)
+    (moved,) = layer(view_figure(validation_inputs(v), map_background=True), "set-home")
+    lat, lon = site.frame.to_geodetic(np.array(far))
+    assert moved["type"] == "scattermap"
+    assert np.allclose([moved["lat"][0], moved["lon"][0]], [lat, lon], atol=1e-7)
+    assert "%{lat:.6f}°" in moved["hovertemplate"]
+    plain = view_figure(validation_inputs(validate_mission(PLAN, SITE)), map_background=True)
+    centre = view_figure(validation_inputs(v), map_background=True)["layout"]["map"]["center"]
+    assert centre["lat"] < plain["layout"]["map"]["center"]["lat"]  # moved to take it in

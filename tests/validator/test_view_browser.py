@@ -1,6 +1,6 @@
 """The HTML mission view in a real browser (headless Chromium through Selenium): it loads with
-no console error, its layers match the plan, hovering a waypoint tells its details, and the
-time slider moves the vehicle.
+no console error, its layers match the plan, hovering a waypoint tells its details, the
+time slider moves the vehicle, and a home a DO_SET_HOME moves is drawn and tells its legs.
 
 Skips with the reason when no browser is installed (``scripts/install-browser.sh``).
 ``VIEW_SCREENSHOT=docs/view.png`` also saves the sample site's view, the slider moved, as the
@@ -295,3 +295,50 @@ def test_failsafe_paths_and_the_wind_are_drawn(browser, audited, served, monkeyp
     shot = os.environ.get("VIEW_FAILSAFE_SCREENSHOT")
     if shot and not map_background:
         browser.get_screenshot_as_file(shot)
+
+
+def test_a_home_moved_by_do_set_home_is_drawn_apart_and_tells_where_it_is_in_force(
+        browser, tmp_path):
+    """The quick start's plan with a DO_SET_HOME after waypoint 8 moving home to (150, 250),
+    under issue 27's RC-loss RTL: the moved home is its own open, named square, and hovering
+    it says which DO_SET_HOME put it in force and on which legs."""
+    import dataclasses
+    import math
+
+    from selenium.webdriver.common.action_chains import ActionChains
+
+    from validator.autopilot.param_file import read_params
+    from validator.flight import DO_SET_HOME
+    from validator.plan_format import Frame, MissionItem, read_plan, write_plan
+    from validator.site import load_site
+
+    lat, lon = load_site(SAMPLE_SITE).frame.to_geodetic(np.array([150.0, 250.0]))
+    moved = MissionItem(DO_SET_HOME, [0.0, 0.0, 0.0, math.nan, float(lat), float(lon), 30.0],
+                        int(Frame.GLOBAL_RELATIVE_ALT))
+    plan = read_plan(SAMPLE_PLAN)
+    assert plan.extra is not None and plan.extra["cycle_items"] == [3, 12]
+    # inside the service cycle: its last item moves one on, so the planned slots still match
+    write_plan(dataclasses.replace(plan, items=[*plan.items[:9], moved, *plan.items[9:]],
+                                   extra={**plan.extra, "cycle_items": [3, 13]}),
+               tmp_path / "set-home.plan")
+    v = validate_mission(tmp_path / "set-home.plan", SAMPLE_SITE, replay_flight=True,
+                         vehicle_params=read_params(FAILSAFE / "params/thr-rtl.param"))
+    write_view(tmp_path / "set-home.html", validation_inputs(v))
+    _open(browser, tmp_path / "set-home.html")
+    assert [e for e in browser.get_log("browser") if e["level"] in ("SEVERE", "WARNING")] == []
+    problems = browser.execute_script(
+        "const gd = document.getElementById('mission-view');"
+        "return Plotly.validate(gd.data, gd.layout) || [];")
+    assert [p["msg"] for p in problems if p["code"] != "dynamic"] == []
+    counts = _layer_counts(browser)
+    assert counts["home"] == 1 and counts["set-home"] == 1
+    (point,) = browser.find_elements("css selector", ".scatterlayer .traceset-home path.point")
+    labels = [t.text for t in browser.find_elements(
+        "css selector", ".scatterlayer .traceset-home .textpoint")]
+    assert labels == ["home set by item 9"]
+    legend = [t.text for t in browser.find_elements("css selector", ".legend .legendtext")]
+    assert "home" in legend and "home set by DO_SET_HOME" in legend
+    ActionChains(browser).move_to_element(point).perform()
+    shown = _until(browser, HOVER_TEXT)
+    assert "home set by item 9 (DO_SET_HOME, at its coordinates)" in shown
+    assert "in force on the legs to items 10 ... 15" in shown and "150 m E, 250 m N" in shown

@@ -1,11 +1,13 @@
 """The still layers of a mission view, as plotly trace dicts in local metres: zones and their
-buffers, the fence as uploaded, nodes, home, rally points, the legs coloured by commanded
-speed (transits dashed, apart from the service cycle), the waypoints with what a pilot asks
-of each, flown tracks, failsafe paths, a fault injected in flight and the flight after it.
+buffers, the fence as uploaded, nodes, home and each home a DO_SET_HOME moves it to, rally
+points, the legs coloured by commanded speed (transits dashed, apart from the service
+cycle), the waypoints with what a pilot asks of each, flown tracks, failsafe paths, a fault
+injected in flight and the flight after it.
 
 Each trace carries ``meta.layer`` (``zone``, ``buffer``, ``fence``, ``node``, ``home``,
-``rally``, ``cycle``, ``transit``, ``waypoint``, ``track``, ``failsafe``, ``fault``) so the
-page, its tests and a reader's script can find a layer without counting traces.
+``set-home``, ``rally``, ``cycle``, ``transit``, ``waypoint``, ``track``, ``failsafe``,
+``fault``) so the page, its tests and a reader's script can find a layer without counting
+traces.
 """
 
 from __future__ import annotations
@@ -18,7 +20,9 @@ from numpy.typing import NDArray
 
 from validator.audit import zone_leg_clearances
 from validator.fence_geometry import local_fence
-from validator.plan_format import Cmd
+from validator.flight import Home
+from validator.flight.home import set_home_source
+from validator.plan_format import Autopilot, Cmd
 from validator.replay import slot_map
 from validator.view.inputs import ViewInputs
 
@@ -120,10 +124,72 @@ def fence_traces(inputs: ViewInputs) -> list[Trace]:
     return out
 
 
+def homes_set(inputs: ViewInputs) -> list[tuple[int, Home, list[int]]]:
+    """Each home a mission's DO_SET_HOME puts in force, in flight order, as (the DO_SET_HOME's
+    item, the home, the legs it is in force on, indices into ``Flight.legs``): the homes the
+    audit's returns fly to (``Flight.home_of``). A DO_SET_HOME the autopilot would not take (a
+    violation, home left where it was) puts none in force, nor does one with no leg after it."""
+    out: list[tuple[int, Home, list[int]]] = []
+    for k, leg in enumerate(inputs.flight.legs):
+        home = leg.home
+        if home is None or home.set_by_item is None:
+            continue
+        # a DO_JUMP loop passes the same DO_SET_HOME again: one marker, unless it moved
+        at = next((i for i, (by, h, _) in enumerate(out) if by == home.set_by_item
+                   and np.hypot(*(h.xy_m - home.xy_m)) < SAME_PLACE_M), None)
+        if at is None:
+            out.append((home.set_by_item, home, []))
+            at = len(out) - 1
+        out[at][2].append(k)
+    return out
+
+
+def _legs_text(inputs: ViewInputs, legs: list[int]) -> str:
+    """The legs a home is in force on, by their items, a run of consecutive legs at a time:
+    "the leg to item 4", "the legs to items 10 ... 15" (a DO_JUMP loop may give several)."""
+    runs: list[list[int]] = []
+    for k in legs:
+        if runs and k == runs[-1][-1] + 1:
+            runs[-1].append(k)
+        else:
+            runs.append([k])
+    items = [(inputs.flight.legs[r[0]].item, inputs.flight.legs[r[-1]].item) for r in runs]
+    return "; ".join(f"the leg to item {a}" if len(r) == 1 else f"the legs to items {a} ... {b}"
+                     for r, (a, b) in zip(runs, items, strict=True))
+
+
+def _set_home_trace(inputs: ViewInputs, homes: list[tuple[int, Home, list[int]]]) -> Trace:
+    plan = inputs.plan
+    px4 = plan.firmware_type == Autopilot.PX4
+    rally = ", or to a rally point chosen against it" if plan.rally else ""
+    hovers = []
+    for by, home, legs in homes:
+        at_vehicle, _ = set_home_source(plan.items[by], px4)
+        how = "where the vehicle is" if at_vehicle else "at its coordinates"
+        hovers.append(f"<b>{home.label}</b> (DO_SET_HOME, {how})<br>in force on "
+                      f"{_legs_text(inputs, legs)}:<br>a return from them flies here{rally}")
+    # open, where the plan's home is filled: a home too, put in force in flight; named, as
+    # the tile map draws every marker as a plain dot
+    return {"type": "scatter", "mode": "markers+text",
+            **_xy(np.asarray([h.xy_m for _, h, _ in homes], dtype=float)),
+            "name": "home set by DO_SET_HOME", "text": [h.label for _, h, _ in homes],
+            "textposition": "bottom center", "textfont": {"size": 11},
+            "meta": {"layer": "set-home", "items": [by for by, _, _ in homes]},
+            "uid": "set-home",
+            "marker": {"symbol": "square-open", "size": 13, "color": "black",
+                       "line": {"width": 2.5}},
+            "customdata": hovers,
+            "hovertemplate": "%{customdata}<br>%{x:.0f} m E, %{y:.0f} m N<extra></extra>"}
+
+
 def point_traces(inputs: ViewInputs) -> list[Trace]:
-    """Nodes (triangles, named), home (square) and the rally points (diamonds)."""
+    """Nodes (triangles, named), home (square), each home a DO_SET_HOME puts in force (open
+    square, named by its item) and the rally points (diamonds)."""
     site, plan = inputs.site, inputs.plan
     home = site.frame.to_local(plan.home_lat_deg, plan.home_lon_deg)
+    moved = homes_set(inputs)
+    until = (f" (the plan's)<br>returns fly here until the DO_SET_HOME of item {moved[0][0]}"
+             if moved else "")
     out: list[Trace] = [{
         "type": "scatter", "mode": "markers+text", **_xy(site.gn_xy_m), "name": "ground nodes",
         "text": list(site.gn_names), "textposition": "top center", "meta": {"layer": "node"},
@@ -134,8 +200,12 @@ def point_traces(inputs: ViewInputs) -> list[Trace]:
         "type": "scatter", "mode": "markers", **_xy(home), "name": "home",
         "meta": {"layer": "home"},
         "marker": {"symbol": "square", "size": 11, "color": "black"},
-        "hovertemplate": "home<br>%{x:.0f} m E, %{y:.0f} m N<extra></extra>",
+        "hovertemplate": f"home{until}<br>%{{x:.0f}} m E, %{{y:.0f}} m N<extra></extra>",
     }]
+    if moved:  # two kinds of home on the map: name both
+        out[1].update(mode="markers+text", text=["home (the plan's)"],
+                      textposition="bottom center", textfont={"size": 11})
+        out.append(_set_home_trace(inputs, moved))
     if plan.rally:
         rally = site.frame.to_local([p[0] for p in plan.rally], [p[1] for p in plan.rally])
         out.append({"type": "scatter", "mode": "markers", **_xy(rally), "name": "rally points",
