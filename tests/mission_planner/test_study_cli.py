@@ -56,11 +56,26 @@ def test_fig4_radius_no_site_can_hold_is_exit_2_and_no_output(
     assert not out.exists()
 
 
+def test_fig4_zones_that_cannot_lie_apart_are_exit_2_and_no_output(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Three 190 m zones never pack in the 400 m square: every trial of that point failed and
+    the study exited 0 with a warning, the 10 m point's results looking like the whole."""
+    out = tmp_path / "out"
+    small = list(SMALL)
+    small[small.index("--radii") + 1] = "10,190"
+    assert main(["fig4", "-o", str(out), *small, *FAST]) == 2
+    assert capsys.readouterr().err == ("nfz-study: --radii: 3 zones of radius 190 m cannot lie "
+                                       "apart in the 400 m square of the sites (at most 1 fit)\n")
+    assert not out.exists()
+
+
 def test_a_study_whose_every_trial_failed_exits_1(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    # three zones of radius 190 m fit one 400 m square, not three: every draw fails
-    argv = ["--trials", "1", "--radii", "190", "--counts", "3", "--radius", "190",
+    # three zones of radius 110 m pass the packing bound, yet fit only up to 101.7 m: every
+    # draw fails
+    argv = ["--trials", "1", "--radii", "110", "--counts", "3", "--radius", "110",
             "--workers", "1", "--quiet"]
     assert main(["fig4", "-o", str(tmp_path / "out"), *argv]) == 1
     err = capsys.readouterr().err

@@ -73,6 +73,8 @@ def test_fig4_design_takes_trials_outermost() -> None:
         ({"radii_m": (10.0, -5.0)}, "--radii"),
         ({"radii_m": (10.0, 1e9)}, "--radii: a zone of radius 1e\\+09 m does not fit"),
         ({"radius_m": 200.0}, "--radius: a zone of radius 200 m does not fit"),
+        ({"radii_m": (10.0, 190.0)}, "--radii: 3 zones of radius 190 m cannot lie apart"),
+        ({"counts": (1, 50)}, "--counts: 50 zones of radius 30 m cannot lie apart"),
         ({"counts": (-1,)}, "--counts"),
         ({"slots": 1}, "--slots"),
         ({"slots": 3, "num_gns": 4}, "--slots: must be >= --gns"),
