@@ -19,7 +19,6 @@ pointing at it. Prints
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import statistics
@@ -34,6 +33,7 @@ import yaml
 from mission_planner.mission import MissionOptions
 from mission_planner.pipeline import plan_and_build
 from validator import airspace as airspace_module
+from validator.errors import CommandParser
 from validator.site import Site, load_site
 from validator.uas_zones.applicability import AirspaceOptions, parse_at
 
@@ -134,7 +134,7 @@ def plan_s(sites: tuple[Site, Site], repeat: int) -> list[tuple[list[float], flo
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = CommandParser(description=__doc__.splitlines()[0])
     ap.add_argument("--zones", type=int, default=2500)
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args()

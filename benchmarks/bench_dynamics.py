@@ -26,7 +26,6 @@ overruns T); the ratio is the throughput the nodes really get, vehicle over pape
 
 from __future__ import annotations
 
-import argparse
 import statistics
 import time
 from dataclasses import dataclass
@@ -37,6 +36,7 @@ import numpy as np
 from mission_planner.flight_report import replay_mission
 from mission_planner.pipeline import plan_and_build
 from mission_planner.study.sites import random_site
+from validator.errors import CommandParser
 from validator.site import Site, load_site
 
 SAMPLES = Path(__file__).resolve().parents[1] / "samples"
@@ -111,7 +111,7 @@ def print_row(r: Row) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = CommandParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sites", type=int, default=10,
                         help="random benchmark sites (seeds 0..N-1; default 10)")
     parser.add_argument("--buffer-m", type=float, default=2.0,

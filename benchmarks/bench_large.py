@@ -13,12 +13,13 @@ ones where they were measured (issue 15, this 2-core machine).
 
 from __future__ import annotations
 
-import argparse
 import json
 import resource
 import subprocess
 import sys
 import time
+
+from validator.errors import CommandParser
 
 # Before issue 15 (cvxpy-compiled subproblems), seed 0, 800 m square:
 # (N, K, M, scheme, T s) -> (plan s, peak MB, min rate bps/Hz). T = 50 s was measured on a
@@ -44,7 +45,7 @@ print(json.dumps({"plan_s": time.perf_counter() - started, "min_rate": sol.min_r
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = CommandParser(description=__doc__.splitlines()[0])
     parser.add_argument("--slots", type=int, default=200)
     parser.add_argument("--gns", type=int, default=10)
     parser.add_argument("--nfzs", type=int, default=10)

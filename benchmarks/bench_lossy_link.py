@@ -25,7 +25,6 @@ false successes, median and largest wall seconds of a verified upload.
 
 from __future__ import annotations
 
-import argparse
 import os
 import shutil
 import statistics
@@ -38,6 +37,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from validator.autopilot.param_file import read_params
+from validator.errors import CommandParser
 from validator.mavlink.link import Link, LinkError, upload_plan, verify_lists
 from validator.mavlink.lossy_relay import LinkFaults, LossyRelay
 from validator.mavlink.wire import MissionType, plan_to_wire
@@ -100,7 +100,7 @@ def holds(url: str, plan: Plan) -> bool:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = CommandParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rates", type=float, nargs="+", default=[0.05, 0.1, 0.2, 0.3])
     parser.add_argument("--tries", type=int, default=5, help="uploads per rate (default 5)")
     parser.add_argument("--timeout", type=float, default=10.0, help="upload --timeout, s")

@@ -13,12 +13,12 @@ Prints
 
 from __future__ import annotations
 
-import argparse
 import socket
 import time
 
 import numpy as np
 
+from validator.errors import CommandParser
 from validator.flight import resolve_flight
 from validator.mavlink.driver import builtin_vehicle, fly_mission
 from validator.mavlink.link import Link, LinkError, upload_plan, upload_to
@@ -56,7 +56,7 @@ def bench_plan(n: int) -> Plan:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = CommandParser(description=__doc__.splitlines()[0])
     parser.add_argument("--waypoints", type=int, default=40)
     parser.add_argument("--speedup", type=float, default=50.0)
     args = parser.parse_args()

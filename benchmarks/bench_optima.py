@@ -43,7 +43,6 @@ and a last row with each variant's mean over the diagnosed sites.
 
 from __future__ import annotations
 
-import argparse
 import statistics
 import sys
 import time
@@ -58,6 +57,7 @@ from mission_planner.optimize.initial import initial_tour
 from mission_planner.optimize.scaled import LENGTH_UNIT_M, Scaled, scale_site
 from mission_planner.optimize.solution import average_rates
 from mission_planner.study.sites import random_site
+from validator.errors import CommandParser
 from validator.site import Site
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -130,7 +130,7 @@ DIAG_HEADER = (f"{'site':>10} {'init':>6} {'init':>6} {'stop':>6} {'last':>8} {'
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = CommandParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sites", type=int, default=30)
     parser.add_argument("--first-seed", type=int, default=10)
     parser.add_argument("--iterations", type=int, default=40, help="the reference's cap")

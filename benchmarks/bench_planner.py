@@ -18,7 +18,6 @@ Prints
 
 from __future__ import annotations
 
-import argparse
 import statistics
 import time
 from pathlib import Path
@@ -26,6 +25,7 @@ from pathlib import Path
 from mission_planner.optimize import PlannerOptions, plan
 from mission_planner.study.sites import random_site
 from validator.channel import hover_upper_bound
+from validator.errors import CommandParser
 from validator.site import Site, load_site
 
 SAMPLE = Path(__file__).resolve().parents[1] / "samples" / "paper-default.yaml"
@@ -52,7 +52,7 @@ def bound(site: Site) -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = CommandParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--sites", type=int, default=10)
     parser.add_argument("--dynamics", choices=("none", "vehicle"), default="none")

@@ -19,7 +19,6 @@ Prints
 
 from __future__ import annotations
 
-import argparse
 import statistics
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -31,6 +30,7 @@ import numpy as np
 
 from mission_planner.optimize import PAPER_OPTIONS, plan
 from mission_planner.study.sites import random_polygon_site, random_site
+from validator.errors import CommandParser
 from validator.site import Site, load_site
 from validator.zones import path_clearances_m, polygon_zone
 
@@ -101,7 +101,7 @@ def _summary(values: list[float]) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = CommandParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sites", type=int, default=50)
     parser.add_argument("--jobs", type=int, default=1)
     args = parser.parse_args()

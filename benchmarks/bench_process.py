@@ -21,7 +21,6 @@ environment would otherwise charge every run the compile of every module (about 
 
 from __future__ import annotations
 
-import argparse
 import os
 import resource
 import statistics
@@ -30,6 +29,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+from validator.errors import CommandParser
 
 SAMPLE = Path(__file__).resolve().parents[1] / "samples" / "paper-default.yaml"
 # Issue 15's figures, before it (cvxpy-compiled subproblems): median of 3 whole processes on the
@@ -68,7 +69,7 @@ def _figure(times: list[tuple[float, float]]) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = CommandParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--before", metavar="CHECKOUT",
                         help="also time this checkout of the package, alternating run by run")

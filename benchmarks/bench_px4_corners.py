@@ -19,7 +19,6 @@ corners flown through (m beyond the published radius; the buffer is the site's).
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path
@@ -27,6 +26,7 @@ from pathlib import Path
 from mission_planner.flight_report import replay_mission
 from mission_planner.mission import MissionOptions, build_mission
 from mission_planner.pipeline import plan_and_build, plan_solution
+from validator.errors import CommandParser
 from validator.motion.px4_swing import zone_swing_clearances_m
 from validator.site import Site, load_site
 
@@ -70,7 +70,7 @@ def measure(name: str, site: Site, mode: str) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = CommandParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sites", type=int, default=6, help="realistic_site(1..N) (default 6)")
     parser.add_argument("--samples", nargs="*", default=None,
                         help="sample site stems (default: every samples/*.yaml)")

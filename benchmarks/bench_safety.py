@@ -21,7 +21,6 @@ crash. Prints the counts, refusals by class, the worst clearances and the time p
 
 from __future__ import annotations
 
-import argparse
 import collections
 import math
 import re
@@ -37,7 +36,7 @@ from mission_planner.flight_report import replay_mission
 from mission_planner.pipeline import plan_and_build
 from mission_planner.study.sites import PAPER_ORIGIN, random_polygon_site, random_site
 from validator.audit import audit
-from validator.errors import InputError
+from validator.errors import CommandParser, InputError
 from validator.flight import resolve_flight
 from validator.plan_format import dumps_plan, loads_plan
 from validator.site import Site, parse_site
@@ -203,7 +202,7 @@ def _check(site: Site, name: str, dynamics: str) -> Outcome:
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = CommandParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sites", type=int, default=500)
     ap.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
     ap.add_argument("--generators", nargs="+", choices=list(GENERATORS), default=list(GENERATORS),

@@ -17,7 +17,6 @@
 
 from __future__ import annotations
 
-import argparse
 import statistics
 import sys
 import tempfile
@@ -32,6 +31,7 @@ from mission_planner.optimize import PlannerOptions
 from mission_planner.study.config import trial_seed
 from mission_planner.study.executors import default_workers, run_trials
 from mission_planner.study.trials import TrialSpec, run_trial
+from validator.errors import CommandParser
 
 QUICK = {"N": (25, 50, 100), "K": (2, 4, 8), "M": (1, 3, 6)}
 FULL = {"N": (25, 50, 75, 100, 150, 200), "K": (2, 4, 6, 8, 10), "M": (1, 2, 4, 6, 8, 10)}
@@ -113,7 +113,7 @@ def growth_exponent(x: Sequence[float], y: Sequence[float]) -> float:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0] if __doc__ else None)
+    parser = CommandParser(description=__doc__.split("\n")[0] if __doc__ else None)
     parser.add_argument("--full", action="store_true", help="N 25..200, K 2..10, M 1..10")
     parser.add_argument("--seeds", type=int, default=2, help="sites per size (2)")
     parser.add_argument("--scheme", default="proposed", choices=("proposed", "conventional"))

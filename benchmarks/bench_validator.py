@@ -20,7 +20,6 @@ Prints
 
 from __future__ import annotations
 
-import argparse
 import statistics
 import subprocess
 import sys
@@ -34,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from validator.audit import audit
+from validator.errors import CommandParser
 from validator.flight import resolve_flight
 from validator.motion.limits import site_limits
 from validator.motion.profile import flown_params, make_profile
@@ -223,7 +223,7 @@ def px4_calibration() -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = CommandParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5)
     args = parser.parse_args()
     speed_figures(args.runs)

@@ -15,7 +15,6 @@ Prints, for the quick start's site (samples/realistic.yaml, default options):
 
 from __future__ import annotations
 
-import argparse
 import statistics
 import sys
 import tempfile
@@ -29,11 +28,12 @@ from mission_planner.autopilot_params import recommended_params  # noqa: E402
 from mission_planner.flight_report import replay_mission  # noqa: E402
 from mission_planner.pipeline import mission_view, plan_and_build  # noqa: E402
 from tests.browser import WAIT_FOR_PLOT, chromium, find_browser  # noqa: E402
+from validator.errors import CommandParser  # noqa: E402
 from validator.site import load_site  # noqa: E402
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = CommandParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=5)
     ap.add_argument("--site", type=Path, default=REPO / "samples/realistic.yaml")
     args = ap.parse_args()

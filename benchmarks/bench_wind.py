@@ -37,7 +37,6 @@ alone.
 
 from __future__ import annotations
 
-import argparse
 import os
 import statistics
 import time
@@ -49,6 +48,7 @@ from mission_planner.flight_report import FlightCheck, replay_mission
 from mission_planner.mission import Mission
 from mission_planner.optimize import flyable
 from mission_planner.pipeline import plan_and_build
+from validator.errors import CommandParser
 from validator.motion.speed_model import cruise_speed_mps
 from validator.site import Site, load_site
 from validator.wind import Wind, parse_wind_arg
@@ -126,7 +126,7 @@ def _cone(sites: list[str], winds: list[str], repeat: int) -> None:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = CommandParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sites", nargs="*", default=list(SITES), choices=list(SITES))
     ap.add_argument("--winds", nargs="*", default=list(WINDS))
     ap.add_argument("--repeat", type=int, default=1, help="planning runs per timing (median)")

@@ -18,7 +18,6 @@ flight. Then the per-flight table is printed (``--table`` prints it from ``--out
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import json
 import subprocess
@@ -26,6 +25,8 @@ import sys
 import tempfile
 from pathlib import Path
 from typing import Any
+
+from validator.errors import CommandParser
 
 ROOT = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
@@ -166,7 +167,7 @@ def targets(flights: list[dict[str, Any]]) -> str:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = CommandParser(description=__doc__.splitlines()[0])
     ap.add_argument("--binary", help="ArduCopter SITL binary ('builtin': the model vehicle, "
                     "to try the script)")
     ap.add_argument("--out", type=Path, default=DATA / "flights.json")

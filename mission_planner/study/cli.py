@@ -10,8 +10,10 @@ and wind).
 
 Exit status (:data:`validator.cli_common.EXIT_STATUS`): bad input or a broken executor (a
 scheduler that cannot be reached): one line on stderr, exit 2, no output. Interrupted: exit
-130; run the same command again to resume. Any failed trials: listed in the table, a warning on
-stderr, exit 0 (exit 1 if every trial failed). Results (figures, tables) on stdout.
+130; run the same command again to resume. Failed trials: kept in the table with their error, a
+warning on stderr; a sweep point all of whose trials failed has no result: one line naming each
+such point and why, exit 1, the other points' results written all the same (exit 0 when every
+point has one). Results (figures, tables) on stdout.
 """
 
 from __future__ import annotations
@@ -208,7 +210,11 @@ def _wind(args: argparse.Namespace) -> int:
 
 
 def _said(result: Fig4Result | WindResult, out: Path) -> int:
-    """Print what a study run did and wrote; exit 1 when every trial failed."""
+    """Print what a study run did and wrote; exit 1 when a sweep point has no result.
+
+    A point whose every trial failed is a hole in the figure and the table, so the study is
+    not a success even when the other points' results (valid data, written all the same) are;
+    a point that lost only some trials keeps a result and its count of failures."""
     run = result.run
     print(f"{len(run.rows)} trials ({run.executed} run now, {run.skipped} from {out})")
     for path in result.files:
@@ -216,8 +222,11 @@ def _said(result: Fig4Result | WindResult, out: Path) -> int:
     if run.failed:
         print(f"warning: {len(run.failed)} trials failed, e.g. {run.failed[0]['key']}: "
               f"{run.failed[0]['error']}", file=sys.stderr)
-        if len(run.failed) == len(run.rows):
-            return EXIT_VERDICT
+    if result.missing:
+        holes = "; ".join(f"{point} ({why})" for point, why in result.missing)
+        print(f"nfz-study: no result at {len(result.missing)} of {result.points} sweep points "
+              f"(every trial failed): {holes}", file=sys.stderr)
+        return EXIT_VERDICT
     return 0
 
 

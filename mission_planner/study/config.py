@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mission_planner.optimize.solution import SCHEMES as PLANNER_SCHEMES
-from mission_planner.study.sites import PAPER_AREA_M, check_zone_fits
+from mission_planner.study.sites import PAPER_AREA_M, check_zone_fits, check_zones_pack
 from mission_planner.study.trials import TrialSpec
 from validator.errors import InputError
 
@@ -53,6 +53,11 @@ class Fig4Config:
         check_zone_fits(self.radius_m, self.area_m, "--radius")
         if self.num_nfzs < 0:
             raise InputError(f"--count: must be >= 0, got {self.num_nfzs}")
+        # a point whose zones cannot lie apart in the square would fail every trial it runs
+        for radius_m in self.radii_m:
+            check_zones_pack(self.num_nfzs, radius_m, self.area_m, "--radii")
+        for count in self.counts:
+            check_zones_pack(count, self.radius_m, self.area_m, "--counts")
         if self.buffer_m < 0:
             raise InputError(f"--buffer-m: must be >= 0, got {self.buffer_m}")
         for s in self.schemes:

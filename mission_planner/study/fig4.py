@@ -24,7 +24,7 @@ from mission_planner.study.config import Fig4Config
 from mission_planner.study.executors import StudyRun, check_scheduler, run_trials
 from mission_planner.study.stats import mean_interval, proportion_interval
 from mission_planner.study.store import check_table_format, write_table
-from mission_planner.study.trials import Row, cell_float, is_failed
+from mission_planner.study.trials import Cell, Row, cell_float, is_failed
 from validator.errors import InputError
 from validator.fileio import write_atomic
 
@@ -51,8 +51,7 @@ def summarize(rows: Sequence[Row], config: Fig4Config) -> list[Row]:
     out: list[Row] = []
     for sweep, radius, count in config.points():
         for scheme in config.schemes:
-            keys = (config.spec(i, radius, count, scheme).key for i in range(config.trials))
-            group = [by_key[k] for k in keys if k in by_key]
+            group = _trials_of(by_key, config, radius, count, scheme)
             ok = [r for r in group if not is_failed(r)]
             outages = sum(bool(r["outage"]) for r in ok)
             se = [cell_float(r["spectral_efficiency_bps_hz"]) for r in ok]
@@ -74,13 +73,44 @@ def summarize(rows: Sequence[Row], config: Fig4Config) -> list[Row]:
     return out
 
 
+def _trials_of(by_key: dict[Cell, Row], config: Fig4Config, radius_m: float, count: int,
+               scheme: str) -> list[Row]:
+    """The rows of one point's trials under ``scheme``, in trial order."""
+    keys = (config.spec(i, radius_m, count, scheme).key for i in range(config.trials))
+    return [by_key[k] for k in keys if k in by_key]
+
+
+def missing_points(rows: Sequence[Row], config: Fig4Config) -> list[tuple[str, str]]:
+    """(point, why) of each sweep point that has no result, for every scheme or some: each of
+    its trials failed (why: the first one's error). Such a point is a hole in the figure and
+    the summary, however well the other points went."""
+    by_key = {r["key"]: r for r in rows}
+    out: list[tuple[str, str]] = []
+    for sweep, radius, count in config.points():
+        empty, why = [], ""
+        for scheme in config.schemes:
+            group = _trials_of(by_key, config, radius, count, scheme)
+            if all(is_failed(r) for r in group):
+                empty.append(scheme)
+                why = why or (str(group[0]["error"]) if group else "not run")
+        if empty:
+            point = f"{sweep} sweep " + (f"R={radius:g} m" if sweep == "radius" else f"M={count}")
+            if len(empty) < len(config.schemes):
+                point += f" ({', '.join(empty)})"
+            out.append((point, why))
+    return out
+
+
 @dataclass
 class Fig4Result:
-    """A finished Fig. 4 study: trial rows, summary rows and the files written."""
+    """A finished Fig. 4 study: trial rows, summary rows, the files written, and the sweep
+    points (of ``points``) that have no result (:func:`missing_points`)."""
 
     run: StudyRun
     summary: list[Row]
     files: list[Path]
+    missing: list[tuple[str, str]]
+    points: int
 
 
 def run_fig4(
@@ -124,7 +154,8 @@ def run_fig4(
     fig_a, fig_b = plot_fig4(summary, config)
     path_a = save_png(fig_a, out_dir / "fig4a_spectral_efficiency.png")
     path_b = save_png(fig_b, out_dir / "fig4b_outage.png")
-    return Fig4Result(run=run, summary=summary, files=[table, summary_path, path_a, path_b])
+    return Fig4Result(run=run, summary=summary, files=[table, summary_path, path_a, path_b],
+                      missing=missing_points(run.rows, config), points=len(config.points()))
 
 
 def _options_record(options: PlannerOptions) -> dict[str, object] | str:

@@ -51,6 +51,34 @@ def check_zone_fits(radius_m: float, area_m: float, field: str) -> None:
                          f"{area_m:g} m square of the sites (radius < {area_m / 2:g} m)")
 
 
+def max_zones(radius_m: float, area_m: float) -> int:
+    """An upper bound on how many zones of radius ``radius_m`` fit, apart, in the square.
+
+    The centres lie in the square of side ``area_m - 2 radius_m`` (each zone inside the area)
+    and at least ``2 radius_m`` apart (no overlap, touching allowed). Scaled by that distance:
+    points at least 1 apart in a square of side t, which Oler's inequality (1961; for any
+    convex region, 2/sqrt(3) area + perimeter / 2 + 1) bounds by 2/sqrt(3) t**2 + 2 t + 1. It
+    is sound, so it never refuses a count that fits, and stronger than the zones' total area
+    against the square's. It is not tight: three zones of 110 m pass it, yet three fit only up
+    to 101.7 m (the best spread of three points in a square), and the sampler gives up well
+    before either, so a count it passes may still fail every draw.
+    """
+    t = (area_m - 2.0 * radius_m) / (2.0 * radius_m)
+    bound = 2.0 / math.sqrt(3.0) * t * t + 2.0 * t + 1.0
+    return math.floor(bound * (1.0 + 1e-9))  # a rounding error may not refuse a count that fits
+
+
+def check_zones_pack(count: int, radius_m: float, area_m: float, field: str) -> None:
+    """Refuse, naming ``field``, ``count`` zones of radius ``radius_m`` that cannot lie apart in
+    the square (:func:`max_zones`): every draw of such a site fails, so a study would fail each
+    trial of that point rather than say so once, before any work."""
+    check_zone_fits(radius_m, area_m, field)
+    most = max_zones(radius_m, area_m)
+    if count > most:
+        raise InputError(f"{field}: {count} zones of radius {radius_m:g} m cannot lie apart in "
+                         f"the {area_m:g} m square of the sites (at most {most} fit)")
+
+
 def random_site(
     seed: int,
     *,
@@ -93,6 +121,7 @@ def random_site(
     if not radius_m > 0:
         raise InputError(f"radius_m: must be > 0, got {radius_m}")
     check_zone_fits(radius_m, area_m, "area_m")
+    check_zones_pack(num_nfzs, radius_m, area_m, "num_nfzs")
     if buffer_m < 0:
         raise InputError(f"buffer_m: must be >= 0, got {buffer_m}")
 

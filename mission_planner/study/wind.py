@@ -26,7 +26,7 @@ import yaml
 from mission_planner.study.executors import StudyRun, check_scheduler, run_trials
 from mission_planner.study.store import FILES as STORE_FILES
 from mission_planner.study.store import check_table_format, write_table
-from mission_planner.study.trials import Row
+from mission_planner.study.trials import Row, is_failed
 from validator.errors import InputError
 from validator.site import Site, loads_site, site_to_dict
 from validator.wind import MAX_WIND_MPS, Wind
@@ -146,12 +146,22 @@ def run_wind_trial(spec: WindTrialSpec, options: PlannerOptions | None = None) -
     return row
 
 
+def missing_points(rows: Sequence[Row]) -> list[tuple[str, str]]:
+    """(wind, why) of each wind whose trial failed: one trial a wind, so a hole in the figure."""
+    return [("still air" if not r["speed_mps"] else
+             f"wind {r['speed_mps']:g} m/s from {r['from_deg']:g}°", str(r["error"]))
+            for r in rows if is_failed(r)]
+
+
 @dataclass
 class WindResult:
-    """A finished wind study: its trial rows and the files written."""
+    """A finished wind study: its trial rows, the files written, and the winds (of ``points``)
+    that have no result (:func:`missing_points`)."""
 
     run: StudyRun
     files: list[Path]
+    missing: list[tuple[str, str]]
+    points: int
 
 
 def wind_files(table_format: str) -> tuple[str, ...]:
@@ -194,4 +204,5 @@ def run_wind_study(
     table = write_table(run.rows, out_dir / table_name, table_format, WIND_COLUMNS)
     figure = save_png(plot_wind(run.rows, site.name, directions_deg, site.buffer_m),
                       out_dir / figure_name)
-    return WindResult(run=run, files=[table, figure])
+    return WindResult(run=run, files=[table, figure], missing=missing_points(run.rows),
+                      points=len(specs))

@@ -56,15 +56,51 @@ def test_fig4_radius_no_site_can_hold_is_exit_2_and_no_output(
     assert not out.exists()
 
 
+def test_fig4_zones_that_cannot_lie_apart_are_exit_2_and_no_output(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Three 190 m zones never pack in the 400 m square: every trial of that point failed and
+    the study exited 0 with a warning, the 10 m point's results looking like the whole."""
+    out = tmp_path / "out"
+    small = list(SMALL)
+    small[small.index("--radii") + 1] = "10,190"
+    assert main(["fig4", "-o", str(out), *small, *FAST]) == 2
+    assert capsys.readouterr().err == ("nfz-study: --radii: 3 zones of radius 190 m cannot lie "
+                                       "apart in the 400 m square of the sites (at most 1 fit)\n")
+    assert not out.exists()
+
+
+def test_a_sweep_point_whose_every_trial_failed_is_exit_1_and_the_others_are_written(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """It exited 0 with a warning: the 50 m point's results looked like the whole figure."""
+    # three zones of radius 110 m pass the packing bound, yet fit only up to 101.7 m: every
+    # draw fails
+    out = tmp_path / "out"
+    small = list(SMALL)
+    small[small.index("--radii") + 1] = "50,110"
+    assert main(["fig4", "-o", str(out), *small, *FAST]) == 1
+    warning, verdict = capsys.readouterr().err.splitlines()
+    assert warning.startswith("warning: 2 trials failed")
+    assert verdict.startswith("nfz-study: no result at 1 of 3 sweep points (every trial failed): "
+                              "radius sweep R=110 m (InputError: num_nfzs: cannot place 3 ")
+    with (out / "fig4_summary.csv").open() as f:
+        summary = list(csv.DictReader(f))
+    worked = [r for r in summary if float(r["radius_m"]) == 50]
+    assert len(worked) == 4 and all(float(r["min_rate_bps_hz"]) > 0 for r in worked)
+    assert {float(r["radius_m"]) for r in summary if r["failed"] == r["trials"]} == {110.0}
+    assert (out / "fig4a_spectral_efficiency.png").exists()
+
+
 def test_a_study_whose_every_trial_failed_exits_1(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    # three zones of radius 190 m fit one 400 m square, not three: every draw fails
-    argv = ["--trials", "1", "--radii", "190", "--counts", "3", "--radius", "190",
+    argv = ["--trials", "1", "--radii", "110", "--counts", "3", "--radius", "110",
             "--workers", "1", "--quiet"]
     assert main(["fig4", "-o", str(tmp_path / "out"), *argv]) == 1
     err = capsys.readouterr().err
     assert err.startswith("warning: 2 trials failed") and "cannot place 3" in err
+    assert "no result at 2 of 2 sweep points" in err  # the one point, in both sweeps
 
 
 def test_unreachable_scheduler_is_exit_2_and_no_output(

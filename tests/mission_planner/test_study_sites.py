@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 import pytest
 
-from mission_planner.study.sites import random_site
+from mission_planner.study.sites import max_zones, random_site
 from validator.errors import InputError
 
 
@@ -56,6 +57,40 @@ def test_more_zones_keep_the_first_ones() -> None:
 def test_zones_that_cannot_fit_are_refused_naming_the_count() -> None:
     with pytest.raises(InputError, match="num_nfzs"):
         random_site(1, num_nfzs=10, radius_m=100.0)
+
+
+# the widest spread of n points in the unit square (Schaer, Meir and others; proven optimal),
+# the least side at which n zones still lie apart
+BEST_SPREAD = {2: math.sqrt(2), 3: math.sqrt(6) - math.sqrt(2), 4: 1.0, 5: math.sqrt(2) / 2,
+               6: math.sqrt(13) / 6, 7: 4 - 2 * math.sqrt(3),
+               8: (math.sqrt(6) - math.sqrt(2)) / 2, 9: 0.5}
+
+
+@pytest.mark.parametrize(("count", "spread"), BEST_SPREAD.items())
+def test_the_packing_bound_never_refuses_zones_that_fit(count: int, spread: float) -> None:
+    # the largest radius at which `count` zones fit: 2 r = (area - 2 r) * spread
+    area = 400.0
+    radius = area * spread / (2 * (1 + spread))
+    assert max_zones(radius, area) >= count
+
+
+@pytest.mark.parametrize("k", range(1, 16))
+def test_the_packing_bound_allows_a_full_grid_of_touching_zones(k: int) -> None:
+    assert max_zones(400.0 / (2 * k), 400.0) >= k * k
+
+
+def test_zones_that_cannot_lie_apart_are_refused_before_any_draw() -> None:
+    # three 190 m zones: at most one lies in the 400 m square
+    with pytest.raises(InputError, match="num_nfzs: 3 zones of radius 190 m cannot lie apart "
+                                         r"in the 400 m square of the sites \(at most 1 fit\)"):
+        random_site(0, num_nfzs=3, radius_m=190.0)
+
+
+def test_a_count_the_bound_lets_pass_may_still_fail_its_draws() -> None:
+    # three 110 m zones pass the bound but fit only up to 101.7 m: the draws say so
+    assert max_zones(110.0, 400.0) >= 3
+    with pytest.raises(InputError, match="num_nfzs: cannot place 3"):
+        random_site(0, num_nfzs=3, radius_m=110.0)
 
 
 @pytest.mark.parametrize(

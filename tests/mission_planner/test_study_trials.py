@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 import pytest
 
 from mission_planner.study.config import Fig4Config, trial_seed
-from mission_planner.study.fig4 import summarize
+from mission_planner.study.fig4 import missing_points, summarize
 from mission_planner.study.stats import mean_interval, proportion_interval
 from mission_planner.study.trials import TABLE_COLUMNS, TrialSpec, is_failed, run_trial
 from validator.errors import InputError
@@ -73,6 +74,8 @@ def test_fig4_design_takes_trials_outermost() -> None:
         ({"radii_m": (10.0, -5.0)}, "--radii"),
         ({"radii_m": (10.0, 1e9)}, "--radii: a zone of radius 1e\\+09 m does not fit"),
         ({"radius_m": 200.0}, "--radius: a zone of radius 200 m does not fit"),
+        ({"radii_m": (10.0, 190.0)}, "--radii: 3 zones of radius 190 m cannot lie apart"),
+        ({"counts": (1, 50)}, "--counts: 50 zones of radius 30 m cannot lie apart"),
         ({"counts": (-1,)}, "--counts"),
         ({"slots": 1}, "--slots"),
         ({"slots": 3, "num_gns": 4}, "--slots: must be >= --gns"),
@@ -115,6 +118,25 @@ def test_summary_zeroes_outages_and_leaves_failures_out() -> None:
     assert conv["spectral_efficiency_bps_hz"] == pytest.approx(0.75)
     assert conv["min_rate_bps_hz"] == pytest.approx(2.25)
     assert summary[("count", "conventional")]["outages"] == 2
+
+
+def test_a_point_whose_every_trial_failed_is_missing_and_one_that_kept_some_is_not() -> None:
+    config = Fig4Config(trials=2, radii_m=(30.0, 40.0, 50.0), counts=(3,), slots=10)
+    at_40, at_50 = replace(config, radius_m=40.0), replace(config, radius_m=50.0)
+    rows = (_rows(config, "proposed", [None, (1.0, False)])  # one trial left: a result
+            + _rows(config, "conventional", [None, None])  # none: a hole in its curve
+            + _rows(at_40, "proposed", [None, None]) + _rows(at_40, "conventional", [None, None])
+            + _rows(at_50, "proposed", [(1.0, False)] * 2)
+            + _rows(at_50, "conventional", [(1.0, True)] * 2))  # every trial an outage
+    # the 30 m, 3-zone point is in both sweeps, so both figures have its hole
+    assert missing_points(rows, config) == [
+        ("radius sweep R=30 m (conventional)", "SolverError: x"),
+        ("radius sweep R=40 m", "SolverError: x"),
+        ("count sweep M=3 (conventional)", "SolverError: x"),
+    ]
+    kept = (_rows(config, "proposed", [None, (1.0, False)])
+            + _rows(config, "conventional", [(1.0, True), None]))
+    assert missing_points(kept, replace(config, radii_m=(30.0,))) == []
 
 
 def test_wilson_interval_of_no_outages_is_not_a_point() -> None:

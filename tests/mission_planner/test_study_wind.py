@@ -7,7 +7,7 @@ import csv
 import pytest
 
 from mission_planner.study.cli import main
-from mission_planner.study.wind import run_wind_trial, wind_specs
+from mission_planner.study.wind import missing_points, run_wind_trial, wind_specs
 from validator.errors import InputError
 from validator.site import load_site
 
@@ -33,6 +33,24 @@ def test_a_wind_beyond_the_vehicle_is_a_failed_row_not_a_crash() -> None:
     (spec,) = wind_specs(load_site(SAMPLE), (12.0,), (45.0,))
     row = run_wind_trial(spec)
     assert "top airspeed" in row["error"] and row["flown_min_rate_bps_hz"] is None
+
+
+def test_a_wind_whose_trial_failed_is_named_as_missing() -> None:
+    rows = [{"speed_mps": 0.0, "from_deg": 0.0, "error": "SolverError: x"},
+            {"speed_mps": 5.0, "from_deg": 90.0, "error": ""},
+            {"speed_mps": 12.0, "from_deg": 45.0, "error": "InputError: wind: too strong"}]
+    assert missing_points(rows) == [("still air", "SolverError: x"),
+                                    ("wind 12 m/s from 45°", "InputError: wind: too strong")]
+
+
+def test_a_wind_with_no_result_is_exit_1_and_its_table_is_written(tmp_path, capsys) -> None:
+    out = tmp_path / "w"
+    assert main(["wind", SAMPLE, "-o", str(out), "--speeds", "12", "--directions", "45",
+                 "--workers", "1", "--quiet"]) == 1
+    verdict = capsys.readouterr().err.splitlines()[-1]
+    assert verdict.startswith("nfz-study: no result at 1 of 1 sweep points (every trial "
+                              "failed): wind 12 m/s from 45° (InputError: wind: ")
+    assert "top airspeed" in (out / "wind_trials.csv").read_text()
 
 
 def test_wind_study_writes_its_table_and_figure(tmp_path, capsys) -> None:
