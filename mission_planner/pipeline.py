@@ -40,6 +40,7 @@ from validator.plan_format import dumps_plan
 from validator.position_loss import (
     Berth,
     PositionLossFinding,
+    Slowed,
     audit_position_loss,
     berth_buffer_m,
 )
@@ -246,12 +247,13 @@ def plan_and_build(
     zone (:func:`position_loss_findings`) is planned again with the wider buffer
     :func:`validator.position_loss.berth_buffer_m` asks for (up to :data:`BERTH_TRIES`
     plans, :data:`BERTH_TRIES_IN_WIND` in wind; kept while the gate accepts it and home stays
-    outside the wider buffer), and says
-    so in ``Mission.position_loss_berth`` (also when no wider plan could be made and the
-    findings stay warnings); plan-mission does so unless ``--buffer-m`` is
-    given. In wind the plan at the buffer asked for searches :data:`BERTH_PROBE_PATHS` alone,
-    up to the first speed that fits (``first_fit``), unless it is the one kept (no finding, or
-    no wider plan), which is then made again with every family and a full search."""
+    outside the wider buffer), and says so in ``Mission.position_loss_berth`` (also when no
+    wider plan could be made and the findings stay warnings); a leg whose coast the last plan
+    still leaves in reach is then commanded the speed that keeps it out, where one does
+    (:func:`_coast_slowed`); plan-mission does so unless ``--buffer-m`` is given. In wind
+    the plan at the buffer asked for searches :data:`BERTH_PROBE_PATHS` alone, up to the
+    first speed that fits (``first_fit``), unless it is the one kept (no finding, or no wider
+    plan), which is then made again with every family and a full search."""
     opt = options or MissionOptions()
 
     def planned(at: Site, widened: bool, through: bool, report: Progress | None,
@@ -308,9 +310,40 @@ def plan_and_build(
         lost = position_loss_findings(mission, drift=False)
         if not lost:
             return mission
+    mission, lost, slowed = _coast_slowed(mission, lost)
     berth = Berth(asked, mission.solution.site.buffer_m, deepest, len(lost),
-                  windy=mission.solution.site.flight_wind is not None)
+                  windy=mission.solution.site.flight_wind is not None, slowed=slowed)
     return dataclasses.replace(mission, position_loss_berth=berth)
+
+
+def _coast_slowed(mission: Mission, lost: tuple[PositionLossFinding, ...]
+                  ) -> tuple[Mission, tuple[PositionLossFinding, ...], tuple[Slowed, ...]]:
+    """``mission`` laid out again with each leg a finding of ``lost`` names commanded the speed
+    whose coast stays out (:func:`validator.position_loss.position_loss_speed_cap_mps`, the
+    one speed rule), the findings it has then, and each leg slowed (its item in the new plan,
+    from and to m/s). Where the berth leaves a coast in reach, a slower leg keeps it out for
+    seconds of cycle (airfield.yaml: the leg to item 20, 258 m, 10 -> 9.5 m/s, 0.60 m deep
+    into CTR before). Kept only where the safety gate accepts it; unchanged without a cap."""
+    from validator.flight import resolve_flight
+
+    site = mission.solution.site
+    legs = resolve_flight(mission.plan, site, "mission").legs
+    caps = tuple((tuple(legs[f.leg].start_xy_m), tuple(legs[f.leg].end_xy_m), f.speed_cap_mps)
+                 for f in lost
+                 if f.speed_cap_mps is not None and f.speed_cap_mps < f.speed_mps)
+    if not caps:
+        return mission, lost, ()
+    options = dataclasses.replace(mission.options, leg_speed_caps=caps)
+    slower = build_mission(mission.solution, options)
+    if slower.problems:
+        return mission, lost, ()
+    flown = resolve_flight(slower.plan, site, "mission").legs
+    was = {f.leg: f.speed_mps for f in lost}
+    slowed = tuple(
+        (leg.item, was[k], float(leg.speed_mps))
+        for k, leg in enumerate(flown) if k in was and leg.speed_mps is not None
+        and leg.speed_mps < was[k] - 1e-6)
+    return slower, position_loss_findings(slower, drift=False), slowed
 
 
 def position_loss_findings(mission: Mission, *, drift: bool = True

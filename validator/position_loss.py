@@ -389,36 +389,46 @@ def berth_buffer_m(buffer_m: float, findings: list[PositionLossFinding] |
     return deep if buffer_m >= wander else min(deep, wander)
 
 
+Slowed = tuple[int, float, float]  # a leg slowed for its coast: its item, from and to m/s
+
+
 @dataclass(frozen=True)
 class Berth:
     """A plan's buffer widened for position loss: ``site_buffer_m`` the buffer asked for,
     ``buffer_m`` the one planned with, ``deepest_m`` how deep the coast reached a zone at the
     buffer asked for, ``left`` the findings the widest plan still has (0: every coast clear).
     ``windy``: the plan is made for a wind, whose drift during the landing the berth leaves
-    out (no buffer covers it: :func:`drift_xy_m`)."""
+    out (no buffer covers it: :func:`drift_xy_m`). ``slowed``: the legs commanded slower
+    where the widest plan still left a coast in reach (:func:`position_loss_speed_cap_mps`)."""
 
     site_buffer_m: float
     buffer_m: float
     deepest_m: float
     left: int
     windy: bool = False
+    slowed: tuple[Slowed, ...] = ()
 
     @property
     def message(self) -> str:
         coast = (f"a GPS loss at {self.site_buffer_m:g} m could coast {self.deepest_m:.2f} m into "
                  f"a zone after ArduCopter's EKF failsafe")
-        if self.buffer_m <= self.site_buffer_m:
-            return (f"{coast}, and no wider buffer could be planned (home inside it, or the "
-                    f"safety gate refused the plan): {self.left} leg finding(s), see "
-                    f"validate-mission --params")
+        slowed = "".join(f", the leg to item {item} slowed from {was:.1f} to {now:.1f} m/s"
+                         for item, was, now in self.slowed)
         clear = ("every coast now stays clear, but for the wind's drift while it lands"
                  if self.windy else "every coast now stays clear")
         then = (clear if not self.left else
                 f"{self.left} leg finding(s) remain, see validate-mission --params")
-        return (f"buffer widened from {self.site_buffer_m:g} m to {self.buffer_m:.1f} m: "
-                f"{coast}; {then}")
+        if self.buffer_m <= self.site_buffer_m:
+            return (f"{coast}, and no wider buffer could be planned (home inside it, or the "
+                    f"safety gate refused the plan){slowed}: "
+                    + (then if slowed else f"{self.left} leg finding(s), see validate-mission "
+                       f"--params"))
+        return (f"buffer widened from {self.site_buffer_m:g} m to {self.buffer_m:.1f} m"
+                f"{slowed}: {coast}; {then}")
 
     def as_dict(self) -> dict[str, object]:
         return {"site_buffer_m": self.site_buffer_m, "buffer_m": self.buffer_m,
                 "deepest_m": self.deepest_m, "findings_left": self.left,
+                "slowed_legs": [{"item": item, "from_mps": was, "to_mps": now}
+                                for item, was, now in self.slowed],
                 "message": self.message}

@@ -21,6 +21,7 @@ from mission_planner.mission.options import (
 )
 from mission_planner.mission.speeds import (
     assign_speeds,
+    capped_steps,
     stop_lags,
     transit_speeds,
     wind_speeds,
@@ -208,6 +209,8 @@ def _service_cycle(solution: Solution, opt: MissionOptions) -> _Cycle:
     if timing is not None and site.flight_wind is not None:
         steps = wind_speeds(steps, q, site, autopilot, timing_params, timed_speed)
     steps, problems = assign_speeds(steps, q, site.max_speed_mps, opt.min_speed_mps)
+    steps = capped_steps(steps, q, opt.leg_speed_caps, lambda length_m, speed_mps: float(
+        scurve_legs(site, [length_m], speed_mps, autopilot, timing_params).total_s[0]))
     if autopilot == "ardupilot" and timing is not None:
         steps = stop_lags(steps)
     holds = programmed_holds_s([s.hold_s - s.stop_lag_s for s in steps], opt.autopilot)
@@ -249,7 +252,8 @@ def build_mission(solution: Solution, options: MissionOptions | None = None) -> 
         that follows, not a waypoint. ``approach_mps``: the speed the last leg ends at, where
         it is slower, over its last :data:`APPROACH_M` (at most half of it)."""
         current = None
-        speeds = transit_speeds(path, site, autopilot, timing_params, transit_speed)
+        speeds = transit_speeds(path, site, autopilot, timing_params, transit_speed,
+                                opt.leg_speed_caps)
         if approach_mps is not None and len(speeds) and (
                 approach_mps < speeds[-1] - opt.speed_tol_mps):
             last = path[-1] - path[-2]

@@ -14,8 +14,13 @@ from validator.site import MAX_REACH_M, Site
 
 AUTOPILOTS = {a.key: a for a in (Autopilot.ARDUPILOTMEGA, Autopilot.PX4)}  # --autopilot
 OPERATING_AREAS = ("polygon", "circle")
-__all__ = ["AUTOPILOTS", "OPERATING_AREAS", "MissionOptions", "check_options", "corner_margin_m",
-           "fence_margin_for", "leg_margin_m", "waypoint_radius_m"]
+# A leg capped by position (a resolved plan's legs come back from MAVLink's 1e-7° grid, about
+# a centimetre off the layout's points; no two of a mission's legs share both ends this close)
+LEG_MATCH_M = 0.1
+LegCap = tuple[tuple[float, float], tuple[float, float], float]
+__all__ = ["AUTOPILOTS", "LEG_MATCH_M", "OPERATING_AREAS", "LegCap", "MissionOptions",
+           "check_options", "corner_margin_m", "fence_margin_for", "leg_margin_m",
+           "waypoint_radius_m"]
 
 
 @dataclass(frozen=True)
@@ -27,7 +32,10 @@ class MissionOptions:
     ``operating_area_margin_m`` outside it. ``transit_speed_mps`` None means the site's V.
     ``merge_legs`` False keeps one waypoint per moving slot (the paper's layout); otherwise
     straight runs merge within ``merge_angle_deg`` (degrees), ``merge_speed_rel`` (fraction)
-    and ``merge_offset_m`` (see :func:`merge_straight_steps`).
+    and ``merge_offset_m`` (see :func:`merge_straight_steps`). ``leg_speed_caps``: legs, each
+    ``((x0, y0), (x1, y1), cap_mps)`` from start to end in site metres, commanded no faster
+    than ``cap_mps`` (where a GPS loss's coast needs it: ``plan_and_build``); a leg is matched
+    within :data:`LEG_MATCH_M` of both ends.
     """
 
     autopilot: str = "ardupilot"
@@ -46,6 +54,7 @@ class MissionOptions:
     merge_angle_deg: float = 1.0
     merge_speed_rel: float = 0.01
     merge_offset_m: float = 0.05
+    leg_speed_caps: tuple[LegCap, ...] = ()
 
 
 def check_options(site: Site, options: MissionOptions) -> None:
@@ -82,6 +91,10 @@ def check_options(site: Site, options: MissionOptions) -> None:
                  "arc_step_deg", "merge_angle_deg", "merge_speed_rel", "merge_offset_m"):
         if not getattr(options, name) >= 0:
             raise InputError(f"{name}: must be >= 0, got {getattr(options, name)}")
+    for _, _, cap in options.leg_speed_caps:
+        if not 0 < cap <= site.max_speed_mps:
+            raise InputError(f"leg_speed_caps: a cap must be in (0, {site.max_speed_mps:g}] "
+                             f"m/s, got {cap:g}")
 
 
 def fence_margin_for(site: Site, options: MissionOptions) -> float:

@@ -17,6 +17,9 @@
   leaves along the leg's course (:func:`wind_speeds`; ArduCopter's WPNAV_SPEED and
   DO_CHANGE_SPEED are ground speeds), never above the still-air cruise speed. Transit legs
   likewise (:func:`transit_speeds`).
+- **Capped legs.** A leg of ``MissionOptions.leg_speed_caps`` is commanded no faster than its
+  cap (:func:`leg_caps_mps`), wherever it is: cycle or transit. The cycle then lasts longer
+  than T by what the slower leg takes, which the report's replay says.
 - **Whole-second holds.** ArduCopter stores a waypoint hold as whole seconds (it truncates).
   The build writes holds as :func:`validator.autopilot.rules.programmed_holds_s` says (for
   ArduPilot rounded by error diffusion along the cycle; PX4 keeps fractional holds); the
@@ -25,12 +28,13 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
 
+from mission_planner.mission.options import LEG_MATCH_M, LegCap
 from mission_planner.mission.steps import CycleStep
 from validator.motion.arducopter import STOP_LAG_S
 from validator.motion.arducopter_speed import leg_speeds_mps
@@ -115,12 +119,13 @@ def _wind_capped_mps(profile: Profile, speed_mps: float, unit: NDArray[np.float6
 
 
 def transit_speeds(path_m: NDArray[np.float64], site: Site, autopilot: str,
-                   timing_params: Mapping[str, float], speed_mps: float
-                   ) -> NDArray[np.float64]:
+                   timing_params: Mapping[str, float], speed_mps: float,
+                   caps: tuple[LegCap, ...] = ()) -> NDArray[np.float64]:
     """The speed (m/s) to command on each leg of a transit polyline ``path_m`` (P, 2): the
     transit speed ``speed_mps``, or in the site's wind the ground speed the vehicle's top
-    airspeed leaves along the leg's course, whichever is lower (the rule of
-    :func:`wind_speeds`; a zero-length leg keeps ``speed_mps``).
+    airspeed leaves along the leg's course, or the leg's cap in ``caps``
+    (:func:`leg_caps_mps`), whichever is lowest (the rule of :func:`wind_speeds`; a
+    zero-length leg keeps ``speed_mps``).
 
     Commanded more than that, ArduCopter leans to its limit and gives up the track: SITL in
     8 m/s from 45° flew a transit leg commanded at 10 m/s (2.3 m/s left by the wind) at 3 m/s
@@ -128,13 +133,50 @@ def transit_speeds(path_m: NDArray[np.float64], site: Site, autopilot: str,
     3.44 m from."""
     d = np.diff(np.asarray(path_m, dtype=float), axis=0)
     lengths = np.hypot(d[:, 0], d[:, 1])
-    out = np.full(len(d), float(speed_mps))
+    out = np.minimum(float(speed_mps), leg_caps_mps(path_m, caps))
     if site.flight_wind is None or not len(d):
         return out
     moving = lengths > 0
     profile = motion_profile(site, autopilot, dict(timing_params))
-    out[moving] = _wind_capped_mps(profile, float(speed_mps),
-                                   d[moving] / lengths[moving, None])
+    out[moving] = np.minimum(out[moving], _wind_capped_mps(profile, float(speed_mps),
+                                                           d[moving] / lengths[moving, None]))
+    return out
+
+
+def leg_caps_mps(path_m: NDArray[np.float64], caps: tuple[LegCap, ...]) -> NDArray[np.float64]:
+    """(P-1,) the cap (m/s) of each leg of the polyline ``path_m`` (P, 2), +inf where ``caps``
+    names none: the least cap of those whose start and end lie within :data:`LEG_MATCH_M` of
+    the leg's."""
+    path = np.asarray(path_m, dtype=float)
+    out = np.full(max(len(path) - 1, 0), np.inf)
+    for start, end, cap in caps:
+        near = ((np.hypot(*(path[:-1] - start).T) <= LEG_MATCH_M)
+                & (np.hypot(*(path[1:] - end).T) <= LEG_MATCH_M))
+        out[near] = np.minimum(out[near], cap)
+    return out
+
+
+def capped_steps(steps: list[CycleStep], trajectory_m: NDArray[np.float64],
+                 caps: tuple[LegCap, ...], rest_to_rest_s: Callable[[float, float], float]
+                 ) -> list[CycleStep]:
+    """The steps with each moving leg that ``caps`` names commanded no faster than its cap
+    (the leg from the cycle's start, ``trajectory_m[0]``, to each step's waypoint in turn);
+    an S-curve leg's time grows by what ``rest_to_rest_s(length_m, speed_mps)`` says the
+    slower speed adds."""
+    if not caps:
+        return steps
+    ends = np.array([trajectory_m[0]] + [trajectory_m[s.index] for s in steps], dtype=float)
+    lengths = np.hypot(*np.diff(ends, axis=0).T)
+    out = []
+    for s, cap, length in zip(steps, leg_caps_mps(ends, caps), lengths, strict=True):
+        if s.speed_mps is None or not s.speed_mps > cap:
+            out.append(s)
+            continue
+        leg_s = s.leg_s
+        if s.scurve:
+            leg_s += rest_to_rest_s(float(length), float(cap)) - rest_to_rest_s(
+                float(length), s.speed_mps)
+        out.append(replace(s, speed_mps=float(cap), leg_s=leg_s))
     return out
 
 

@@ -43,7 +43,7 @@ def transit_s(mission: Mission, path_m: np.ndarray) -> float:
         return 0.0
     autopilot, timing_params = timed_for(mission.solution, mission.options)
     speeds = transit_speeds(path_m, mission.solution.site, autopilot, timing_params,
-                            mission.plan.cruise_speed_mps)
+                            mission.plan.cruise_speed_mps, mission.options.leg_speed_caps)
     return float(np.sum(np.hypot(d[:, 0], d[:, 1]) / speeds))
 
 
