@@ -307,6 +307,23 @@ def test_a_home_set_at_a_location_above_sea_level_is_level_with_it(site):
     assert home.alt_m == pytest.approx(7.0)
 
 
+def test_a_home_moved_up_in_the_air_is_a_warning(site):
+    """Altitudes above home after it move with it: ArduCopter 4.5.6 SITL flew the next leg at
+    its old height and hovered at its waypoint for good."""
+    found = [(f.severity, f.item) for f in
+             resolve_flight(_around(site, _set_home(1.0, 0.0, 0.0, 0.0)), site).findings
+             if f.message.startswith("home moves 30 m up")]
+    assert found == [("warning", 2)]
+
+
+def test_a_home_set_at_the_grounds_altitude_moves_no_height(site):
+    lat, lon = site.frame.to_geodetic(np.array([60.0, -60.0]))
+    item = _set_home(0.0, lat, lon, site.frame.alt0_m, int(Frame.GLOBAL))
+    found = [f for f in resolve_flight(_around(site, item), site).findings
+             if f.message.startswith("home moves")]
+    assert found == []
+
+
 def test_an_arducopter_do_set_home_at_0_0_with_an_altitude_moves_home_off_the_site(site):
     """AP_AHRS::set_home refuses only latitude, longitude and altitude all 0: with an
     altitude, a DO_SET_HOME without coordinates (param1 0) sends home to 0°N 0°E."""

@@ -76,6 +76,7 @@ from validator.zones import buffer_intrusion
 # CONDITION_DELAY, CONDITION_DISTANCE, CONDITION_YAW: they hold back the DO items after them
 CONDITIONS = {112: "CONDITION_DELAY", 114: "CONDITION_DISTANCE", 115: "CONDITION_YAW"}
 PX4_CURRENT_ABOVE = 0.5  # the commander's "use current position" threshold on param1
+HOME_ALT_MOVE_M = 1.0  # a home moved less than this up or down moves no height worth a word
 
 
 def set_home_source(it: MissionItem, px4: bool) -> tuple[bool, str]:
@@ -134,6 +135,20 @@ def _location_alt_m(it: MissionItem, home: Home, plan_home_amsl_m: float) -> flo
     if it.frame in AMSL_FRAMES:
         return alt - plan_home_amsl_m
     return alt  # above terrain: the ground, level with the plan's home, as the resolver has it
+
+
+def home_height_finding(old: Home, new: Home) -> tuple[Severity, str] | None:
+    """A warning when the home moves from ``old`` to ``new`` up or down: altitudes above home
+    after it are no longer the plan's (see the module doc for what ArduCopter flew)."""
+    up_m = new.alt_m - old.alt_m
+    if abs(up_m) < HOME_ALT_MOVE_M:
+        return None
+    way = "up" if up_m > 0 else "down"
+    return "warning", (f"home moves {abs(up_m):.0f} m {way}: altitudes above home after this "
+                       "item move with it (the audit and replay keep the plan's), and "
+                       "ArduCopter 4.5.6 SITL, its home moved up to where it was, flew the next "
+                       "leg at its old height and hovered at its waypoint for good; set home at "
+                       "the ground's altitude, or give altitudes above sea level after it")
 
 
 def home_finding(site: Site, home_xy_m: ArrayLike) -> tuple[Severity, str]:

@@ -38,7 +38,7 @@ from validator.autopilot.ardupilot import PARAMS as ARDUPILOT_PARAMS
 from validator.errors import InputError
 from validator.flight.bounds import MAX_MISSION_S
 from validator.flight.frames import AMSL_FRAMES, TERRAIN_FRAMES, nav_frame_refusal
-from validator.flight.home import CONDITIONS, home_finding, moved_home
+from validator.flight.home import CONDITIONS, home_finding, home_height_finding, moved_home
 from validator.flight.model import CycleSpan, Finding, Flight, Home, Leg, LegKind, Severity
 from validator.flight.service import ServicePlan, parse_service
 from validator.plan_format import Autopilot, Cmd, MissionItem, Plan
@@ -352,6 +352,8 @@ class _Resolver:
         if home is None:
             self.find("violation", unknown, pc)
             return
+        if (height := home_height_finding(self.state.home, home)) is not None:
+            self.find(*height, pc)
         self.state.home = home
         self.find(*home_finding(self.site, home.xy_m), pc)
         if self.gate is not None:
