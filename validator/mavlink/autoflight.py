@@ -10,7 +10,7 @@ validator's replay of it agree, up to the vehicle's sampling.
 Positions are metres east/north of the vehicle's first home, altitudes metres above it; item
 indices are 0-based plan indices (ArduPilot's mission seq is one more). A DO_SET_HOME moves the
 home the vehicle holds where the resolved flight says (:mod:`validator.flight.home`), as the
-leg after it starts (:attr:`AutoTrack.homes`).
+leg after it becomes current (:attr:`AutoTrack.homes`).
 """
 
 from __future__ import annotations

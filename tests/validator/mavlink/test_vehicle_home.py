@@ -144,7 +144,7 @@ def _track_from(plan: Plan, site, start_index: int):
                             dt_s=DT_S)
 
 
-def test_a_mission_flown_through_its_do_set_home_moves_home_as_the_next_leg_starts(site):
+def test_a_mission_flown_through_its_do_set_home_moves_home_as_the_next_leg_becomes_current(site):
     track = _track_from(set_home_plan(site), site, start_index=2)
     assert [home.set_by_item for _, home in track.homes] == [3]
     t_s, _ = track.homes[0]
