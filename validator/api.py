@@ -202,7 +202,7 @@ def fly_plan(
                                signing_key=choice.signing_key, watch=watch)
     report, after = result.report, None
     if injector:
-        after = score_fault(injector[0], result.telemetry, site, flight.home_xy_m,
+        after = score_fault(injector[0], result.telemetry, site, flight,
                             result.telemetry.end_reason)
         report = with_fault(report, after)
     return Flown(report, result.recorded(), result.telemetry, result.vehicle,

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from tests.validator.builders import (
+    ALT_M,
     jump,
     make_site,
     nav,
@@ -277,6 +278,50 @@ def test_the_missions_rtl_after_a_do_set_home_flies_to_the_new_home(site):
     rtl = next(leg for leg in resolve_flight(plan_of(site, items), site).legs
                if leg.kind == "rtl")
     np.testing.assert_allclose(rtl.end_xy_m, [40, -40], atol=1e-3)
+
+
+def test_a_home_set_where_the_vehicle_is_in_the_air_is_at_its_altitude(site):
+    """ArduCopter and PX4 take the whole current location: home moves up to the vehicle
+    (measured on ArduCopter 4.5.6 SITL: HOME_POSITION 20 m above the ground)."""
+    items = [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m, 25.0),
+             nav(site, Cmd.NAV_WAYPOINT, (40, -40), 18.0),
+             _set_home(1.0, 0.0, 0.0, 0.0), nav(site, Cmd.NAV_WAYPOINT, (0, -40), 18.0)]
+    assert resolve_flight(plan_of(site, items), site).home_of(2).alt_m == pytest.approx(18.0)
+
+
+def test_a_home_set_at_a_location_above_home_is_above_the_home_in_force(site):
+    """AP_AHRS::set_home makes a frame-3 altitude absolute against the home it replaces."""
+    lat, lon = site.frame.to_geodetic(np.array([60.0, -60.0]))
+    items = [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), nav(site, Cmd.NAV_WAYPOINT, (40, -40)),
+             _set_home(1.0, 0.0, 0.0, 0.0),  # in the air: home 30 m up
+             nav(site, Cmd.NAV_WAYPOINT, (0, -40)),
+             _set_home(0.0, lat, lon, -26.0), nav(site, Cmd.NAV_WAYPOINT, (40, -40))]
+    home = resolve_flight(plan_of(site, items), site).home_of(3)
+    assert home.set_by_item == 4 and home.alt_m == pytest.approx(ALT_M - 26.0)
+
+
+def test_a_home_set_at_a_location_above_sea_level_is_level_with_it(site):
+    lat, lon = site.frame.to_geodetic(np.array([60.0, -60.0]))
+    item = _set_home(0.0, lat, lon, site.frame.alt0_m + 7.0, int(Frame.GLOBAL))
+    home = resolve_flight(_around(site, item), site).home_of(2)
+    assert home.alt_m == pytest.approx(7.0)
+
+
+def test_a_home_moved_up_in_the_air_is_a_warning(site):
+    """Altitudes above home after it move with it: ArduCopter 4.5.6 SITL flew the next leg at
+    its old height and hovered at its waypoint for good."""
+    found = [(f.severity, f.item) for f in
+             resolve_flight(_around(site, _set_home(1.0, 0.0, 0.0, 0.0)), site).findings
+             if f.message.startswith("home moves 30 m up")]
+    assert found == [("warning", 2)]
+
+
+def test_a_home_set_at_the_grounds_altitude_moves_no_height(site):
+    lat, lon = site.frame.to_geodetic(np.array([60.0, -60.0]))
+    item = _set_home(0.0, lat, lon, site.frame.alt0_m, int(Frame.GLOBAL))
+    found = [f for f in resolve_flight(_around(site, item), site).findings
+             if f.message.startswith("home moves")]
+    assert found == []
 
 
 def test_an_arducopter_do_set_home_at_0_0_with_an_altitude_moves_home_off_the_site(site):

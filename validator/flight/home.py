@@ -27,8 +27,17 @@ after it, which agree on all of this):
   wherever the mission is, so only a straight return's destination moves.
 - "Where the vehicle is" is where the previous waypoint counted as reached: within its radius,
   or on the corner it cuts; taken as the waypoint, the few metres left to the buffer as for
-  corners. Altitudes above home (frame 3) after the item are above the new home; the audit is
-  horizontal (zones are walls), so that changes no verdict here.
+  corners. It is the whole location, altitude included (``ahrs.get_location``): in the air
+  home moves up to the vehicle. A location's altitude is made absolute against the home in
+  force (``Location::change_alt_frame(ABSOLUTE)``): frame 3 is above it, 0 above sea level.
+  Measured on ArduCopter 4.5.6 SITL (a waypoint at 20 m, DO_SET_HOME param1 1, a waypoint at
+  20 m above home, RTL): HOME_POSITION moved to where the vehicle cut the corner, 1.7 m from
+  the waypoint, at 20 m above the ground, and was sent unasked; GLOBAL_POSITION_INT's
+  relative altitude read 0 from there on. The next leg was flown at its old 20 m (the corner
+  had queued it against the old home) and the vehicle then hovered at its waypoint for the
+  remaining 570 s, never completing it (its destination, re-read above the new home, was 20 m
+  higher): so legs keep their altitudes here, above the plan's home. The audit is horizontal
+  (zones are walls), so that changes no verdict.
 
 PX4 v1.15 does not ignore it (``MavlinkMissionManager::parse_mavlink_mission_item``,
 ``MissionBlock::issue_command``, the commander's VEHICLE_CMD_DO_SET_HOME,
@@ -42,17 +51,23 @@ from the home position the commander publishes):
   ArduCopter's 1;
 - otherwise it passes MISSION_ITEM_INT's x and y on unscaled, as degrees: home moves to whole
   degrees (how frame 2 carries them), or nowhere on Earth (sent as degrees x 1e7): a violation
-  here, the home left where it was.
+  here, the home left where it was;
+- the current position is the global position estimate, altitude included
+  (``HomePosition::setHomePosition``, ``fillGlobalHomePos``), as on ArduCopter.
+
+:func:`moved_home` is the rule the resolver and the simulated vehicle both apply.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
-from numpy.typing import ArrayLike
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
-from validator.flight.frames import no_coordinate
-from validator.flight.model import Severity
+from validator.flight.frames import AMSL_FRAMES, RELATIVE_FRAMES, no_coordinate
+from validator.flight.model import Home, Severity
 from validator.item_lists import GLOBAL_FRAMES
 from validator.plan_format import Frame, MissionItem
 from validator.site import Site
@@ -61,6 +76,7 @@ from validator.zones import buffer_intrusion
 # CONDITION_DELAY, CONDITION_DISTANCE, CONDITION_YAW: they hold back the DO items after them
 CONDITIONS = {112: "CONDITION_DELAY", 114: "CONDITION_DISTANCE", 115: "CONDITION_YAW"}
 PX4_CURRENT_ABOVE = 0.5  # the commander's "use current position" threshold on param1
+HOME_ALT_MOVE_M = 1.0  # a home moved less than this up or down moves no height worth a word
 
 
 def set_home_source(it: MissionItem, px4: bool) -> tuple[bool, str]:
@@ -90,6 +106,49 @@ def set_home_source(it: MissionItem, px4: bool) -> tuple[bool, str]:
                        f"frame {it.frame}: home would not be this item's position; use "
                        "frame 3 or 0")
     return False, ""
+
+
+def moved_home(it: MissionItem, item: int, px4: bool, *, here_xy_m: ArrayLike,
+               here_alt_m: float, home: Home, plan_home_amsl_m: float,
+               item_xy_m: Callable[[], NDArray[np.float64]]) -> tuple[Home | None, str]:
+    """The home DO_SET_HOME ``it`` (item ``item``) moves to while the vehicle is at
+    ``here_xy_m`` (m), ``here_alt_m`` (m above the plan's home, whose altitude is
+    ``plan_home_amsl_m``) under ``home``: (the new home, "") or (None, why it is not known, as
+    :func:`set_home_source` says). ``item_xy_m()`` is the item's own position (m), asked for
+    only when home goes there."""
+    at_current, unknown = set_home_source(it, px4)
+    if unknown:
+        return None, unknown
+    if at_current:
+        return Home(np.array(here_xy_m, dtype=float), item, float(here_alt_m)), ""
+    return Home(item_xy_m(), item, _location_alt_m(it, home, plan_home_amsl_m)), ""
+
+
+def _location_alt_m(it: MissionItem, home: Home, plan_home_amsl_m: float) -> float:
+    """The altitude (m above the plan's home) ArduCopter gives a home set at ``it``'s location,
+    made absolute against ``home``, the home in force."""
+    alt = it.params[6]
+    if not math.isfinite(alt):
+        return home.alt_m
+    if it.frame in RELATIVE_FRAMES:
+        return home.alt_m + alt
+    if it.frame in AMSL_FRAMES:
+        return alt - plan_home_amsl_m
+    return alt  # above terrain: the ground, level with the plan's home, as the resolver has it
+
+
+def home_height_finding(old: Home, new: Home) -> tuple[Severity, str] | None:
+    """A warning when the home moves from ``old`` to ``new`` up or down: altitudes above home
+    after it are no longer the plan's (see the module doc for what ArduCopter flew)."""
+    up_m = new.alt_m - old.alt_m
+    if abs(up_m) < HOME_ALT_MOVE_M:
+        return None
+    way = "up" if up_m > 0 else "down"
+    return "warning", (f"home moves {abs(up_m):.0f} m {way}: altitudes above home after this "
+                       "item move with it (the audit and replay keep the plan's), and "
+                       "ArduCopter 4.5.6 SITL, its home moved up to where it was, flew the next "
+                       "leg at its old height and hovered at its waypoint for good; set home at "
+                       "the ground's altitude, or give altitudes above sea level after it")
 
 
 def home_finding(site: Site, home_xy_m: ArrayLike) -> tuple[Severity, str]:

@@ -37,10 +37,12 @@ class Finding:
 @dataclass(frozen=True)
 class Home:
     """Where a return (RTL, Return) lands: the plan's home, or where a mission's DO_SET_HOME
-    (item ``set_by_item``) moved it (:mod:`validator.flight.home`)."""
+    (item ``set_by_item``) moved it (:mod:`validator.flight.home`). ``alt_m`` is its altitude
+    above the plan's home: altitudes above home are reported against it."""
 
     xy_m: NDArray[np.float64]
     set_by_item: int | None = None  # None: the plan's own home
+    alt_m: float = 0.0
 
     @property
     def label(self) -> str:

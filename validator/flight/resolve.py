@@ -38,16 +38,8 @@ from validator.autopilot.ardupilot import PARAMS as ARDUPILOT_PARAMS
 from validator.errors import InputError
 from validator.flight.bounds import MAX_MISSION_S
 from validator.flight.frames import AMSL_FRAMES, TERRAIN_FRAMES, nav_frame_refusal
-from validator.flight.home import CONDITIONS, home_finding, set_home_source
-from validator.flight.model import (
-    CycleSpan,
-    Finding,
-    Flight,
-    Home,
-    Leg,
-    LegKind,
-    Severity,
-)
+from validator.flight.home import CONDITIONS, home_finding, home_height_finding, moved_home
+from validator.flight.model import CycleSpan, Finding, Flight, Home, Leg, LegKind, Severity
 from validator.flight.service import ServicePlan, parse_service
 from validator.plan_format import Autopilot, Cmd, MissionItem, Plan
 from validator.site import MAX_REACH_M, Site
@@ -353,13 +345,17 @@ class _Resolver:
 
     def set_home(self, pc: int, it: MissionItem) -> None:
         """DO_SET_HOME: the home later legs return to, if known (:mod:`validator.flight.home`)."""
-        at_current, unknown = set_home_source(it, self.plan.firmware_type == Autopilot.PX4)
-        if unknown:
+        home, unknown = moved_home(it, pc, self.plan.firmware_type == Autopilot.PX4,
+                                   here_xy_m=self.state.xy, here_alt_m=self.state.alt_m,
+                                   home=self.state.home, plan_home_amsl_m=self.plan.home_alt_m,
+                                   item_xy_m=lambda: self.position(it))
+        if home is None:
             self.find("violation", unknown, pc)
             return
-        xy = self.state.xy.copy() if at_current else self.position(it)
-        self.state.home = Home(xy, pc)
-        self.find(*home_finding(self.site, xy), pc)
+        if (height := home_height_finding(self.state.home, home)) is not None:
+            self.find(*height, pc)
+        self.state.home = home
+        self.find(*home_finding(self.site, home.xy_m), pc)
         if self.gate is not None:
             self.find("warning", f"DO_SET_HOME waits for {self.gate[1]} (item {self.gate[0]}): "
                       "home moves once it is met, never if the next waypoint comes first; "

@@ -7,20 +7,23 @@ parameters) and returns an :class:`AutoTrack`: position, velocity and mission pr
 functions of the time since AUTO began. So a mission flown by the SITL vehicle and the
 validator's replay of it agree, up to the vehicle's sampling.
 
-Positions are metres east/north of the vehicle's home, altitudes metres above home; item
-indices are 0-based plan indices (ArduPilot's mission seq is one more).
+Positions are metres east/north of the vehicle's first home, altitudes metres above it; item
+indices are 0-based plan indices (ArduPilot's mission seq is one more). A DO_SET_HOME moves the
+home the vehicle holds where the resolved flight says (:mod:`validator.flight.home`), as the
+leg after it becomes current (:attr:`AutoTrack.homes`).
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
-from validator.flight import Leg, resolve_flight
+from validator.flight import Flight, Home, resolve_flight
 from validator.geodesy import LocalFrame
 from validator.motion.limits import VehicleLimits
 from validator.motion.profile import Profile, flown_params, make_profile
@@ -70,7 +73,8 @@ class AutoTrack:
     """A sampled flight: ``t_s`` (K,) from 0, ``xy_m`` (K, 2), ``alt_m`` (K,), the mission
     item index being flown at each sample ``item`` (K,), and ``reached``: (t_s, item index)
     of every navigation item completed, in order. ``lands``: the flight ends on the ground;
-    ``completes``: it ends the mission (not in an unlimited loiter)."""
+    ``completes``: it ends the mission (not in an unlimited loiter). ``homes``: (t_s, home) each
+    time a DO_SET_HOME moves the vehicle's home, in order."""
 
     t_s: NDArray[np.float64]
     xy_m: NDArray[np.float64]
@@ -79,6 +83,7 @@ class AutoTrack:
     reached: tuple[tuple[float, int], ...]
     lands: bool
     completes: bool = True
+    homes: tuple[tuple[float, Home], ...] = ()
 
     @property
     def duration_s(self) -> float:
@@ -109,12 +114,38 @@ class AutoTrack:
         return int(self.item[min(max(k, 0), self.item.size - 1)])
 
 
-def _legs_from(legs: tuple[Leg, ...], start_index: int) -> list[Leg]:
-    """The legs still to fly when the mission (re)starts at item ``start_index``."""
-    for k, leg in enumerate(legs):
+def _first_leg(flight: Flight, start_index: int) -> int:
+    """The first of ``flight``'s legs still to fly when the mission (re)starts at item
+    ``start_index`` (the number of legs when none is)."""
+    for k, leg in enumerate(flight.legs):
         if leg.item >= start_index or leg.first_item >= start_index:
-            return list(legs[k:])
-    return []
+            return k
+    return len(flight.legs)
+
+
+def _same_home(a: Home, b: Home) -> bool:
+    return (a.set_by_item == b.set_by_item and a.alt_m == b.alt_m
+            and bool(np.array_equal(a.xy_m, b.xy_m)))
+
+
+def _homes_set(flight: Flight, first: int, start_index: int,
+               current_s: Sequence[float]) -> tuple[tuple[float, Home], ...]:
+    """(t_s, home) each time a DO_SET_HOME moves the home, when legs ``first``, ``first + 1``
+    ... of ``flight`` become current at ``current_s`` (NaN: never): a leg carries the home in
+    force on it, and the DO items before its item run as it becomes current. One before
+    ``start_index`` ran before a restart there, and is not run again."""
+    out = []
+    for k, t_s in enumerate(current_s):
+        j = first + k
+        home = flight.home_of(j)
+        if home.set_by_item is None or math.isnan(t_s):
+            continue
+        if j == first and home.set_by_item < start_index:
+            continue
+        if j > first and _same_home(home, flight.home_of(j - 1)):
+            continue
+        out.append((float(t_s), home))
+    return tuple(out)
 
 
 def build_auto_track(
@@ -132,7 +163,8 @@ def build_auto_track(
     fly. ``frame`` is the vehicle's home frame; ``profile`` its flight model."""
     site = vehicle_site(frame, profile_speed(profile))
     flight = resolve_flight(plan, site, "vehicle mission")
-    legs = _legs_from(flight.legs, start_index)
+    first_leg = _first_leg(flight, start_index)
+    legs = list(flight.legs[first_leg:])
     done_at_start: list[int] = []
     # A takeoff the vehicle has already climbed to completes at once, as in ArduCopter.
     while legs and legs[0].kind == "takeoff" and legs[0].end_alt_m <= start_alt_m + TAKEOFF_DONE_M:
@@ -157,6 +189,8 @@ def build_auto_track(
                 and (k + 1 == len(legs) or legs[k + 1].item != leg.item)]
     last = legs[-1]
     unlimited = plan.items[last.item].command == Cmd.NAV_LOITER_UNLIM
+    # a leg is current from the end of the one before (the mission's first: from the start)
+    current_s = [0.0] * (len(done_at_start) + 1) + [float(t) for t in track.leg_done_s[:-1]]
     return AutoTrack(
         t_s=track.t_s,
         xy_m=track.xy_m,
@@ -165,6 +199,7 @@ def build_auto_track(
         reached=tuple(reached[:-1] if unlimited else reached),
         lands=last.kind == "land",
         completes=not unlimited,
+        homes=_homes_set(flight, first_leg, start_index, current_s),
     )
 
 

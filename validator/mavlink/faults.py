@@ -25,7 +25,10 @@ recording once the vehicle has landed and disarmed, or has held still (under
 :data:`STILL_MPS`) outside the mission mode for :data:`HOLD_END_S` vehicle seconds (Brake,
 Loiter, PX4's Hold: a safe hold, waiting for a pilot). :func:`score_fault` measures the flight
 after the injection: its least clearance from every zone (exact between samples), where it
-ended, and what the autopilot said and did.
+ended and how far from home, and what the autopilot said and did. "Home" is the one the
+vehicle last reported (HOME_POSITION, which it sends as a mission's DO_SET_HOME moves it): what
+its return flew to, wherever the vehicle really was when it took it; without a report, the
+home in force on the leg it was flying when the fault came (:meth:`Flight.home_of`).
 """
 
 from __future__ import annotations
@@ -37,13 +40,13 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from validator.errors import InputError
-from validator.flight import Finding
+from validator.flight import Finding, Home
 from validator.geometry import segment_point_distance
 from validator.mavlink.connection import Connection
-from validator.mavlink.telemetry import Recorder, Telemetry
+from validator.mavlink.telemetry import Recorder, Telemetry, telemetry_track
 from validator.mavlink.wire import mavlink
 from validator.site import Site
 from validator.zones import polyline_clearance_m
@@ -63,6 +66,8 @@ STILL_MPS = 0.3
 LANDED_ALT_M = 1.0
 SET_MESSAGE_INTERVAL = mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
 SIMSTATE_ID = mavlink.MAVLINK_MSG_ID_SIMSTATE
+HOME_POSITION_ID = mavlink.MAVLINK_MSG_ID_HOME_POSITION
+HOME_EVERY_US = 1e6  # besides the one sent as it moves: a lost one is sent again
 
 # What each fault sets on the vehicle, and whether our GCS heartbeats stop. A sped-up ArduCopter
 # flies with FS_GCS_TIMEOUT widened for our wall-clock heartbeats
@@ -109,6 +114,7 @@ class FaultInjector:
     _still_since: float = math.nan
     _seen: int = 0
     truth: list[tuple[float, float, float]] = field(default_factory=list)  # t_s, lat, lon
+    homes: list[tuple[float, float, float]] = field(default_factory=list)  # HOME_POSITION's
     _t_s: float = math.nan
 
     def __post_init__(self) -> None:
@@ -117,6 +123,7 @@ class FaultInjector:
         self.link.listeners.append(self._take_truth)
         if not self.px4:
             self.link.command(SET_MESSAGE_INTERVAL, float(SIMSTATE_ID), 1e5)
+        self.link.command(SET_MESSAGE_INTERVAL, float(HOME_POSITION_ID), HOME_EVERY_US)
 
     def _take_truth(self, m: Any) -> None:
         kind = m.get_type()
@@ -124,6 +131,8 @@ class FaultInjector:
             self._t_s = m.time_boot_ms / 1000.0
         elif kind == "SIMSTATE" and math.isfinite(self._t_s) and (m.lat or m.lng):
             self.truth.append((self._t_s, m.lat * 1e-7, m.lng * 1e-7))
+        elif kind == "HOME_POSITION" and (m.latitude or m.longitude):  # 0, 0: no home yet
+            self.homes.append((self._t_s, m.latitude * 1e-7, m.longitude * 1e-7))
 
     def __call__(self, rec: Recorder) -> str | None:
         if not rec.rows or len(rec.rows) == self._seen:
@@ -190,6 +199,8 @@ class FaultReport:
     messages: tuple[str, ...]
     coast: Coast | None = None
     track_xy_m: tuple[tuple[float, float], ...] = ()  # after the fault, a point a second
+    home: str = "home"  # which home end_from_home_m is from (fault_home)
+    home_xy_m: tuple[float, float] | None = None
 
     @property
     def entered_zone(self) -> bool:
@@ -202,7 +213,9 @@ class FaultReport:
                 list(self.injected_xy_m), "target_xy_m": list(self.target_xy_m),
                 "clearance_m": dict(self.clearance_m), "entered_zone": self.entered_zone,
                 "end_state": self.end_state, "end_xy_m": list(self.end_xy_m),
-                "end_from_home_m": self.end_from_home_m, "modes": list(self.modes),
+                "end_from_home_m": self.end_from_home_m, "home": self.home,
+                "home_xy_m": None if self.home_xy_m is None else list(self.home_xy_m),
+                "modes": list(self.modes),
                 "messages": list(self.messages),
                 "coast": None if self.coast is None else dataclasses.asdict(self.coast),
                 "track_xy_m": [list(p) for p in self.track_xy_m]}
@@ -263,9 +276,30 @@ def _track_clearances(site: Site, xy: np.ndarray) -> dict[str, float]:
     return out
 
 
-def score_fault(injector: FaultInjector, telemetry: Telemetry, site: Site,
-                home_xy_m: ArrayLike, end_reason: str) -> FaultReport:
-    """Score the flight after ``injector``'s fault (see the module doc)."""
+def fault_home(injector: FaultInjector, telemetry: Telemetry, site: Site, flight: Flight
+               ) -> tuple[NDArray[np.float64], str]:
+    """The home a return after ``injector``'s fault flies to (site metres) and its name: the
+    one the vehicle last reported, else the one in force on the leg of ``flight`` it was
+    flying at the fault (the plan's, before the fault or without one)."""
+    if injector.homes:
+        _, lat, lon = injector.homes[-1]
+        return (np.asarray(site.frame.to_local(lat, lon), dtype=float).reshape(2),
+                "the home the vehicle reported")
+    home = Home(flight.home_xy_m)
+    if math.isfinite(injector.injected_s) and telemetry.samples >= 2:
+        track = telemetry_track(telemetry, flight, site, ardupilot=not injector.px4,
+                                source="fault")
+        at = int(np.searchsorted(track.t_s, injector.injected_s - telemetry.flight_start_s,
+                                 side="right")) - 1
+        if 0 <= at < track.leg.size and track.leg[at] >= 0:
+            home = flight.home_of(int(track.leg[at]))
+    return home.xy_m, home.label
+
+
+def score_fault(injector: FaultInjector, telemetry: Telemetry, site: Site, flight: Flight,
+                end_reason: str) -> FaultReport:
+    """Score the flight after ``injector``'s fault (see the module doc) of ``flight``."""
+    home_xy_m, home = fault_home(injector, telemetry, site, flight)
     t0 = injector.injected_s
     if len(injector.truth) > 1:
         t, lat, lon = (np.asarray(c, dtype=float) for c in zip(*injector.truth, strict=True))
@@ -275,7 +309,7 @@ def score_fault(injector: FaultInjector, telemetry: Telemetry, site: Site,
         source = "the autopilot's estimate (GLOBAL_POSITION_INT)"
     after = t >= t0 if math.isfinite(t0) else np.zeros(t.size, bool)
     xy = np.asarray(site.frame.to_local(lat, lon), dtype=float).reshape(-1, 2)
-    end = xy[-1] if len(xy) else np.asarray(home_xy_m, dtype=float)
+    end = xy[-1] if len(xy) else home_xy_m
     clearance = _track_clearances(site, xy[after]) if np.any(after) else {}
     if not math.isfinite(t0):
         state = f"fault never injected ({end_reason})"
@@ -291,9 +325,9 @@ def score_fault(injector: FaultInjector, telemetry: Telemetry, site: Site,
     track = _every_second(t[after], xy[after]) if np.any(after) else ()
     return FaultReport(injector.kind, injector.how, source, t0, injector.injected_xy_m,
                        injector.target_xy_m, clearance, state,
-                       (float(end[0]), float(end[1])),
-                       float(np.hypot(*(end - np.asarray(home_xy_m, dtype=float)))), modes,
-                       said[:20], coast, track)
+                       (float(end[0]), float(end[1])), float(np.hypot(*(end - home_xy_m))),
+                       modes, said[:20], coast, track, home,
+                       (float(home_xy_m[0]), float(home_xy_m[1])))
 
 
 def fault_watch(kind: str, plan: Plan, site: Site, flight: Flight,
@@ -340,7 +374,8 @@ def fault_lines(fault: Mapping[str, Any]) -> list[str]:
     entered)."""
     said = [f"{fault['kind']} injected ({fault['how']}) at t = {fault['injected_s']:.1f} s",
             f"then flew {', '.join(fault['modes']) or 'the mission on'}",
-            f"ended {fault['end_state']}, {fault['end_from_home_m']:.1f} m from home"]
+            f"ended {fault['end_state']}, {fault['end_from_home_m']:.1f} m from "
+            f"{fault.get('home', 'home')}"]
     clear = fault["clearance_m"]
     if clear:
         zone = min(clear, key=clear.get)
@@ -369,7 +404,7 @@ def with_fault(report: TrackReport, rep: FaultReport) -> TrackReport:
 def record_fault(v: Validation, injector: FaultInjector, telemetry: Telemetry) -> None:
     """The fault flight's score into the report: ``extra["fault"]``, and its violations
     (:func:`fault_findings`) into the flight's."""
-    rep = score_fault(injector, telemetry, v.site, v.flight.home_xy_m, telemetry.end_reason)
+    rep = score_fault(injector, telemetry, v.site, v.flight, telemetry.end_reason)
     v.extra["fault"] = rep.as_dict()
     if v.sitl is not None:
         v.sitl = with_fault(v.sitl, rep)

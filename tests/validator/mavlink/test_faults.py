@@ -9,16 +9,19 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from tests.validator.builders import make_site
+from tests.validator.builders import make_site, nav, plan_of, speed
 from validator.errors import InputError
+from validator.flight import DO_SET_HOME, resolve_flight
 from validator.mavlink.faults import (
     FaultInjector,
     FaultReport,
     fault_findings,
+    fault_lines,
     fault_settings,
     score_fault,
 )
 from validator.mavlink.telemetry import Telemetry
+from validator.plan_format import Cmd, Frame, MissionItem
 
 
 class FakeLink:
@@ -126,10 +129,82 @@ def test_the_score_measures_the_track_after_the_fault_between_samples():
                     rel_alt_m=np.array([30.0, 30.0, 30.0, 0.0]), vel_mps=np.zeros((n, 3)),
                     mission_seq=np.zeros(n, dtype=np.int64), armed=np.array([1, 1, 1, 0], bool),
                     fence_breach=np.zeros(n, bool), mode_changes=[(6.0, "SMART_RTL")])
-    rep = score_fault(inj, tel, site, site.home_xy_m, "landed and disarmed after the fault")
+    flight = resolve_flight(plan_of(site, [nav(site, Cmd.NAV_TAKEOFF, (0.0, 0.0))]), site)
+    rep = score_fault(inj, tel, site, flight, "landed and disarmed after the fault")
     d = np.array([80.0, -20.0])  # the chord's direction
     r = np.array([100.0, 0.0]) - xy[1]
     closest = abs(d[0] * r[1] - d[1] * r[0]) / np.linalg.norm(d)
     assert rep.clearance_m["NFZ1"] == pytest.approx(closest - 20.0, abs=0.05)
     assert rep.end_state == "landed" and rep.modes == ("SMART_RTL",)
     assert rep.end_xy_m == pytest.approx((140.0, 10.0), abs=0.01)
+
+
+# --------------------------------------------------------------------------------------------
+# "landed, N m from home": the home a return after the fault flies to (a DO_SET_HOME moves it)
+
+A_XY, B_XY = (0.0, 60.0), (80.0, 60.0)
+
+
+def _set_home_flight(site):
+    """Takeoff, A, DO_SET_HOME where the vehicle is (A), B, RTL: its return lands at A."""
+    items = [nav(site, Cmd.NAV_TAKEOFF, (0.0, 0.0)), speed(5.0), nav(site, Cmd.NAV_WAYPOINT, A_XY),
+             MissionItem(DO_SET_HOME, [1.0, 0, 0, 0, 0, 0, 0], int(Frame.GLOBAL_RELATIVE_ALT)),
+             nav(site, Cmd.NAV_WAYPOINT, B_XY),
+             MissionItem(int(Cmd.NAV_RETURN_TO_LAUNCH), [0.0] * 7, int(Frame.MISSION))]
+    return resolve_flight(plan_of(site, items), site)
+
+
+def _after_set_home(site, landed_xy=A_XY):
+    """ArduCopter telemetry: up to A, faulted halfway to B (item 4, seq 5), landed at
+    ``landed_xy``; and its injector (nothing heard from the vehicle about its home)."""
+    xy = np.array([[0.0, 0.0], [0.0, 30.0], A_XY, [40.0, 60.0], [60.0, 60.0], landed_xy,
+                   landed_xy])
+    lat, lon = site.frame.to_geodetic(xy)
+    n = len(xy)
+    tel = Telemetry(t_s=np.arange(n) * 10.0, lat_deg=lat, lon_deg=lon,
+                    rel_alt_m=np.array([0.0, 30, 30, 30, 30, 30, 0]), vel_mps=np.zeros((n, 3)),
+                    mission_seq=np.array([1, 3, 5, 5, 5, 5, 5]), armed=np.arange(n) < n - 1,
+                    fence_breach=np.zeros(n, bool), mode_changes=[(35.0, "SMART_RTL")],
+                    takeoff_start_s=0.0, mission_start_s=0.0)
+    inj = FaultInjector(FakeLink(), "rc-loss", (40.0, 60.0), site.frame.to_local, px4=False)
+    inj.injected_s, inj.injected_xy_m, inj.how = 30.0, (40.0, 60.0), "SIM_RC_FAIL 1"
+    return inj, tel
+
+
+def test_a_landing_is_measured_from_the_home_in_force_when_the_fault_came():
+    site = make_site(nfz=((300.0, 300.0, 10.0),))
+    flight = _set_home_flight(site)
+    inj, tel = _after_set_home(site)
+    rep = score_fault(inj, tel, site, flight, "landed and disarmed after the fault")
+    assert rep.end_from_home_m == pytest.approx(0.0, abs=0.01)
+    assert rep.home == "home set by item 3"
+
+
+def test_a_fault_before_the_do_set_home_is_measured_from_the_plans_home():
+    site = make_site(nfz=((300.0, 300.0, 10.0),))
+    inj, tel = _after_set_home(site, landed_xy=(0.0, 0.0))
+    inj.injected_s = 10.0  # on the leg to A
+    rep = score_fault(inj, tel, site, _set_home_flight(site), "landed and disarmed")
+    assert rep.end_from_home_m == pytest.approx(0.0, abs=0.01) and rep.home == "home"
+
+
+def test_the_home_the_vehicle_reports_is_the_one_a_landing_is_measured_from():
+    """ArduCopter took its home where it cut A's corner: its HOME_POSITION, not the plan's
+    waypoint, is where its return landed."""
+    site = make_site(nfz=((300.0, 300.0, 10.0),))
+    cut = (1.2, 58.9)
+    inj, tel = _after_set_home(site, landed_xy=cut)
+    lat, lon = site.frame.to_geodetic(np.array(cut))
+    inj._take_truth(SimpleNamespace(get_type=lambda: "HOME_POSITION",
+                                    latitude=round(float(lat) * 1e7),
+                                    longitude=round(float(lon) * 1e7)))
+    rep = score_fault(inj, tel, site, _set_home_flight(site), "landed and disarmed")
+    assert rep.end_from_home_m == pytest.approx(0.0, abs=0.02)
+    assert rep.home == "the home the vehicle reported"
+
+
+def test_the_fault_line_says_which_home_the_landing_is_measured_from():
+    site = make_site(nfz=((300.0, 300.0, 10.0),))
+    inj, tel = _after_set_home(site, landed_xy=(3.0, 64.0))
+    rep = score_fault(inj, tel, site, _set_home_flight(site), "landed and disarmed")
+    assert "ended landed, 5.0 m from home set by item 3" in fault_lines(rep.as_dict())

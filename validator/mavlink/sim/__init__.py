@@ -15,6 +15,10 @@ and behaves like ArduCopter 4.x towards a ground station:
   MISSION_START, MISSION_SET_CURRENT, RTL and LAND (:mod:`.commands`, carried out by
   :mod:`.copter`), parameters (PARAM_*: :mod:`.params`), REQUEST_MESSAGE for HOME_POSITION and
   AUTOPILOT_VERSION;
+- its home where it arms, moved by a mission's DO_SET_HOME as the resolved flight moves it
+  (:mod:`validator.flight.home`: param1 1 where the vehicle is, its altitude too; else the
+  item's location): HOME_POSITION is sent as it moves, RTL flies there and climbs RTL_ALT above
+  it, and the relative altitude is reported above it;
 - flying the uploaded mission in AUTO along the validator's replay of it (the same dynamics
   model; see :mod:`validator.mavlink.autoflight`), GLOBAL_POSITION_INT at ``telemetry_hz``
   (simulated seconds), MISSION_CURRENT, MISSION_ITEM_REACHED, EXTENDED_SYS_STATE and

@@ -80,7 +80,7 @@ class Commands:
                       else m.MAVLINK_MSG_ID_AUTOPILOT_VERSION)
             if wanted in (m.MAVLINK_MSG_ID_HOME_POSITION, m.MAVLINK_MSG_ID_AUTOPILOT_VERSION):
                 self._ack(msg, m.MAV_RESULT_ACCEPTED)  # the protocol: ACK, then the message
-                telemetry.send_requested(copter.mav, wanted, copter.config.home)
+                telemetry.send_requested(copter.mav, wanted, copter.home_lla)
                 return None
         elif c == m.MAV_CMD_SET_MESSAGE_INTERVAL:
             result = m.MAV_RESULT_ACCEPTED  # telemetry runs at its configured rate

@@ -1,6 +1,8 @@
 """The simulated copter's flight: its state, the mode changes, arming and takeoff ArduCopter
 allows, and how it moves in simulated time (AUTO along the replay of its mission, other modes
-by the point follower), with the reports each change sends."""
+by the point follower), with the reports each change sends. Its home is where it armed until
+a mission's DO_SET_HOME moves it (:mod:`validator.flight.home`): RTL flies there, and
+HOME_POSITION and the relative altitude report it, as ArduCopter's do."""
 
 from __future__ import annotations
 
@@ -12,6 +14,7 @@ from numpy.typing import NDArray
 
 from validator.errors import InputError
 from validator.fence_geometry import LocalFence, local_fence
+from validator.flight import Home
 from validator.geodesy import LocalFrame
 from validator.mavlink.autoflight import AutoTrack, build_auto_track
 from validator.mavlink.sim import telemetry
@@ -30,7 +33,8 @@ LAND_SPEED_BELOW_M = 10.0  # descending to the ground, LAND_SPEED applies below 
 
 
 class Copter:
-    """The flight state (simulated seconds, metres east/north/up of home) and what changes it.
+    """The flight state (simulated seconds, metres east/north/up of the first home, where the
+    ground is) and what changes it.
 
     The transitions (:meth:`arm`, :meth:`set_mode`, :meth:`takeoff`, :meth:`mission_start`,
     :meth:`set_current`, :meth:`change_speed`) return a MAV_RESULT. ``mav`` sends the
@@ -57,6 +61,8 @@ class Copter:
         self._auto: AutoTrack | None = None
         self._auto_t0 = 0.0
         self._auto_reached = 0  # events of self._auto already sent
+        self._auto_homes = 0  # its homes already set
+        self.home = Home(np.zeros(2))  # the home in force: RTL's destination
         self._fence: LocalFence = NO_FENCE
         self.breach = False
         self.breach_count = 0
@@ -100,6 +106,7 @@ class Copter:
             if self.mode not in ARMABLE_MODES:
                 self.say(f"Arm: Mode not armable ({self.mode.name})")
                 return m.MAV_RESULT_FAILED
+            self._set_home(Home(self.xy.copy(), None, self.alt_m))  # as ArduCopter arming does
             self.armed = True
             self.say("Arming motors")
             return m.MAV_RESULT_ACCEPTED
@@ -136,8 +143,8 @@ class Copter:
             if mode in HOLDING_MODES:
                 self._hold_here()
             elif mode == CopterMode.RTL:
-                rtl_alt = self._param_si("RTL_ALT")
-                self._target = (np.zeros(2), max(self.alt_m, rtl_alt))
+                rtl_alt = self.home.alt_m + self._param_si("RTL_ALT")  # above the home in force
+                self._target = (self.home.xy_m.copy(), max(self.alt_m, rtl_alt))
                 self._land_after_target = True
             elif mode == CopterMode.LAND:
                 self._target = (self.xy.copy(), 0.0)
@@ -214,6 +221,7 @@ class Copter:
             return
         self._auto_t0 = self.t_s
         self._auto_reached = 0
+        self._auto_homes = 0
         self.landed = False
         self.send_mission_current()
 
@@ -235,6 +243,9 @@ class Copter:
         tau = t_s - self._auto_t0
         xy, alt, vel = auto.state_at(tau)
         self.xy, self.alt_m, self.vel = xy, alt, vel
+        while self._auto_homes < len(auto.homes) and auto.homes[self._auto_homes][0] <= tau:
+            self._set_home(auto.homes[self._auto_homes][1])
+            self._auto_homes += 1
         while self._auto_reached < len(auto.reached) and auto.reached[self._auto_reached][0] <= tau:
             index = auto.reached[self._auto_reached][1]
             self._auto_reached += 1
@@ -298,15 +309,30 @@ class Copter:
             self.breach = now_breached
             self.send_fence_status()
 
+    def _set_home(self, home: Home) -> None:
+        self.home = home
+        self.send_home_position()  # AP_AHRS::set_home sends it unasked
+
     # -- reports ---------------------------------------------------------------------------
+
+    @property
+    def home_lla(self) -> tuple[float, float, float]:
+        """The home in force: latitude, longitude (degrees), altitude (m above sea level)."""
+        if not self.home.xy_m.any() and self.home.alt_m == 0.0:
+            return self.config.home  # exactly, not through the frame and back
+        lat, lon = self.frame.to_geodetic(self.home.xy_m)
+        return float(lat), float(lon), self.config.home[2] + self.home.alt_m
+
+    def send_home_position(self) -> None:
+        telemetry.send_requested(self.mav, mavlink.MAVLINK_MSG_ID_HOME_POSITION, self.home_lla)
 
     def say(self, text: str) -> None:
         telemetry.say(self.mav, text)
 
     def send_position(self) -> None:
         lat, lon = self.frame.to_geodetic(self.xy)
-        telemetry.send_position(self.mav, self.t_s, lat, lon, self.config.home[2], self.alt_m,
-                                self.vel)
+        telemetry.send_position(self.mav, self.t_s, lat, lon, self.config.home[2] + self.alt_m,
+                                self.alt_m - self.home.alt_m, self.vel)
 
     def send_mission_current(self) -> None:
         telemetry.send_mission_current(self.mav, self.current_seq, len(self.lists().mission),

@@ -22,16 +22,17 @@ def say(mav: Any, text: str) -> None:
     mav.statustext_send(mavlink.MAV_SEVERITY_INFO, text.encode("ascii")[:50])
 
 
-def send_position(mav: Any, t_s: float, lat_deg: ArrayLike, lon_deg: ArrayLike, home_alt_m: float,
-                  alt_m: float, vel: NDArray[np.float64]) -> None:
-    """GLOBAL_POSITION_INT; ``alt_m`` above home, ``vel`` (east, north, up) m/s."""
+def send_position(mav: Any, t_s: float, lat_deg: ArrayLike, lon_deg: ArrayLike, amsl_m: float,
+                  rel_alt_m: float, vel: NDArray[np.float64]) -> None:
+    """GLOBAL_POSITION_INT; ``amsl_m`` above sea level, ``rel_alt_m`` above the home in force,
+    ``vel`` (east, north, up) m/s."""
     heading = math.degrees(math.atan2(vel[0], vel[1])) % 360.0
     mav.global_position_int_send(
         int(t_s * 1000),
         int(to_int_e7(lat_deg)),
         int(to_int_e7(lon_deg)),
-        int(round((home_alt_m + alt_m) * 1000)),
-        int(round(alt_m * 1000)),
+        int(round(amsl_m * 1000)),
+        int(round(rel_alt_m * 1000)),
         int(round(vel[1] * 100)),  # north
         int(round(vel[0] * 100)),  # east
         int(round(-vel[2] * 100)),  # down
