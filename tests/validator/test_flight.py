@@ -343,10 +343,10 @@ def test_an_arducopter_do_set_home_with_coordinates_in_the_mission_frame_is_refu
 
 
 def test_px4_refuses_a_do_set_home_in_a_global_frame(site):
-    flight = resolve_flight(_around(site, _set_home(1.0, 0.0, 0.0, 0.0), px4=True), site)
-    found = [(f.severity, f.item) for f in flight.findings
-             if "MAV_MISSION_UNSUPPORTED" in f.message]
-    assert found == [("violation", 2)]
+    # as PX4 refuses the upload (frames.py's rule), not a violation of a plan it would fly
+    with pytest.raises(InputError, match=r"^p\.plan: item 2: PX4 takes DO_SET_HOME only in "
+                                         r"frame 2 .*\(MAV_MISSION_UNSUPPORTED\)"):
+        resolve_flight(_around(site, _set_home(1.0, 0.0, 0.0, 0.0), px4=True), site, "p.plan")
 
 
 def test_px4_cannot_take_a_do_set_home_at_coordinates(site):

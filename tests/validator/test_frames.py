@@ -1,6 +1,8 @@
 """Which frames the autopilot takes a navigation item's position in (validator.flight.frames)."""
 
 import dataclasses
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -8,9 +10,13 @@ import pytest
 from tests.validator.builders import make_site, waypoint_plan
 from validator.errors import InputError
 from validator.flight import resolve_flight
+from validator.flight.frames import PX4_POSITIONED, PX4_ROI, PX4_UNPOSITIONED
+from validator.mavlink.wire import mavlink
 from validator.plan_format import Autopilot, Cmd, Frame, MissionItem
 
 NAN = float("nan")
+# PX4 v1.15.4's source, as checked out beside its SITL build on these machines
+PX4_MISSION_CPP = Path("/opt/sitl/px4/src/modules/mavlink/mavlink_mission.cpp")
 
 
 @pytest.fixture(scope="module")
@@ -77,3 +83,93 @@ def test_px4_refuses_a_position_above_terrain(site, frame):
     with pytest.raises(InputError, match=rf"^p\.plan: item 3: frame {frame} \(above terrain\): "
                                          r"PX4 refuses the item \(MAV_MISSION_UNSUPPORTED_FRAME\)"):
         resolve_flight(plan, site, "p.plan")
+
+
+def _px4(plan):
+    return dataclasses.replace(plan, firmware_type=int(Autopilot.PX4))
+
+
+@pytest.mark.parametrize("index, command", [(1, Cmd.DO_CHANGE_SPEED), (4, Cmd.DO_JUMP),
+                                            (5, Cmd.NAV_RETURN_TO_LAUNCH)])
+def test_px4_refuses_a_command_without_a_position_in_a_global_frame(site, index, command):
+    """parse_mavlink_mission_item takes RTL, DO_CHANGE_SPEED, DO_JUMP... only in frame 2: sent
+    in frame 3 the upload fails (MAV_MISSION_UNSUPPORTED), as PX4 v1.15.4 SITL showed for RTL;
+    such a plan had been judged as if PX4 flew it."""
+    plan = waypoint_plan(site, [(50, -40), (150, -40)], end="rtl")
+    plan.items.insert(4, MissionItem(int(Cmd.DO_JUMP), [3.0, 1.0, 0, 0, 0, 0, 0],
+                                     int(Frame.MISSION)))
+    plan = _px4(plan)
+    plan.items[index] = dataclasses.replace(plan.items[index],
+                                            frame=int(Frame.GLOBAL_RELATIVE_ALT))
+    with pytest.raises(InputError, match=rf"^p\.plan: item {index}: PX4 takes {command.name} "
+                                         r"only in frame 2 \(MISSION\).* in frame 3 "
+                                         r"\(MAV_MISSION_UNSUPPORTED\); use 2 \(MISSION\)$"):
+        resolve_flight(plan, site, "p.plan")
+
+
+def test_px4_takes_rtl_in_the_mission_frame(site):
+    flight = resolve_flight(_px4(waypoint_plan(site, [(50, -40)], end="rtl")), site)
+    assert [leg.kind for leg in flight.legs][-2:] == ["rtl", "land"]
+
+
+def test_arducopter_takes_rtl_in_a_global_frame(site):
+    # AP_Mission checks the frame only of a command with a location, and RTL has none
+    plan = waypoint_plan(site, [(50, -40)], end="rtl")
+    plan.items[-1] = dataclasses.replace(plan.items[-1], frame=int(Frame.GLOBAL_RELATIVE_ALT))
+    assert [leg.kind for leg in resolve_flight(plan, site).legs][-2:] == ["rtl", "land"]
+
+
+def test_px4_refuses_an_item_the_mission_never_reaches(site):
+    """One refused item fails PX4's whole upload: an RTL after the LAND, never flown, had
+    never been looked at."""
+    plan = _px4(waypoint_plan(site, [(50, -40)]))
+    plan.items.append(MissionItem(int(Cmd.NAV_RETURN_TO_LAUNCH), [0.0] * 7,
+                                  int(Frame.GLOBAL_RELATIVE_ALT)))
+    with pytest.raises(InputError, match=r"^p\.plan: item 4: PX4 takes NAV_RETURN_TO_LAUNCH"):
+        resolve_flight(plan, site, "p.plan")
+
+
+@pytest.mark.parametrize("frame, mode, refused", [(2, 3.0, True), (2, 1.0, False),
+                                                  (3, 1.0, True), (3, 3.0, False)])
+def test_px4_takes_each_roi_mode_only_in_its_frame(site, frame, mode, refused):
+    """DO_SET_ROI at a location (mode 3) goes in a global frame, toward the next waypoint
+    (1) in frame 2; the other way round PX4 refuses it (MAV_MISSION_INVALID_PARAM1)."""
+    plan = _px4(waypoint_plan(site, [(50, -40)]))
+    lat, lon = site.frame.to_geodetic(np.array([50.0, 0.0]))
+    plan.items.insert(2, MissionItem(201, [mode, 0.0, 0.0, 0.0, float(lat), float(lon), 0.0],
+                                     frame))
+    if not refused:
+        resolve_flight(plan, site)
+        return
+    with pytest.raises(InputError, match=r"^plan: item 2: PX4 takes DO_SET_ROI in frame "
+                                         rf"{frame} only with param1 .*not {mode:g} "
+                                         r"\(MAV_MISSION_INVALID_PARAM1\)"):
+        resolve_flight(plan, site)
+
+
+def test_arducopter_refuses_a_do_item_location_in_a_frame_without_positions(site):
+    # DO_SET_ROI is stored with a location, whose frame AP_Mission checks as a waypoint's
+    plan = waypoint_plan(site, [(50, -40)])
+    plan.items.insert(2, MissionItem(201, [3.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1))
+    with pytest.raises(InputError, match=r"^plan: item 2: frame 1 is no frame for a position: "
+                                         r"ArduPilot refuses the item"):
+        resolve_flight(plan, site)
+
+
+@pytest.mark.skipif(not PX4_MISSION_CPP.is_file(), reason=f"no PX4 source at {PX4_MISSION_CPP}")
+def test_the_px4_tables_are_the_case_labels_of_its_mission_item_parser():
+    """PX4_POSITIONED, PX4_UNPOSITIONED and PX4_ROI are the commands of the global-frame
+    switch of parse_mavlink_mission_item, of its frame-2 switch, and of both."""
+    text = PX4_MISSION_CPP.read_text(encoding="utf-8")
+    body = text[text.index("MavlinkMissionManager::parse_mavlink_mission_item("):]
+    body = body[:body.index("MavlinkMissionManager::format_mavlink_mission_item(")]
+    in_global, in_mission = body.split("frame == MAV_FRAME_MISSION)", 1)
+
+    def commands(part: str) -> dict[int, str]:
+        names = re.findall(r"case (?:MAV|NAV)_CMD_(\w+):", part)
+        return {int(getattr(mavlink, f"MAV_CMD_{n}")): n for n in names}
+
+    g, m = commands(in_global), commands(in_mission)
+    assert PX4_POSITIONED == {k: v for k, v in g.items() if k not in m}
+    assert PX4_UNPOSITIONED == {k: v for k, v in m.items() if k not in g}
+    assert PX4_ROI == {k: v for k, v in g.items() if k in m}

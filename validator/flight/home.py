@@ -45,7 +45,8 @@ PX4 v1.15 does not ignore it (``MavlinkMissionManager::parse_mavlink_mission_ite
 from the home position the commander publishes):
 
 - it takes DO_SET_HOME only in MAV_FRAME_MISSION (2); in a global frame the upload is refused
-  (MAV_MISSION_UNSUPPORTED);
+  (MAV_MISSION_UNSUPPORTED), a rule of :mod:`validator.flight.frames`, which the resolver
+  applies to every item first;
 - the mission issues it as a vehicle command when it becomes the active item, and the commander
   applies it (COM_HOME_EN 1, the default): param1 above 0.5 is the current position, as
   ArduCopter's 1;
@@ -69,7 +70,7 @@ from numpy.typing import ArrayLike, NDArray
 from validator.flight.frames import AMSL_FRAMES, RELATIVE_FRAMES, no_coordinate
 from validator.flight.model import Home, Severity
 from validator.item_lists import GLOBAL_FRAMES
-from validator.plan_format import Frame, MissionItem
+from validator.plan_format import MissionItem
 from validator.site import Site
 from validator.zones import buffer_intrusion
 
@@ -82,12 +83,9 @@ HOME_ALT_MOVE_M = 1.0  # a home moved less than this up or down moves no height 
 def set_home_source(it: MissionItem, px4: bool) -> tuple[bool, str]:
     """How the autopilot takes DO_SET_HOME ``it`` (see the module doc): (True: where the
     vehicle is, else at the item's latitude/longitude; why its home is not known, "" when it
-    is)."""
+    is), for an item in a frame the autopilot takes (:func:`~.frames.item_refusal`)."""
     p1, lat, lon, alt = it.params[0], it.params[4], it.params[5], it.params[6]
     if px4:
-        if it.frame != Frame.MISSION:
-            return False, (f"PX4 refuses a DO_SET_HOME in frame {it.frame} at upload "
-                           "(MAV_MISSION_UNSUPPORTED): it takes one only in frame 2 (MISSION)")
         if p1 > PX4_CURRENT_ABOVE:
             return True, ""
         return False, ("PX4 takes a DO_SET_HOME's latitude and longitude unscaled from "

@@ -15,7 +15,8 @@ Conventions:
   it, :mod:`.home`), then lands; LAND flies to its position (if given) and descends. Both end
   the mission, as does an unlimited loiter.
 - A position of (0, 0) or NaN in an item means "where the vehicle is"; an altitude of 0 or NaN
-  in a waypoint means "the current altitude" (ArduPilot's rule).
+  in a waypoint means "the current altitude" (ArduPilot's rule). Every item's frame is checked
+  first (:mod:`.frames`).
 
 What the resolution cannot model is reported as findings: unsupported navigation commands
 (the vehicle's path is unknown, so clearance cannot be proven: ``violation``), unknown
@@ -37,7 +38,7 @@ from numpy.typing import NDArray
 from validator.autopilot.ardupilot import PARAMS as ARDUPILOT_PARAMS
 from validator.errors import InputError
 from validator.flight.bounds import MAX_MISSION_S
-from validator.flight.frames import AMSL_FRAMES, TERRAIN_FRAMES, nav_frame_refusal
+from validator.flight.frames import AMSL_FRAMES, TERRAIN_FRAMES, plan_refusal
 from validator.flight.home import CONDITIONS, home_finding, home_height_finding, moved_home
 from validator.flight.model import CycleSpan, Finding, Flight, Home, Leg, LegKind, Severity
 from validator.flight.service import ServicePlan, parse_service
@@ -151,14 +152,7 @@ class _Resolver:
             raise InputError(f"{self.source}: {what} at {why}")
         return xy
 
-    def refuse_frame(self, it: MissionItem, *, at_position: bool) -> None:
-        why = nav_frame_refusal(it, self.plan.firmware_type == Autopilot.PX4,
-                                at_position=at_position)
-        if why is not None:
-            raise InputError(f"{self.source}: item {self._idx}: {why}")
-
     def position(self, it: MissionItem) -> NDArray[np.float64]:
-        self.refuse_frame(it, at_position=True)
         lat, lon = it.params[4], it.params[5]
         if math.isnan(lat) or math.isnan(lon) or (lat == 0.0 and lon == 0.0):
             return self.state.xy.copy()
@@ -169,7 +163,6 @@ class _Resolver:
         return self.local(lat, lon, f"item {self._idx}")
 
     def altitude(self, it: MissionItem, i: int, *, zero_is_current: bool) -> float:
-        self.refuse_frame(it, at_position=False)
         alt = it.params[6]
         if math.isnan(alt) or (zero_is_current and alt == 0.0):
             return self.state.alt_m
@@ -443,8 +436,13 @@ def resolve_flight(plan: Plan, site: Site, source: str = "plan") -> Flight:
     """Resolve ``plan`` into the :class:`Flight` the vehicle will fly over ``site``.
 
     Raises :class:`InputError` for missions no autopilot would accept (a DO_JUMP to nowhere,
-    coordinates out of range, runaway jumps) and for malformed planner metadata.
+    coordinates out of range, runaway jumps), for an item the plan's autopilot would refuse
+    or misplace for its frame (:func:`~.frames.plan_refusal`), and for malformed planner
+    metadata.
     """
+    refused = plan_refusal(plan.items, plan.firmware_type == Autopilot.PX4)
+    if refused is not None:
+        raise InputError(f"{source}: {refused}")
     service = parse_service(plan.extra, site, source)
     if service is not None and service.cycle_items[1] >= len(plan.items):
         raise InputError(f"{source}.nfzMission.cycle_items: item {service.cycle_items[1]} "

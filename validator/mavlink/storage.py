@@ -51,6 +51,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from validator.flight.frames import ARDUPILOT_LOCATED
 from validator.mavlink.wire import GLOBAL_FRAMES, MissionType, WireItem, f32, first_difference
 from validator.plan_format import Autopilot, Cmd
 
@@ -97,9 +98,6 @@ _ARDUPILOT_MISSION: dict[int, tuple[tuple[Store | None, ...], frozenset[int]]] =
     int(Cmd.DO_JUMP): ((U16, I16, None, None), frozenset({0, 1})),
     int(Cmd.DO_CHANGE_SPEED): ((U8, f32, f32, None), frozenset({0, 1})),
 }
-# AP_Mission::stored_in_location: the commands whose x, y, z are a location.
-_ARDUPILOT_LOCATED = frozenset({16, 17, 18, 19, 21, 22, 30, 31, 82, 92, 179, 189, 191, 201,
-                                84, 85, 94})
 _LOCATION_FRAME = {0: 0, 2: 0, 5: 0, 3: 3, 6: 3, 10: 10, 11: 10}
 ALT_TOLERANCE_M = 0.01  # ArduPilot keeps mission altitudes in whole cm: not a loss
 RALLY_ALT_TOLERANCE_M = 1.0  # ... and rally altitudes in whole metres
@@ -120,7 +118,7 @@ def _ardupilot_mission(item: WireItem) -> WireItem:
     else:
         params = tuple(0.0 if keep is None else keep(v) for keep, v in zip(rule[0], raw,
                                                                             strict=True))
-    if item.command in _ARDUPILOT_LOCATED:
+    if item.command in ARDUPILOT_LOCATED:
         frame = _LOCATION_FRAME.get(item.frame, item.frame)
         x, y, z = item.x, item.y, _cm_alt(item.z)
     elif rule is not None:
@@ -248,7 +246,7 @@ def storage_losses(items: tuple[WireItem, ...], autopilot: int) -> list[str]:
                 out.append(f"{label}: ArduPilot would keep param{i + 1} {sent:g} of command "
                            f"{it.command} as {held:g}")
         located = it.mission_type == 2 or (it.mission_type == 0
-                                           and it.command in _ARDUPILOT_LOCATED)
+                                           and it.command in ARDUPILOT_LOCATED)
         if located and it.frame in GLOBAL_FRAMES:
             tol = RALLY_ALT_TOLERANCE_M if it.mission_type == 2 else ALT_TOLERANCE_M
             if not abs(kept.z - it.z) < tol:
