@@ -173,3 +173,24 @@ def test_the_px4_tables_are_the_case_labels_of_its_mission_item_parser():
     assert PX4_POSITIONED == {k: v for k, v in g.items() if k not in m}
     assert PX4_UNPOSITIONED == {k: v for k, v in m.items() if k not in g}
     assert PX4_ROI == {k: v for k, v in g.items() if k in m}
+
+
+@pytest.mark.parametrize("px4", [False, True])
+@pytest.mark.parametrize("left_out, given", [(4, "longitude"), (5, "latitude")])
+def test_a_waypoint_with_one_coordinate_left_out_is_refused(site, px4, left_out, given):
+    """Both autopilots get the missing one as 0 (MISSION_ITEM_INT) and fly toward the equator
+    or the prime meridian: the resolver had taken a NaN in either for "where the vehicle is"."""
+    plan = waypoint_plan(site, [(50, -40), (150, -40)])
+    plan.items[3].params[left_out] = NAN
+    with pytest.raises(InputError, match=rf"^p\.plan: item 3: \w+ left out \(null\) but "
+                                         rf"{given} -?[\d.]+ given: .*give both or neither$"):
+        resolve_flight(_px4(plan) if px4 else plan, site, "p.plan")
+
+
+@pytest.mark.parametrize("lat, lon", [(NAN, 0.0), (0.0, NAN)])
+def test_a_waypoint_whose_coordinates_both_travel_as_0_stays_put(site, lat, lon):
+    # one left out and the other 0: both are sent as 0, "where the vehicle is"
+    plan = waypoint_plan(site, [(50, -40), (150, -40)])
+    plan.items[3].params[4:6] = [lat, lon]
+    flight = resolve_flight(plan, site)
+    np.testing.assert_allclose(flight.legs[2].end_xy_m, flight.legs[1].end_xy_m, atol=1e-9)

@@ -7,7 +7,7 @@ items without a position) ground stations send params 5 and 6 unscaled, as whole
 QGroundControl (``PlanManager``: ``frame == MAV_FRAME_MISSION ? param5 : param5 * 1e7``,
 truncated to int32, and read back the same way) and MAVSDK's ``.plan`` import
 (``MissionImport::set_int32``) alike; so does :mod:`validator.mavlink.wire`, which refuses the
-fraction they would cut.
+fraction they would cut. A latitude or longitude left out (NaN) travels as 0.
 
 ArduPilot 4.5 (``AP_Mission::mavlink_int_to_mission_cmd``, ``stored_in_location``): a command
 with a location (:data:`ARDUPILOT_LOCATED`) takes x and y as degrees x 1e7 whatever the frame;
@@ -15,8 +15,9 @@ frames 0, 2 and 5 make its altitude absolute, 3 and 6 above home, 10 and 11 abov
 other is refused (MAV_MISSION_UNSUPPORTED_FRAME). A command without one (RTL, NAV_DELAY, the
 DO items but DO_SET_HOME, DO_LAND_START, DO_GO_AROUND and DO_SET_ROI) is taken in any frame,
 which it ignores. A frame-2 item with coordinates (whole degrees on the wire) therefore flies
-toward 0°N 0°E; without them (x and y 0) it flies from where the vehicle is, as in any frame.
-ArduCopter's NAV_TAKEOFF uses only the altitude (it climbs where it is).
+toward 0°N 0°E; without them (x and y 0) it flies from where the vehicle is, as in any frame
+(``ModeAuto::loc_from_cmd``: only latitude and longitude both 0 are "here"). ArduCopter's
+NAV_TAKEOFF uses only the altitude (it climbs where it is).
 
 PX4 v1.15 (``MavlinkMissionManager::parse_mavlink_mission_item``): the frame decides which
 commands it takes. Frames 0 and 3 and, sent as MISSION_ITEM_INT, 5 and 6 take only the
@@ -83,6 +84,25 @@ def no_coordinate(value: float) -> bool:
     return math.isnan(value) or value == 0.0
 
 
+def unplaced(it: MissionItem) -> bool:
+    """``it`` gives no latitude and longitude (both sent as 0): the autopilot flies it from
+    where the vehicle is."""
+    return no_coordinate(it.params[4]) and no_coordinate(it.params[5])
+
+
+def coordinate_refusal(it: MissionItem) -> str | None:
+    """Why ``it``, one of its latitude and longitude left out (NaN), is not flown where the
+    plan seems to say, in one line; None when both or neither are given."""
+    lat, lon = it.params[4], it.params[5]
+    if unplaced(it) or not (math.isnan(lat) or math.isnan(lon)):
+        return None
+    missing, given = ("latitude", "longitude") if math.isnan(lat) else ("longitude", "latitude")
+    return (f"{missing} left out (null) but {given} {lon if math.isnan(lat) else lat:g} "
+            f"given: MISSION_ITEM_INT sends it as {missing} 0, so the vehicle flies toward "
+            f"{missing} 0, not from where it is (only both left out mean that); give both "
+            "or neither")
+
+
 def _name(command: int) -> str:
     try:
         return Cmd(command).name
@@ -139,9 +159,7 @@ def _ardupilot_refusal(it: MissionItem) -> str | None:
     if it.frame not in AMSL_FRAMES | RELATIVE_FRAMES | TERRAIN_FRAMES:
         return (f"frame {it.frame} is no frame for a position: ArduPilot refuses the item "
                 f"(MAV_MISSION_UNSUPPORTED_FRAME); {USE_INSTEAD}")
-    lat, lon = it.params[4], it.params[5]
-    if (it.frame == Frame.MISSION and _flown_to(it.command)
-            and not (no_coordinate(lat) and no_coordinate(lon))):
+    if it.frame == Frame.MISSION and _flown_to(it.command) and not unplaced(it):
         return ("frame 2 (MISSION) carries latitude and longitude unscaled, as "
                 "QGroundControl sends them, and ArduPilot reads them as degrees x 1e7: "
                 f"{_name(it.command)} would fly toward 0°N 0°E; {USE_INSTEAD}")
@@ -150,9 +168,12 @@ def _ardupilot_refusal(it: MissionItem) -> str | None:
 
 def item_refusal(it: MissionItem, px4: bool) -> str | None:
     """Why the autopilot (PX4 if ``px4``, else ArduPilot) would refuse mission item ``it`` at
-    upload because of its frame, or fly it elsewhere than the plan says, in one line; None
-    when it takes it as written."""
-    return _px4_refusal(it) if px4 else _ardupilot_refusal(it)
+    upload because of its frame, or fly it elsewhere than the plan says (its frame, or one of
+    latitude and longitude left out), in one line; None when it takes it as written."""
+    why = _px4_refusal(it) if px4 else _ardupilot_refusal(it)
+    if why is None and _flown_to(it.command):
+        why = coordinate_refusal(it)
+    return why
 
 
 def plan_refusal(items: Sequence[MissionItem], px4: bool) -> str | None:

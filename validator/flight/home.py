@@ -67,7 +67,7 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from validator.flight.frames import AMSL_FRAMES, RELATIVE_FRAMES, no_coordinate
+from validator.flight.frames import AMSL_FRAMES, RELATIVE_FRAMES, unplaced
 from validator.flight.model import Home, Severity
 from validator.item_lists import GLOBAL_FRAMES
 from validator.plan_format import MissionItem
@@ -84,17 +84,17 @@ def set_home_source(it: MissionItem, px4: bool) -> tuple[bool, str]:
     """How the autopilot takes DO_SET_HOME ``it`` (see the module doc): (True: where the
     vehicle is, else at the item's latitude/longitude; why its home is not known, "" when it
     is), for an item in a frame the autopilot takes (:func:`~.frames.item_refusal`)."""
-    p1, lat, lon, alt = it.params[0], it.params[4], it.params[5], it.params[6]
+    p1, alt = it.params[0], it.params[6]
     if px4:
         if p1 > PX4_CURRENT_ABOVE:
             return True, ""
         return False, ("PX4 takes a DO_SET_HOME's latitude and longitude unscaled from "
                        "MISSION_ITEM_INT (whole degrees in frame 2): home would not be this "
                        "item's position; give param1 1 at the new home instead")
-    unplaced = no_coordinate(lat) and no_coordinate(lon)
-    if (math.isfinite(p1) and int(p1) == 1) or (unplaced and alt == 0.0):
+    here = unplaced(it)
+    if (math.isfinite(p1) and int(p1) == 1) or (here and alt == 0.0):
         return True, ""
-    if unplaced:
+    if here:
         return False, ("ArduCopter moves home to 0°N 0°E: param1 is not 1, latitude and "
                        "longitude are 0 and the altitude is not; give param1 1 for the "
                        "current position, or the new home's coordinates")

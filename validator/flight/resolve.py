@@ -14,9 +14,9 @@ Conventions:
   the nearest of the rally points and the home in force (DO_SET_HOME moves it: each leg carries
   it, :mod:`.home`), then lands; LAND flies to its position (if given) and descends. Both end
   the mission, as does an unlimited loiter.
-- A position of (0, 0) or NaN in an item means "where the vehicle is"; an altitude of 0 or NaN
-  in a waypoint means "the current altitude" (ArduPilot's rule). Every item's frame is checked
-  first (:mod:`.frames`).
+- An item without latitude and longitude (each 0 or NaN: both travel as 0) means "where the
+  vehicle is"; one of them alone is refused (:mod:`.frames`, with every item's frame); an
+  altitude of 0 or NaN in a waypoint means "the current altitude" (ArduPilot's rule).
 
 What the resolution cannot model is reported as findings: unsupported navigation commands
 (the vehicle's path is unknown, so clearance cannot be proven: ``violation``), unknown
@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 from validator.autopilot.ardupilot import PARAMS as ARDUPILOT_PARAMS
 from validator.errors import InputError
 from validator.flight.bounds import MAX_MISSION_S
-from validator.flight.frames import AMSL_FRAMES, TERRAIN_FRAMES, plan_refusal
+from validator.flight.frames import AMSL_FRAMES, TERRAIN_FRAMES, plan_refusal, unplaced
 from validator.flight.home import CONDITIONS, home_finding, home_height_finding, moved_home
 from validator.flight.model import CycleSpan, Finding, Flight, Home, Leg, LegKind, Severity
 from validator.flight.service import ServicePlan, parse_service
@@ -154,7 +154,7 @@ class _Resolver:
 
     def position(self, it: MissionItem) -> NDArray[np.float64]:
         lat, lon = it.params[4], it.params[5]
-        if math.isnan(lat) or math.isnan(lon) or (lat == 0.0 and lon == 0.0):
+        if unplaced(it):
             return self.state.xy.copy()
         if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
             raise InputError(
