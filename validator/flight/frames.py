@@ -1,5 +1,6 @@
 """The frames an autopilot takes a mission item in, and how it reads the coordinates there:
-the one rule :mod:`.resolve` asks of every item of a plan.
+the one rule :mod:`.resolve` asks of every item of a plan, and ``upload-mission``
+(:func:`validator.mavlink.link.upload_to`) of every item it is about to send.
 
 How the coordinates travel: MISSION_ITEM_INT carries a position's latitude and longitude as
 x and y, int32 degrees x 1e7 in the global frames. In frame 2 (MAV_FRAME_MISSION, meant for

@@ -108,7 +108,8 @@ def _upload(args: argparse.Namespace) -> int:
         print("upload-mission: --params without --site: the failsafe paths are not "
               "audited (add --site SITE)", file=sys.stderr)
     report = upload_plan(plan, args.connect, timeout_s=args.timeout, sysid=args.sysid,
-                         params=params, require_fence=not args.allow_fence_off, signing_key=key)
+                         params=params, require_fence=not args.allow_fence_off, signing_key=key,
+                         source=args.plan)
     print(report.summary())
     return EXIT_OK
 

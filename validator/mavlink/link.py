@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 from validator.autopilot.fence_storage import fence_storage_problem
 from validator.errors import InputError
+from validator.flight.frames import plan_refusal
 from validator.geodesy import from_int_e7
 from validator.mavlink import mission_protocol, param_protocol
 from validator.mavlink.connection import (
@@ -183,13 +184,19 @@ def fence_problems(link: Link, plan: Plan) -> list[str]:
 
 
 def upload_to(link: Link, plan: Plan, params: Mapping[str, float] | None = None, *,
-              require_fence: bool = True) -> UploadReport:
-    """Upload ``plan``'s three lists, set ``params`` (each read back, in order, after the
-    lists: a fence is switched on only once it is loaded) and verify the lists by downloading
-    them again. Raises :class:`InputError` before sending anything when the autopilot would
-    store an item with another meaning (a fractional ArduPilot hold), and :class:`LinkError`
-    on any failure, any difference, or, with ``require_fence``, a plan whose fence the vehicle
-    then holds switched off or with a breach action that can cross another zone."""
+              require_fence: bool = True, source: str = "plan") -> UploadReport:
+    """Upload ``plan`` (read from ``source``, for messages)'s three lists, set ``params`` (each
+    read back, in order, after the lists: a fence is switched on only once it is loaded) and
+    verify the lists by downloading them again. Raises :class:`InputError` before sending
+    anything when the vehicle's autopilot would refuse an item for its frame or fly it
+    elsewhere (:func:`validator.flight.frames.plan_refusal`: what ``validate-mission`` judges,
+    here with or without a site) or store an item with another meaning (a fractional
+    ArduPilot hold), and :class:`LinkError` on any failure, any difference, or, with
+    ``require_fence``, a plan whose fence the vehicle then holds switched off or with a breach
+    action that can cross another zone."""
+    refused = plan_refusal(plan.items, link.vehicle.is_px4)
+    if refused is not None:
+        raise InputError(f"{source}: {refused}")
     storage = fence_storage_problem(plan, link.vehicle.is_ardupilot)
     if storage is not None:
         raise InputError(f"the vehicle would not keep the plan as written: {storage}")
@@ -224,12 +231,14 @@ def upload_plan(
     params: Mapping[str, float] | None = None,
     require_fence: bool = True,
     signing_key: bytes | None = None,
+    source: str = "plan",
 ) -> UploadReport:
-    """Upload ``plan`` to the vehicle at ``url`` and verify it (``upload-mission``; see
-    :func:`upload_to`); with ``signing_key``, over a signed link (:mod:`.signing`)."""
+    """Upload ``plan`` (read from ``source``) to the vehicle at ``url`` and verify it
+    (``upload-mission``; see :func:`upload_to`); with ``signing_key``, over a signed link
+    (:mod:`.signing`)."""
     with Link(url, timeout_s=timeout_s, target_system=sysid, signing_key=signing_key) as link, \
             _explaining(link, sysid):
-        return upload_to(link, plan, params, require_fence=require_fence)
+        return upload_to(link, plan, params, require_fence=require_fence, source=source)
 
 
 # How long a failed command without --sysid listens for other autopilots (heartbeats: 1 Hz).

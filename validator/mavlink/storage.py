@@ -231,7 +231,10 @@ def stored_form(item: WireItem, autopilot: int) -> WireItem:
 def storage_losses(items: tuple[WireItem, ...], autopilot: int) -> list[str]:
     """One line per item whose meaning ``autopilot``'s storage would change: a hold, speed or
     jump the vehicle would not keep as planned, an altitude moved by more than its storage
-    resolution. Params the autopilot ignores on a multicopter are not losses."""
+    resolution. Params the autopilot ignores on a multicopter are not losses. Nor is an item
+    the autopilot refuses or misplaces for its frame (a frame-2 waypoint ArduPilot flies toward
+    0°N 0°E): that is :func:`validator.flight.frames.plan_refusal`'s rule, which
+    :func:`~validator.mavlink.link.upload_to` asks first."""
     if autopilot != ARDUPILOT:
         return []
     out: list[str] = []

@@ -82,6 +82,25 @@ def test_upload_mission_nack_exits_2_with_one_line(tmp_path, plan, capsys):
                    "\n")
 
 
+def test_upload_mission_refuses_a_waypoint_arducopter_would_fly_toward_0_0(tmp_path, plan,
+                                                                             capsys):
+    """A frame-2 waypoint carries whole degrees, which ArduPilot reads as degrees x 1e7: it
+    was refused only with --site (by the resolver), and without it uploaded and verified."""
+    lat, lon = round(plan.items[3].params[4]), round(plan.items[3].params[5])
+    items = list(plan.items)
+    items[3] = dataclasses.replace(items[3], params=[*items[3].params[:4], lat, lon, 30.0],
+                                   frame=2)
+    path = tmp_path / "m.plan"
+    write_plan(dataclasses.replace(plan, items=items), path)
+    with FakeVehicle() as fake:
+        assert upload_mission_main([str(path), "--connect", fake.url, "--timeout", "2"]) == 2
+        assert fake.lists[0] == []  # nothing was sent
+    err = capsys.readouterr().err
+    assert err.startswith(f"upload-mission: {path}: item 3: frame 2 (MISSION) carries latitude "
+                          "and longitude unscaled"), err
+    assert err.count("\n") == 1 and "0°N 0°E" in err
+
+
 def test_upload_mission_corrupt_plan_exits_2(tmp_path, capsys):
     path = tmp_path / "m.plan"
     path.write_text("{not json")

@@ -1,4 +1,6 @@
 
+import dataclasses
+
 import pytest
 
 from tests.validator.mavlink.conftest import FakeVehicle, free_udp_port, url_of
@@ -7,11 +9,13 @@ from validator.errors import InputError
 from validator.mavlink.link import (
     Link,
     LinkError,
+    VehicleInfo,
     download_plan,
     upload_plan,
     upload_to,
 )
 from validator.mavlink.wire import MissionType, mavlink, plan_to_wire
+from validator.plan_format import Autopilot, Cmd, Frame, MissionItem
 
 
 def test_upload_then_read_back_is_identical(plan, start_vehicle):
@@ -121,6 +125,24 @@ def test_an_upload_that_leaves_the_fence_report_only_fails(plan, start_vehicle):
     assert vehicle.lists().fence  # the mission is there: the failure says so
     report = upload_plan(plan, url_of(vehicle), timeout_s=5, params={"FENCE_ACTION": 5.0})
     assert report.params == {"FENCE_ACTION": 5.0}
+
+
+def test_an_item_a_px4_vehicle_refuses_for_its_frame_is_not_sent(plan):
+    """PX4 refuses an RTL in a global frame (frames.py): the upload stops before sending,
+    naming the item, by the vehicle's autopilot whatever the plan's firmware, even an item
+    the mission never reaches (PX4 refuses the whole upload for it)."""
+    rtl = MissionItem(int(Cmd.NAV_RETURN_TO_LAUNCH), [0.0] * 7, int(Frame.GLOBAL_RELATIVE_ALT))
+
+    class Px4Link:
+        vehicle = VehicleInfo(1, 1, int(Autopilot.PX4), 2)
+
+        def upload(self, _sent: object) -> None:
+            pytest.fail("the plan was sent")
+
+    with pytest.raises(InputError, match=r"^m\.plan: item 6: PX4 takes NAV_RETURN_TO_LAUNCH "
+                                         r"only in frame 2 \(MISSION\)"):
+        upload_to(Px4Link(), dataclasses.replace(plan, items=[*plan.items, rtl]),
+                  source="m.plan")
 
 
 def test_a_fence_switched_off_fails_and_the_check_can_be_waived(plan, start_vehicle):
