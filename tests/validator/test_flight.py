@@ -200,17 +200,29 @@ def test_an_absolute_frame_is_altitude_above_sea_level(site, frame):
     assert not any("frame" in f.message for f in flight.findings)
 
 
-@pytest.mark.parametrize("firmware, radius_m", [(3, 10.0), (12, 0.0)])  # ArduPilot, PX4
-def test_a_loiter_turns_of_radius_0_flies_arducopters_circle_radius(site, firmware, radius_m):
+def _loiter_turns_plan(site):
+    turns = nav(site, Cmd.NAV_LOITER_TURNS, (60, 0), p1=1.0)
+    return plan_of(site, [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), speed(5.0), turns,
+                          nav(site, Cmd.NAV_LAND, site.home_xy_m, 0.0)])
+
+
+def test_a_loiter_turns_of_radius_0_flies_arducopters_circle_radius(site):
     """ArduCopter keeps its circle's radius for a LOITER_TURNS of radius 0 (CIRCLE_RADIUS,
     10 m by default): read as a hover at the centre, a loiter 8 m from a zone was CLEAR while
     the vehicle circles 2 m into it."""
-    turns = nav(site, Cmd.NAV_LOITER_TURNS, (60, 0), p1=1.0)
-    plan = plan_of(site, [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), speed(5.0), turns,
-                          nav(site, Cmd.NAV_LAND, site.home_xy_m, 0.0)])
-    plan.firmware_type = firmware
+    plan = _loiter_turns_plan(site)
     loiter = next(leg for leg in resolve_flight(plan, site).legs if leg.kind == "loiter")
-    assert loiter.loiter_radius_m == radius_m
+    assert loiter.loiter_radius_m == 10.0
+
+
+def test_px4_refuses_a_loiter_turns(site):
+    """PX4 v1.15's mission parser has no LOITER_TURNS in any frame: the upload fails, where
+    it had been resolved as a hover at the centre."""
+    plan = dataclasses.replace(_loiter_turns_plan(site), firmware_type=int(Autopilot.PX4))
+    with pytest.raises(InputError, match=r"^plan: item 2: PX4 takes NAV_LOITER_TURNS in no "
+                                         r"frame: it refuses the item "
+                                         r"\(MAV_MISSION_UNSUPPORTED\)$"):
+        resolve_flight(plan, site)
 
 
 def test_a_jump_that_repeats_forever_is_a_violation_where_the_endurance_is_known(site):

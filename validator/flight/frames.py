@@ -27,10 +27,10 @@ commands with a position (:data:`PX4_POSITIONED`); frame 2 only those without on
 DO_SET_ROI go in either, by their ROI mode (:data:`PX4_ROI_MODES`, else
 MAV_MISSION_INVALID_PARAM1). A command in the other kind of frame is refused
 (MAV_MISSION_UNSUPPORTED): an RTL in frame 3 as much as a waypoint in frame 2, with or without
-coordinates. Every other frame, the terrain frames 10 and 11 too, is refused
+coordinates; so is one in neither table (NAV_LOITER_TURNS, DO_SET_SERVO, CONDITION_YAW...), in
+every frame. Every other frame, the terrain frames 10 and 11 too, is refused
 (MAV_MISSION_UNSUPPORTED_FRAME). One refused item fails the whole upload, wherever it sits in
-the mission. (A command in neither table, NAV_LOITER_TURNS, DO_SET_SERVO..., is refused in
-every frame alike: not a rule of frames, not judged here.)
+the mission.
 
 A refusal here is an :class:`~validator.errors.InputError` of its caller, as for any plan the
 autopilot would not take or not fly as written.
@@ -116,7 +116,9 @@ def _px4_refusal(it: MissionItem) -> str | None:
     """Why PX4 v1.15 refuses mission item ``it`` at upload (see the module doc)."""
     frame, name = it.frame, _name(it.command)
     positioned = it.command in PX4_POSITIONED
-    instead = USE_INSTEAD if positioned else "use 2 (MISSION)"
+    known = positioned or it.command in PX4_UNPOSITIONED or it.command in PX4_ROI
+    instead = (USE_INSTEAD if positioned else "use 2 (MISSION)" if known
+               else f"and PX4 takes {name} in no frame")
     if frame in TERRAIN_FRAMES:
         return (f"frame {frame} (above terrain): PX4 refuses the item "
                 f"(MAV_MISSION_UNSUPPORTED_FRAME); {instead}")
@@ -142,7 +144,7 @@ def _px4_refusal(it: MissionItem) -> str | None:
     if it.command in PX4_UNPOSITIONED:
         return (f"PX4 takes {name} only in frame 2 (MISSION), for items without a position: "
                 f"it refuses it in frame {frame} (MAV_MISSION_UNSUPPORTED); use 2 (MISSION)")
-    return None  # a command PX4 takes in no frame: not a matter of frames
+    return f"PX4 takes {name} in no frame: it refuses the item (MAV_MISSION_UNSUPPORTED)"
 
 
 def _flown_to(command: int) -> bool:
