@@ -109,3 +109,15 @@ def test_the_slower_leg_costs_the_cycle_seconds_not_its_period(airfield):
                              dataclasses.replace(airfield.options, leg_speed_caps=()))
     longer = cycle_duration_s(airfield) - cycle_duration_s(unslowed)
     assert 0.0 < longer < 0.01 * airfield.solution.site.period_s
+
+
+def test_a_cycle_leg_is_slowed_only_within_its_share_of_the_period(monkeypatch):
+    # realistic.yaml in 6 m/s from 270° asked an upwind cycle leg down from 4.5 to 2.9 m/s:
+    # 45 s of a 160 s cycle; with no share of T to spend, the airfield's 1.1 s is refused too
+    from mission_planner import pipeline
+
+    monkeypatch.setattr(pipeline, "COAST_SLOWING_MAX", 0.0)
+    mission = plan_and_build(load_site(SAMPLES / "airfield.yaml"))
+    berth = mission.position_loss_berth
+    assert berth is not None and not berth.slowed and berth.left > 0
+    assert not mission.options.leg_speed_caps
