@@ -3,7 +3,7 @@
 ``validate-mission --sitl-binary ... --fault KIND`` flies the mission and, as the vehicle passes
 the point whose straight return comes closest to a zone (the failsafe audit's
 :attr:`~validator.failsafe.FailsafeReport.worst_return`: where an RTL would do the most harm;
-an ArduCopter GPS loss, whose failsafe path is the coast, where the coast comes closest:
+a GPS loss, whose failsafe path is the coast, where the coast comes closest:
 :func:`validator.position_loss.worst_position_loss_point`), injects the fault the way the
 simulator offers it:
 
@@ -321,7 +321,7 @@ def fault_watch(kind: str, plan: Plan, site: Site, flight: Flight,
                 field: str = "--fault", site_source: str | None = None
                 ) -> Callable[[Link], Watch]:
     """The fault injector for ``fly_and_score``, aimed at the point of ``plan`` (resolved as
-    ``flight``) whose straight return (an ArduCopter GPS loss: whose coast) comes closest to a
+    ``flight``) whose straight return (a GPS loss: whose coast) comes closest to a
     zone of ``site`` under ``vehicle_params`` (``failsafe``: their audit, if made already);
     appended to ``made`` once the link is open. ``autopilot`` says the flight is on an
     autopilot SITL (the built-in vehicle has no failsafes); ``field`` names the option and
@@ -339,10 +339,11 @@ def fault_watch(kind: str, plan: Plan, site: Site, flight: Flight,
         where = site_source or f"site {site.name!r}"
         raise InputError(f"{field}: {where} has no zone: no worst point to inject at")
     target = worst.xy_m
-    if kind == "gps-loss" and not px4:  # its failsafe path is the coast, not a return
+    if kind == "gps-loss":  # its failsafe path is the coast, not a return
         from validator.position_loss import worst_position_loss_point
 
-        coast = worst_position_loss_point(flight, site, vehicle_params)
+        coast = worst_position_loss_point(flight, site, vehicle_params,
+                                          autopilot="px4" if px4 else "ardupilot")
         if coast is not None:
             target = (float(coast[0][0]), float(coast[0][1]))
 
