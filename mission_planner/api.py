@@ -96,9 +96,9 @@ def plan_mission(
     ``progress(iteration, objective)`` is called after each iteration. In wind (``site.wind``,
     or ``load_site(path, wind="7@300")`` for a forecast; :mod:`validator.wind`) the plan
     keeps the top speed in the air, and with ``wind_buffer`` its buffer grows by how much
-    closer the flown track comes in that wind. With ``position_loss_berth`` an ArduCopter
-    plan from which a GPS loss could coast into a zone is planned again with a buffer wide
-    enough (``Mission.position_loss_berth`` says so). Deterministic; the
+    closer the flown track comes in that wind. With ``position_loss_berth`` a vehicle
+    plan (ArduCopter's or PX4's) from which a GPS loss could coast into a zone is planned
+    again with a buffer wide enough (``Mission.position_loss_berth`` says so). Deterministic; the
     safety verdict is ``Mission.problems`` (empty: safe). :func:`plan_solution` followed by
     :func:`build_mission` is the same without the berth's second plan and, for PX4, without
     the comparison with a plan that stops at every waypoint.

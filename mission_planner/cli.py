@@ -119,7 +119,7 @@ def _parser() -> argparse.ArgumentParser:
                    "report (JSON)")
     p.add_argument("--buffer-m", type=float,
                    help="safety buffer added to every NFZ radius (m), kept as given; default: "
-                   "the site's, widened for the wind and for an ArduCopter GPS loss's coast "
+                   "the site's, widened for the wind and for a GPS loss's coast "
                    "where the plan needs it")
     p.add_argument("--wind", metavar="SPEED@FROM",
                    help="the day's wind forecast at the flight altitude, overriding the "

@@ -32,6 +32,7 @@ from mission_planner.mission import (
 )
 from mission_planner.optimize.solution import Solution
 from validator.autopilot.waypoint_radius import radius_params
+from validator.coast_rules import coast_rule
 from validator.errors import InputError
 from validator.fileio import write_all_atomic
 from validator.geojson_format import dumps_geojson, plan_geojson
@@ -246,9 +247,9 @@ def plan_and_build(
     refuses, stops): PX4's speed search ends at the first planning speed whose moves fit T,
     and the faster moves of a path flown through may fit first with a worse path.
 
-    With ``position_loss_berth`` an ArduCopter vehicle plan (the paper's kinematic model,
-    ``dynamics`` "none", stays the paper's) from which a GPS loss could coast into a
-    zone (:func:`position_loss_findings`) is planned again with the wider buffer
+    With ``position_loss_berth`` a vehicle plan, ArduCopter's or PX4's (the paper's
+    kinematic model, ``dynamics`` "none", stays the paper's) from which a GPS loss could
+    coast into a zone (:func:`position_loss_findings`) is planned again with the wider buffer
     :func:`validator.position_loss.berth_buffer_m` asks for (up to :data:`BERTH_TRIES`
     plans, :data:`BERTH_TRIES_IN_WIND` in wind; kept while the gate accepts it and home stays
     outside the wider buffer), and says so in ``Mission.position_loss_berth`` (also when no
@@ -276,7 +277,7 @@ def plan_and_build(
         return (mission if _replayed_min_rate(mission) > _replayed_min_rate(stopping)
                 else stopping)
 
-    berths = position_loss_berth and dynamics == "vehicle" and opt.autopilot == "ardupilot"
+    berths = position_loss_berth and dynamics == "vehicle"
     if not berths:
         return made(site, False)
     # In wind the plan at the buffer asked for is nearly always replaced by a berth plan (its
@@ -316,7 +317,8 @@ def plan_and_build(
             return mission
     mission, lost, slowed = _coast_slowed(mission, lost)
     berth = Berth(asked, mission.solution.site.buffer_m, deepest, len(lost),
-                  windy=mission.solution.site.flight_wind is not None, slowed=slowed)
+                  windy=mission.solution.site.flight_wind is not None, slowed=slowed,
+                  autopilot=opt.autopilot)
     return dataclasses.replace(mission, position_loss_berth=berth)
 
 
@@ -370,24 +372,22 @@ def _coast_slowed(mission: Mission, lost: tuple[PositionLossFinding, ...]
 
 def position_loss_findings(mission: Mission, *, drift: bool = True
                            ) -> tuple[PositionLossFinding, ...]:
-    """The legs of an ArduCopter ``mission`` from which a GPS loss may coast into a zone, at
-    its recommended parameters (the failsafe audit's position-loss part,
-    :func:`validator.position_loss.audit_position_loss`); () for PX4, whose position loss is
-    not modelled. ``drift``: in the plan's wind the coast drifts downwind while the vehicle
-    lands; without it, the coast a wider buffer can keep clear (the berth's)."""
-    if mission.options.autopilot != "ardupilot":
-        return ()
+    """The legs of ``mission`` from which a GPS loss may coast into a zone, at its recommended
+    parameters and by its autopilot's coast (the failsafe audit's position-loss part,
+    :func:`validator.position_loss.audit_position_loss`). ``drift``: in the plan's wind the
+    coast drifts downwind while the vehicle lands; without it, the coast a wider buffer can
+    keep clear (the berth's)."""
     from validator.flight import resolve_flight
 
     site = mission.solution.site
     flight = resolve_flight(mission.plan, site, "mission")
     return tuple(audit_position_loss(flight, site, recommended_params(mission).values,
-                                     drift=drift))
+                                     drift=drift, autopilot=mission.options.autopilot))
 
 
 def position_loss_drift_warning(mission: Mission) -> str | None:
-    """One line when, in the plan's wind, a GPS loss on an ArduCopter ``mission`` may drift
-    into a zone while the EKF failsafe lands without a position
+    """One line when, in the plan's wind, a GPS loss on ``mission`` may drift into a zone
+    while the failsafe (ArduCopter's EKF failsafe, PX4's Descend) lands without a position
     (:func:`validator.position_loss.drift_xy_m`), else None. No buffer keeps such a drift
     clear: it is the whole landing's worth of wind (about 250 m in 6 m/s from 30 m)."""
     wind = mission.solution.site.flight_wind
@@ -399,7 +399,8 @@ def position_loss_drift_warning(mission: Mission) -> str | None:
     zones = ", ".join(sorted({f.zone for f in drifting}))
     legs = len({f.leg for f in drifting})
     return (f"a GPS loss in {wind.label()} drifts up to {max(f.drift_m for f in drifting):.0f} m "
-            f"with the wind while ArduCopter's EKF failsafe lands without a position: from "
+            f"with the wind while {coast_rule(mission.options.autopilot).action.split(' (')[0]} "
+            f"lands without a position: from "
             f"{legs} leg(s) it may enter {zones} (up to "
             f"{max(-f.clearance_m for f in drifting):.1f} m deep), and no buffer keeps that "
             f"clear; validate-mission --params --report lists the legs")

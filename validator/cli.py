@@ -224,9 +224,7 @@ def _failsafe_lines(v: Validation) -> list[str]:
     for c in fs.checks:
         bad = [f for f in fs.findings if f.param == c.param]
         verdict = "clear" if not bad else f"{len(bad)} path finding(s)"
-        if c.param == fs.gps_loss_failsafe and fs.autopilot == "px4":
-            verdict += "; its coast after a GPS loss: not modelled for PX4"
-        elif c.param == fs.gps_loss_failsafe and lost:
+        if c.param == fs.gps_loss_failsafe and lost:
             verdict += f"; its coast after a GPS loss: {len({f.leg for f in lost})} leg warning(s)"
         lines.append(f"  {c.trigger[:28]:<28} {c.param:<16} {c.value:>6g} {c.source:<8} "
                      f"{'+'.join(c.paths):<18} {verdict}")

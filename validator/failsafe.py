@@ -154,7 +154,7 @@ class FailsafeReport:
     # the outline of every straight return's line when an action flies one (rings, (P, 2)
     # each; for a view, not in as_dict): the region the audit proved clear, or not
     return_region_xy_m: tuple[NDArray[np.float64], ...] = ()
-    # ArduCopter's GPS loss: the legs whose coast may reach a buffer (validator.position_loss;
+    # a GPS loss (either autopilot): the legs whose coast may reach a zone (position_loss;
     # a warning: no failsafe parameter steers a vehicle without a position)
     position_loss: tuple[PositionLossFinding, ...] = ()
     # the parameter of the failsafe that acts after a GPS loss (position_loss.coasting_failsafe)
@@ -425,8 +425,8 @@ def audit_failsafes(plan: Plan, site: Site, flight: Flight,
                          f"mission's path (up to {need} points): SmartRTL then falls back")
     flies_rtl = any("rtl" in c.paths for c in checks)
     lost: tuple[PositionLossFinding, ...] = ()
-    if autopilot == "ardupilot" and flight.legs:
-        lost = tuple(audit_position_loss(flight, site, params))
+    if flight.legs:
+        lost = tuple(audit_position_loss(flight, site, params, autopilot=autopilot))
     return FailsafeReport(autopilot, tuple(checks), tuple(findings), tuple(notes),
                           _worst_return(flight, site, exposures), dict(values),
                           _outline(exposures) if flies_rtl else (), lost,

@@ -1,6 +1,7 @@
-"""The planner's berth for a GPS loss: an ArduCopter plan from which the coast after the EKF
-failsafe could reach a zone is planned again with a buffer wide enough (validator.position_loss
-measures the coast; mission_planner.pipeline plans with it)."""
+"""The planner's berth for a GPS loss: a plan from which the coast after the failsafe
+(ArduCopter's EKF failsafe, PX4's Descend) could reach a zone is planned again with a buffer
+wide enough (validator.position_loss measures the coast; mission_planner.pipeline plans with
+it)."""
 
 from __future__ import annotations
 
@@ -11,6 +12,8 @@ import pytest
 
 from mission_planner.mission import MissionOptions
 from mission_planner.pipeline import mission_report, plan_and_build, position_loss_findings
+from validator.coast_rules import PX4
+from validator.position_loss import BERTH_MARGIN_M
 from validator.site import load_site
 
 REALISTIC = Path(__file__).resolve().parents[2] / "samples" / "realistic.yaml"
@@ -57,11 +60,20 @@ def test_the_papers_kinematic_model_stays_the_papers(site):
     assert mission.solution.site.buffer_m == site.buffer_m
 
 
-def test_px4_has_no_modelled_position_loss_and_keeps_its_buffer(site):
-    mission = plan_and_build(site, options=MissionOptions(autopilot="px4"),
-                             pass_through_corners=False)
-    assert position_loss_findings(mission) == ()
-    assert mission.position_loss_berth is None
+def test_a_px4_plan_keeps_the_berth_of_px4s_own_coast(site):
+    # PX4's coast (validator.coast_rules.PX4: off the path, then a wider wander) reaches NFZ3
+    # from the sample's legs at 3 m; the plan is made again with PX4's berth
+    options = MissionOptions(autopilot="px4")
+    narrow = plan_and_build(site, options=options, pass_through_corners=False,
+                            position_loss_berth=False)
+    lost = position_loss_findings(narrow)
+    assert lost and all(f.autopilot == "px4" for f in lost)
+    mission = plan_and_build(site, options=options, pass_through_corners=False)
+    berth = mission.position_loss_berth
+    assert berth is not None and berth.left == 0 and "PX4" in berth.message
+    assert site.buffer_m + berth.deepest_m <= berth.buffer_m  # the first berth, at most
+    assert berth.buffer_m <= PX4.wander_m + PX4.offpath_m + BERTH_MARGIN_M  # PX4's reach
+    assert position_loss_findings(mission) == () and not mission.problems
 
 
 def test_home_inside_the_wider_buffer_leaves_the_findings_as_warnings(site):

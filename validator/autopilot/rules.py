@@ -15,7 +15,8 @@
 - **A failsafe's landing.** ArduCopter's failsafe LAND pauses :data:`FAILSAFE_LAND_PAUSE_S`,
   then descends at LAND_SPEED_HIGH (0: WPNAV_SPEED_DN) to LAND_ALT_LOW and at LAND_SPEED to the
   ground (:func:`failsafe_land_s`); a vehicle without a position drifts with the wind all
-  that time (:mod:`validator.position_loss`).
+  that time (:mod:`validator.position_loss`). PX4's Descend, its fallback without a position,
+  sinks at MPC_LAND_SPEED all the way (:func:`px4_descend_s`).
 - **Corner radius.** Both autopilots cut a corner inside the acceptance radius (ArduCopter
   WPNAV_RADIUS, PX4 NAV_ACC_RAD; :data:`ACCEPTANCE_RADIUS_PARAM`). :func:`acceptance_radius_m`
   keeps a wanted radius between the autopilot's minimum and its default (wider corners save
@@ -44,20 +45,25 @@ ARDUPILOT_MIN_SPEED_MPS = _WPNAV_SPEED.minimum * _WPNAV_SPEED.to_si
 ACCEPTANCE_RADIUS_PARAM = {"ardupilot": "WPNAV_RADIUS", "px4": "NAV_ACC_RAD"}
 
 
-def default_speed_mps(params: Mapping[str, float] | None) -> float:
-    """The horizontal speed (m/s) ArduCopter flies a leg with no DO_CHANGE_SPEED in force:
-    WPNAV_SPEED from ``params`` (its units, cm/s), else its default."""
+def default_speed_mps(params: Mapping[str, float] | None, autopilot: str = "ardupilot"
+                      ) -> float:
+    """The horizontal speed (m/s) ``autopilot`` flies a leg with no DO_CHANGE_SPEED in force:
+    ArduCopter's WPNAV_SPEED (cm/s), PX4's MPC_XY_CRUISE, from ``params``, else its default."""
+    if autopilot == "px4":
+        return _param_si("MPC_XY_CRUISE", params, "px4")
     return _param_si("WPNAV_SPEED", params)
 
 
-def _param_si(name: str, params: Mapping[str, float] | None) -> float:
-    """ArduCopter parameter ``name`` in SI units: from ``params`` (its own units), else its
-    default."""
-    spec = param_table("ardupilot")[name]
+def _param_si(name: str, params: Mapping[str, float] | None, autopilot: str = "ardupilot"
+              ) -> float:
+    """``autopilot``'s parameter ``name`` in SI units: from ``params`` (its own units), else
+    its default."""
+    spec = param_table(autopilot)[name]
     return spec.to_si * float((params or {}).get(name, spec.default))
 
 
 FAILSAFE_LAND_PAUSE_S = 4.0  # ArduCopter's LAND_WITH_DELAY_MS (config.h): a failsafe's pause
+PX4_TOUCHDOWN_S = 3.0  # Descend's last metres to ground contact (fitted: 46.0 s from 30.1 m)
 TOUCHDOWN_S = 4.5  # slowing onto LAND_ALT_LOW and the land detector (fitted: 41.8 s from 30 m)
 
 
@@ -73,6 +79,17 @@ def failsafe_land_s(altitude_m: float, params: Mapping[str, float] | None) -> fl
     low = _param_si("LAND_ALT_LOW", params)
     h = max(float(altitude_m), 0.0)
     return FAILSAFE_LAND_PAUSE_S + max(h - low, 0.0) / fast + min(h, low) / slow + TOUCHDOWN_S
+
+
+def px4_descend_s(altitude_m: float, params: Mapping[str, float] | None) -> float:
+    """Seconds (s) from PX4's Descend, ``altitude_m`` above home, to touchdown: the mode a
+    failsafe falls back to without a position (FlightTaskDescend) sinks at MPC_LAND_SPEED all
+    the way (its slower stages need a position), then :data:`PX4_TOUCHDOWN_S` of slowing
+    onto the ground. PX4 v1.15.4 SIH from 30 m (GPS loss): on the ground 46 s after the
+    failsafe, 45.9 s here (its land detector, on an estimate without a position, then took
+    up to 16 s more to disarm: the vehicle no longer moves)."""
+    return (max(float(altitude_m), 0.0) / _param_si("MPC_LAND_SPEED", params, "px4")
+            + PX4_TOUCHDOWN_S)
 
 
 def stored_hold_s(hold_s: float, autopilot: str = "ardupilot") -> float:

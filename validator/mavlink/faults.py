@@ -3,7 +3,7 @@
 ``validate-mission --sitl-binary ... --fault KIND`` flies the mission and, as the vehicle passes
 the point whose straight return comes closest to a zone (the failsafe audit's
 :attr:`~validator.failsafe.FailsafeReport.worst_return`: where an RTL would do the most harm;
-an ArduCopter GPS loss, whose failsafe path is the coast, where the coast comes closest:
+a GPS loss, whose failsafe path is the coast, where the coast comes closest:
 :func:`validator.position_loss.worst_position_loss_point`), injects the fault the way the
 simulator offers it:
 
@@ -16,8 +16,9 @@ gcs-loss   our GCS heartbeats stop (FS_GCS_ENABLE   our heartbeats stop (NAV_DLL
 battery-low SIM_BATT_VOLTAGE 10.3 V, under           SIM_BAT_MIN_PCT 2 with SIM_BAT_DRAIN 1 s
            BATT_LOW_VOLT 10.5 V (BATT_LOW_TIMER     (below BAT_CRIT_THR: COM_LOW_BAT_ACT)
            10 s)
-gps-loss   SIM_GPS_DISABLE 1 (EKF failsafe,         not simulated here
-           FS_EKF_ACTION)
+gps-loss   SIM_GPS_DISABLE 1 (EKF failsafe,         SIM_GPS_USED 0: the simulated receiver
+           FS_EKF_ACTION)                           reports no fix (EKF2 stops position
+                                                    aiding; commander falls back to Descend)
 ========== ======================================== =========================================
 
 The :class:`FaultInjector` watches every telemetry sample; after the injection it ends the
@@ -46,7 +47,7 @@ from validator.errors import InputError
 from validator.flight import Finding, Home
 from validator.geometry import segment_point_distance
 from validator.mavlink.connection import Connection
-from validator.mavlink.telemetry import Recorder, Telemetry, telemetry_track
+from validator.mavlink.telemetry import Recorder, Telemetry, telemetry_track, vehicle_time_s
 from validator.mavlink.wire import mavlink
 from validator.site import Site
 from validator.zones import polyline_clearance_m
@@ -68,6 +69,10 @@ SET_MESSAGE_INTERVAL = mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
 SIMSTATE_ID = mavlink.MAVLINK_MSG_ID_SIMSTATE
 HOME_POSITION_ID = mavlink.MAVLINK_MSG_ID_HOME_POSITION
 HOME_EVERY_US = 1e6  # besides the one sent as it moves: a lost one is sent again
+# PX4 SIH's own position: HIL_STATE_QUATERNION reads vehicle_global_position_groundtruth
+HIL_STATE_ID = mavlink.MAVLINK_MSG_ID_HIL_STATE_QUATERNION
+CURRENT_MODE_ID = mavlink.MAVLINK_MSG_ID_CURRENT_MODE
+TRUTH_INTERVAL_US = 1e5  # the truth at 10 Hz, as often as the telemetry
 
 # What each fault sets on the vehicle, and whether our GCS heartbeats stop. A sped-up ArduCopter
 # flies with FS_GCS_TIMEOUT widened for our wall-clock heartbeats
@@ -82,6 +87,8 @@ _ARDUPILOT: dict[str, dict[str, float | str]] = {
 _PX4: dict[str, dict[str, float | str]] = {
     "gcs-loss": {GCS_LOSS: "yes"},
     "battery-low": {"SIM_BAT_DRAIN": 1.0, "SIM_BAT_MIN_PCT": 2.0},
+    # SensorGpsSim reports fix_type 0 below 4 satellites: the receiver stays, its fix goes
+    "gps-loss": {"SIM_GPS_USED": 0.0},
 }
 
 
@@ -118,21 +125,35 @@ class FaultInjector:
     _t_s: float = math.nan
 
     def __post_init__(self) -> None:
-        # ArduPilot's SITL reports the simulator's own position (SIMSTATE): after a GPS loss
-        # GLOBAL_POSITION_INT is only the estimate, so the score reads the truth when it has it
+        # Both simulators report their own position (ArduPilot SIMSTATE, PX4 SIH
+        # HIL_STATE_QUATERNION, off until asked for): after a GPS loss GLOBAL_POSITION_INT is
+        # only the estimate, so the score reads the truth when it has it
         self.link.listeners.append(self._take_truth)
-        if not self.px4:
-            self.link.command(SET_MESSAGE_INTERVAL, float(SIMSTATE_ID), 1e5)
+        self.link.command(SET_MESSAGE_INTERVAL, float(HIL_STATE_ID if self.px4 else SIMSTATE_ID),
+                          TRUTH_INTERVAL_US)
+        if self.px4:  # the failsafe's mode change as it happens, not on the next heartbeat
+            self.link.command(SET_MESSAGE_INTERVAL, float(CURRENT_MODE_ID), TRUTH_INTERVAL_US)
         self.link.command(SET_MESSAGE_INTERVAL, float(HOME_POSITION_ID), HOME_EVERY_US)
+
+    @property
+    def truth_source(self) -> str:
+        return "simulator truth (" + ("HIL_STATE_QUATERNION" if self.px4 else "SIMSTATE") + ")"
 
     def _take_truth(self, m: Any) -> None:
         kind = m.get_type()
-        if kind == "GLOBAL_POSITION_INT":
-            self._t_s = m.time_boot_ms / 1000.0
-        elif kind == "SIMSTATE" and math.isfinite(self._t_s) and (m.lat or m.lng):
+        if kind == "HOME_POSITION":  # only the last is used: its time does not matter
+            if m.latitude or m.longitude:  # 0, 0: no home yet
+                self.homes.append((self._t_s, m.latitude * 1e-7, m.longitude * 1e-7))
+            return
+        clock_s = vehicle_time_s(m)  # the truth carries no time of its own
+        if clock_s is not None:
+            self._t_s = clock_s if not self._t_s >= clock_s else self._t_s  # later only
+        elif not math.isfinite(self._t_s):
+            return
+        elif kind == "SIMSTATE" and (m.lat or m.lng):
             self.truth.append((self._t_s, m.lat * 1e-7, m.lng * 1e-7))
-        elif kind == "HOME_POSITION" and (m.latitude or m.longitude):  # 0, 0: no home yet
-            self.homes.append((self._t_s, m.latitude * 1e-7, m.longitude * 1e-7))
+        elif kind == "HIL_STATE_QUATERNION" and (m.lat or m.lon):
+            self.truth.append((self._t_s, m.lat * 1e-7, m.lon * 1e-7))
 
     def __call__(self, rec: Recorder) -> str | None:
         if not rec.rows or len(rec.rows) == self._seen:
@@ -187,7 +208,7 @@ class FaultReport:
 
     kind: str
     how: str
-    position_source: str  # "simulator truth (SIMSTATE)" or "the autopilot's estimate"
+    position_source: str  # "simulator truth (SIMSTATE)" (PX4: HIL_STATE_QUATERNION) or the estimate
     injected_s: float
     injected_xy_m: tuple[float, float] | None
     target_xy_m: tuple[float, float]
@@ -303,7 +324,7 @@ def score_fault(injector: FaultInjector, telemetry: Telemetry, site: Site, fligh
     t0 = injector.injected_s
     if len(injector.truth) > 1:
         t, lat, lon = (np.asarray(c, dtype=float) for c in zip(*injector.truth, strict=True))
-        source = "simulator truth (SIMSTATE)"
+        source = injector.truth_source
     else:
         t, lat, lon = telemetry.t_s, telemetry.lat_deg, telemetry.lon_deg
         source = "the autopilot's estimate (GLOBAL_POSITION_INT)"
@@ -336,7 +357,7 @@ def fault_watch(kind: str, plan: Plan, site: Site, flight: Flight,
                 field: str = "--fault", site_source: str | None = None
                 ) -> Callable[[Link], Watch]:
     """The fault injector for ``fly_and_score``, aimed at the point of ``plan`` (resolved as
-    ``flight``) whose straight return (an ArduCopter GPS loss: whose coast) comes closest to a
+    ``flight``) whose straight return (a GPS loss: whose coast) comes closest to a
     zone of ``site`` under ``vehicle_params`` (``failsafe``: their audit, if made already);
     appended to ``made`` once the link is open. ``autopilot`` says the flight is on an
     autopilot SITL (the built-in vehicle has no failsafes); ``field`` names the option and
@@ -354,10 +375,11 @@ def fault_watch(kind: str, plan: Plan, site: Site, flight: Flight,
         where = site_source or f"site {site.name!r}"
         raise InputError(f"{field}: {where} has no zone: no worst point to inject at")
     target = worst.xy_m
-    if kind == "gps-loss" and not px4:  # its failsafe path is the coast, not a return
+    if kind == "gps-loss":  # its failsafe path is the coast, not a return
         from validator.position_loss import worst_position_loss_point
 
-        coast = worst_position_loss_point(flight, site, vehicle_params)
+        coast = worst_position_loss_point(flight, site, vehicle_params,
+                                          autopilot="px4" if px4 else "ardupilot")
         if coast is not None:
             target = (float(coast[0][0]), float(coast[0][1]))
 

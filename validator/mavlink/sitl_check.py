@@ -197,7 +197,7 @@ def fly_validation(
     ``vehicle_params`` (a parameter file's values) and the autopilot's own ``overrides``
     (``--param``; the model's own names are not sent) are set on the vehicle before the
     flight. ``fault`` is injected where a straight return comes closest to a zone, a GPS
-    loss on ArduCopter where its coast does (:mod:`validator.mavlink.faults`; an autopilot
+    loss where its coast does (:mod:`validator.mavlink.faults`; an autopilot
     only). ``time_limit_s`` bounds the mission
     in vehicle seconds (default: twice the replayed mission plus two minutes)."""
     from validator.mavlink.driver import default_time_limit_s, fly_and_score

@@ -30,6 +30,15 @@ from validator.track_file import RecordedTrack
 LINK_GAP_S = 1.0
 # How long a recording that ends at the disarm waits for a position report after it (wall s)
 DISARM_GRACE_S = 1.0
+# Messages that carry the vehicle's clock (time_boot_ms). Position reports alone do not keep
+# time: PX4 stops GLOBAL_POSITION_INT once its estimate has no position (a GPS loss), and the
+# failsafe's mode change and messages after it must not all carry the last report's time.
+CLOCK_MESSAGES = frozenset({"GLOBAL_POSITION_INT", "ATTITUDE", "SYSTEM_TIME"})
+
+
+def vehicle_time_s(m: Any) -> float | None:
+    """The vehicle time (s since boot) a message carries, None if it carries none."""
+    return m.time_boot_ms / 1000.0 if m.get_type() in CLOCK_MESSAGES else None
 
 
 class LinkLost(LinkError):
@@ -179,17 +188,23 @@ class Recorder:
         calls this for every message it reads from the vehicle."""
         self.last_heard = time.monotonic()
         kind = m.get_type()
+        clock_s = vehicle_time_s(m)
+        if clock_s is not None and not self.t_s >= clock_s:
+            self.t_s = clock_s  # later only: one overtaken on the link does not turn it back
         if kind == "GLOBAL_POSITION_INT":
-            if self.rows and m.time_boot_ms / 1000.0 <= self.rows[-1][0]:
+            t_s = m.time_boot_ms / 1000.0
+            if self.rows and t_s <= self.rows[-1][0]:
                 return  # a duplicate, or overtaken on the link: its time is already past
-            self.t_s = m.time_boot_ms / 1000.0
             self.home_amsl_m = (m.alt - m.relative_alt) / 1000.0
-            self.rows.append((self.t_s, float(from_int_e7(m.lat)), float(from_int_e7(m.lon)),
+            self.rows.append((t_s, float(from_int_e7(m.lat)), float(from_int_e7(m.lon)),
                               m.relative_alt / 1000.0,
                               m.vx / 100.0, m.vy / 100.0, m.vz / 100.0,
                               self.seq, self.armed, self.breach))
-        elif kind == "HEARTBEAT":
-            self.armed = bool(m.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+        elif kind in ("HEARTBEAT", "CURRENT_MODE"):
+            # CURRENT_MODE, when asked for, comes as the mode changes: a 1 Hz heartbeat is up
+            # to a second late (PX4 SIH GPS losses: the failsafe seen 1-2 s after it fired)
+            if kind == "HEARTBEAT":
+                self.armed = bool(m.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
             mode = int(m.custom_mode)
             if (self.mission_mode is not None and mode != self.custom_mode
                     and mode != self.mission_mode and self.armed):

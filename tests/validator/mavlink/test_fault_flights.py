@@ -1,7 +1,8 @@
 """Faults on the real firmware: RC loss and low battery on ArduCopter SITL (and a GPS loss on
 the plan plan-mission makes now), data-link loss on PX4 SIH, injected where a straight return
 would come closest to a zone (a GPS loss: where its coast would)
-(``validate-mission --sitl-binary ... --fault KIND``). With the parameters plan-mission writes,
+(``validate-mission --sitl-binary ... --fault KIND``), and a GPS loss on PX4 SIH whose coast
+must stay in the modelled region. With the parameters plan-mission writes,
 the vehicle must keep out of every zone and end landed or holding still; a GPS loss in wind
 drifts downwind while it lands, as far as the audit warned.
 
@@ -94,6 +95,42 @@ def test_a_gps_loss_on_the_default_plan_coasts_clear_of_every_zone(tmp_path):
     report = json.loads(out.read_text())
     _assert_safe(status, report, "LAND")
     assert report["fault"]["coast"] is not None  # the EKF failsafe fired and the coast measured
+
+
+@needs_px4
+def test_a_px4_gps_loss_coasts_within_the_modelled_region_and_clear_of_every_zone(tmp_path):
+    # the realistic site as plan-mission plans it for PX4 now (with PX4's GPS-loss berth: at
+    # the 3 m buffer a loss aimed the same way coasted 0.39 m into NFZ3), the loss aimed where
+    # the modelled coast comes closest; PX4 falls back to Descend, and the true track must
+    # stay in the region validator.coast_rules.PX4 gives the legs it flew
+    from mission_planner.cli import plan_mission_main
+    from tests.validator.px4_coast import outside_m
+    from validator.coast_rules import PX4 as PX4_COAST
+    from validator.flight import resolve_flight
+    from validator.plan_format import read_plan
+    from validator.site import load_site
+
+    site_path = DATA / "sites" / "realistic.yaml"
+    plan, params = tmp_path / "m.plan", tmp_path / "m.param"
+    assert plan_mission_main([str(site_path), "--autopilot", "px4", "-o", str(plan),
+                              "--quiet"]) == 0
+    out = tmp_path / "report.json"
+    # x2 as test_px4_sitl.py flies: SIH is not lockstepped, and a starved one flies late
+    status = validate_mission_main([str(plan), "--site", str(site_path), "--params",
+                                    str(params), "--sitl-binary", str(PX4), "--sitl-speedup",
+                                    "2", "--fault", "gps-loss", "--report", str(out),
+                                    "--quiet"])
+    report = json.loads(out.read_text())
+    _assert_safe(status, report, "LAND")  # Descend reports AUTO_LAND's custom mode
+    fault = report["fault"]
+    assert fault["position_source"] == "simulator truth (HIL_STATE_QUATERNION)"
+    # from the injection, before the parameter set's round trip: up to a second more
+    assert fault["coast"] is not None and fault["coast"]["delay_s"] <= PX4_COAST.delay_s + 1.0
+    site = load_site(site_path)
+    flight = resolve_flight(read_plan(plan), site, str(plan))
+    speed = max(leg.speed_mps or 0.0 for leg in flight.legs)
+    assert outside_m(flight, speed, fault["injected_xy_m"], fault["track_xy_m"],
+                     PX4_COAST) == 0.0
 
 
 @needs_arducopter

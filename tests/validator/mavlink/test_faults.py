@@ -21,6 +21,7 @@ from validator.mavlink.faults import (
     score_fault,
 )
 from validator.mavlink.telemetry import Telemetry
+from validator.mavlink.wire import mavlink
 from validator.plan_format import Cmd, Frame, MissionItem
 
 
@@ -28,8 +29,10 @@ class FakeLink:
     def __init__(self) -> None:
         self.listeners: list = []
         self.sent: dict[str, float] = {}
+        self.commands: list[tuple[float, ...]] = []
 
-    def command(self, *_args: float) -> int:
+    def command(self, *args: float) -> int:
+        self.commands.append(args)
         return 0
 
 
@@ -96,6 +99,35 @@ def test_faults_the_simulator_cannot_make_are_refused():
         fault_settings("rc-loss", px4=True)
     with pytest.raises(InputError, match="^fault solar-flare: not simulated on ArduCopter"):
         fault_settings("solar-flare", px4=False, field="fault")
+
+
+def test_a_px4_gps_loss_takes_the_simulated_receivers_fix():
+    assert fault_settings("gps-loss", px4=True) == {"SIM_GPS_USED": 0.0}
+
+
+MAV = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+
+
+def _hil_state(lat_e7: int, lon_e7: int):
+    return MAV.hil_state_quaternion_encode(0, [1.0, 0.0, 0.0, 0.0], 0, 0, 0, lat_e7, lon_e7,
+                                           30000, 0, 0, 0, 0, 0, 0, 0, 0)
+
+
+def test_px4s_truth_is_its_simulators_position_on_the_vehicles_clock():
+    # PX4 stops GLOBAL_POSITION_INT once its estimate has no position: the truth's time must
+    # come from the messages that go on (ATTITUDE), not the last position report
+    inj, link = _injector("gps-loss")
+    asked = {int(c[1]) for c in link.commands if c[0] == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL}
+    assert asked == {mavlink.MAVLINK_MSG_ID_HIL_STATE_QUATERNION,
+                     mavlink.MAVLINK_MSG_ID_CURRENT_MODE, mavlink.MAVLINK_MSG_ID_HOME_POSITION}
+    take = link.listeners[0]
+    take(MAV.global_position_int_encode(1000, 0, 0, 0, 0, 0, 0, 0, 0))
+    take(_hil_state(375600000, 1270000000))
+    take(MAV.attitude_encode(2500, 0, 0, 0, 0, 0, 0))
+    take(_hil_state(375600010, 1270000020))
+    assert inj.truth == [pytest.approx((1.0, 37.56, 127.0)),
+                         pytest.approx((2.5, 37.560001, 127.000002))]
+    assert inj.truth_source == "simulator truth (HIL_STATE_QUATERNION)"
 
 
 def _after(clearance_m: dict[str, float], end_state: str) -> FaultReport:

@@ -47,3 +47,20 @@ def test_without_a_position_after_the_disarm_it_ends_after_the_grace():
     assert not done()
     time.sleep(0.06)
     assert done()
+
+
+def test_the_clock_and_a_mode_change_go_on_without_position_reports():
+    # PX4 after a GPS loss: no GLOBAL_POSITION_INT, a 1 Hz heartbeat; ATTITUDE keeps the
+    # time, CURRENT_MODE (asked for) says the failsafe's mode as it changes
+    rec = Recorder(SimpleNamespace(listeners=[], vehicle=SimpleNamespace(  # type: ignore[arg-type]
+        is_px4=False)))
+    rec.take(_heartbeat(True))
+    rec.take(MAV.current_mode_encode(0, 3, 3))  # AUTO
+    rec.mission_mode = 3
+    rec.take(_position(1000))
+    rec.take(MAV.attitude_encode(5300, 0, 0, 0, 0, 0, 0))
+    rec.take(MAV.current_mode_encode(0, 9, 9))  # LAND
+    rec.take(MAV.attitude_encode(5200, 0, 0, 0, 0, 0, 0))  # overtaken: no step back
+    rec.take(_heartbeat(True))  # the heartbeat's LAND (9) is no news by then
+    assert rec.t_s == 5.3 and len(rec.rows) == 1
+    assert rec.mode_changes == [(5.3, "LAND")]
