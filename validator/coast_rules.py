@@ -72,7 +72,7 @@ ARDUCOPTER_DEAD_RECKONING_DELAY_S = 10.4
 PX4 = CoastRule(
     "px4",
     delay_s=5.0,  # EKF2_NOAID_TOUT's 5 s, then Descend (measured 4.1-5.0 s after the lost fix)
-    coast_s=1.1,  # PX4 SIH's drag stops it in about a second of its speed (measured 0.98-1.08)
+    coast_s=1.1,  # PX4 SIH's drag stops it in about a second of its speed (measured 0.66-1.03 s)
     wander_m=15.0,  # ... then its attitude estimate's tilt carries it (measured up to 14.8 m)
     offpath_m=7.5,  # the inertial estimate's error when the failsafe fires (measured 7.2 m)
     failsafe="COM_POSCTL_NAVL", action="PX4's navigation-loss failsafe (Descend without a "
