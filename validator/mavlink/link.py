@@ -199,12 +199,12 @@ def upload_to(link: Link, plan: Plan, params: Mapping[str, float] | None = None,
         raise InputError(f"{source}: {refused}")
     storage = fence_storage_problem(plan, link.vehicle.is_ardupilot)
     if storage is not None:
-        raise InputError(f"the vehicle would not keep the plan as written: {storage}")
+        raise InputError(f"{source}: the vehicle would not keep the plan as written: {storage}")
     sent = plan_to_wire(plan, home_item=link.vehicle.is_ardupilot)
     losses = [line for mtype in MissionType
               for line in storage_losses(sent.of(mtype), link.vehicle.autopilot)]
     if losses:
-        raise InputError(f"the vehicle would not keep the plan as written: {losses[0]}"
+        raise InputError(f"{source}: the vehicle would not keep the plan as written: {losses[0]}"
                          + (f" (and {len(losses) - 1} more)" if len(losses) > 1 else ""))
     link.upload(sent)
     got_params = link.set_params(params) if params else {}

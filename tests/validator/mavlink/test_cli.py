@@ -101,6 +101,22 @@ def test_upload_mission_refuses_a_waypoint_arducopter_would_fly_toward_0_0(tmp_p
     assert err.count("\n") == 1 and "0°N 0°E" in err
 
 
+def test_upload_mission_names_the_plan_of_a_hold_arducopter_would_cut(tmp_path, plan, capsys):
+    """ArduCopter keeps a waypoint's hold as whole seconds: refused before sending, naming the
+    file as every other refusal of the command does."""
+    items = list(plan.items)
+    items[3] = dataclasses.replace(items[3], params=[1.5, *items[3].params[1:]])
+    path = tmp_path / "m.plan"
+    write_plan(dataclasses.replace(plan, items=items), path)
+    with FakeVehicle() as fake:
+        assert upload_mission_main([str(path), "--connect", fake.url, "--timeout", "2"]) == 2
+        assert fake.lists[0] == []  # nothing was sent
+    err = capsys.readouterr().err
+    assert err.startswith(f"upload-mission: {path}: the vehicle would not keep the plan as "
+                          "written: mission item 4: ArduPilot would keep param1 1.5"), err
+    assert err.count("\n") == 1
+
+
 def test_upload_mission_corrupt_plan_exits_2(tmp_path, capsys):
     path = tmp_path / "m.plan"
     path.write_text("{not json")

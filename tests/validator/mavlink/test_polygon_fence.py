@@ -87,7 +87,7 @@ def test_a_fence_beyond_ardupilots_storage_is_refused_before_upload(mission, sta
     assert fence_storage_problem(over, ardupilot=False) is None  # PX4 keeps far more
     assert problem in [f.message for f in audit(over, mission.solution.site).violations]
     vehicle = start_vehicle(over)
-    with pytest.raises(InputError, match="the vehicle would not keep the plan as written: "
-                                         "the geofence .* needs 568 bytes"):
-        upload_plan(over, url_of(vehicle), timeout_s=5)
+    with pytest.raises(InputError, match="^big.plan: the vehicle would not keep the plan as "
+                                         "written: the geofence .* needs 568 bytes"):
+        upload_plan(over, url_of(vehicle), timeout_s=5, source="big.plan")
     assert vehicle.lists().fence == () and vehicle.lists().mission == ()
