@@ -6,6 +6,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 import yaml
@@ -82,19 +83,26 @@ def test_upload_mission_nack_exits_2_with_one_line(tmp_path, plan, capsys):
                    "\n")
 
 
-def test_upload_mission_refuses_a_waypoint_arducopter_would_fly_toward_0_0(tmp_path, plan,
-                                                                             capsys):
-    """A frame-2 waypoint carries whole degrees, which ArduPilot reads as degrees x 1e7: it
-    was refused only with --site (by the resolver), and without it uploaded and verified."""
-    lat, lon = round(plan.items[3].params[4]), round(plan.items[3].params[5])
+def _refused_upload(tmp_path, plan, item: int, **change) -> Path:
+    """upload-mission of ``plan`` with item ``item`` changed by ``change`` to a fake vehicle:
+    refused with exit 2 and nothing sent; the plan's path."""
     items = list(plan.items)
-    items[3] = dataclasses.replace(items[3], params=[*items[3].params[:4], lat, lon, 30.0],
-                                   frame=2)
+    items[item] = dataclasses.replace(items[item], **change)
     path = tmp_path / "m.plan"
     write_plan(dataclasses.replace(plan, items=items), path)
     with FakeVehicle() as fake:
         assert upload_mission_main([str(path), "--connect", fake.url, "--timeout", "2"]) == 2
         assert fake.lists[0] == []  # nothing was sent
+    return path
+
+
+def test_upload_mission_refuses_a_waypoint_arducopter_would_fly_toward_0_0(tmp_path, plan,
+                                                                             capsys):
+    """A frame-2 waypoint carries whole degrees, which ArduPilot reads as degrees x 1e7: it
+    was refused only with --site (by the resolver), and without it uploaded and verified."""
+    lat, lon = round(plan.items[3].params[4]), round(plan.items[3].params[5])
+    path = _refused_upload(tmp_path, plan, 3, params=[*plan.items[3].params[:4], lat, lon, 30.0],
+                           frame=2)
     err = capsys.readouterr().err
     assert err.startswith(f"upload-mission: {path}: item 3: frame 2 (MISSION) carries latitude "
                           "and longitude unscaled"), err
@@ -104,13 +112,7 @@ def test_upload_mission_refuses_a_waypoint_arducopter_would_fly_toward_0_0(tmp_p
 def test_upload_mission_names_the_plan_of_a_hold_arducopter_would_cut(tmp_path, plan, capsys):
     """ArduCopter keeps a waypoint's hold as whole seconds: refused before sending, naming the
     file as every other refusal of the command does."""
-    items = list(plan.items)
-    items[3] = dataclasses.replace(items[3], params=[1.5, *items[3].params[1:]])
-    path = tmp_path / "m.plan"
-    write_plan(dataclasses.replace(plan, items=items), path)
-    with FakeVehicle() as fake:
-        assert upload_mission_main([str(path), "--connect", fake.url, "--timeout", "2"]) == 2
-        assert fake.lists[0] == []  # nothing was sent
+    path = _refused_upload(tmp_path, plan, 3, params=[1.5, *plan.items[3].params[1:]])
     err = capsys.readouterr().err
     assert err.startswith(f"upload-mission: {path}: the vehicle would not keep the plan as "
                           "written: mission item 4: ArduPilot would keep param1 1.5"), err
