@@ -399,7 +399,7 @@ def position_loss_drift_warning(mission: Mission) -> str | None:
     zones = ", ".join(sorted({f.zone for f in drifting}))
     legs = len({f.leg for f in drifting})
     return (f"a GPS loss in {wind.label()} drifts up to {max(f.drift_m for f in drifting):.0f} m "
-            f"with the wind while {coast_rule(mission.options.autopilot).action.split(' (')[0]} "
+            f"with the wind while {coast_rule(mission.options.autopilot).failsafe_name} "
             f"lands without a position: from "
             f"{legs} leg(s) it may enter {zones} (up to "
             f"{max(-f.clearance_m for f in drifting):.1f} m deep), and no buffer keeps that "

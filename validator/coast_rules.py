@@ -57,6 +57,17 @@ class CoastRule:
     failsafe: str
     action: str
 
+    @property
+    def failsafe_name(self) -> str:
+        """The failsafe alone, for a sentence ("ArduCopter's EKF failsafe")."""
+        return self.action.split(" (")[0]
+
+    @property
+    def reach_m(self) -> float:
+        """How far (m) from the coast's end point the vehicle may be: the wander, widened by
+        the drift off the path before the failsafe."""
+        return self.wander_m + self.offpath_m
+
 
 ARDUCOPTER = CoastRule(
     "ardupilot",

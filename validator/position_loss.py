@@ -116,7 +116,7 @@ class PositionLossFinding:
     @property
     def message(self) -> str:
         rule = coast_rule(self.autopilot)
-        reach = rule.wander_m + rule.offpath_m
+        reach = rule.reach_m
         where = f"may enter {self.zone} {-self.clearance_m:.2f} m deep"
         if self.speed_cap_mps is not None:
             fix = f"at most {self.speed_cap_mps:.1f} m/s on this leg keeps it out"
@@ -334,7 +334,7 @@ def _sampled_leg_clearance_m(site: Site, start: NDArray[np.float64], end: NDArra
     of the coast's wander disc (``rule``'s, widened by its drift off the path) ahead of it,
     carried ``drift_m`` downwind, or its length any way (``any_direction``) (negative: how
     deep)."""
-    wander_m = rule.wander_m + rule.offpath_m
+    wander_m = rule.reach_m
     u = _unit(end - start)
     n = max(2, int(math.ceil(float(np.hypot(*(end - start))) / step_m)) + 1)
     pts = start + np.linspace(0.0, 1.0, n)[:, None] * (end - start)
@@ -422,7 +422,7 @@ def berth_buffer_m(buffer_m: float, findings: list[PositionLossFinding] |
         return None
     deep = float(buffer_m) + max(-f.clearance_m for f in findings) + BERTH_MARGIN_M
     rule = coast_rule(findings[0].autopilot)
-    wander = rule.wander_m + rule.offpath_m + BERTH_MARGIN_M
+    wander = rule.reach_m + BERTH_MARGIN_M
     return deep if buffer_m >= wander else min(deep, wander)
 
 
@@ -449,7 +449,7 @@ class Berth:
 
     @property
     def message(self) -> str:
-        failsafe = coast_rule(self.autopilot).action.split(" (")[0]
+        failsafe = coast_rule(self.autopilot).failsafe_name
         coast = (f"a GPS loss at {self.site_buffer_m:g} m could coast {self.deepest_m:.2f} m into "
                  f"a zone after {failsafe}")
         slowed = "".join(f", the leg to item {item} slowed from {was:.1f} to {now:.1f} m/s"
