@@ -17,6 +17,13 @@ SMALL = ["--trials", "1", "--radii", "50", "--counts", "3", "--radius", "50", "-
 FAST = ["--max-iterations", "10"]
 
 
+def _radii(radii: str) -> list[str]:
+    """:data:`SMALL` sweeping the radii ``radii``."""
+    small = list(SMALL)
+    small[small.index("--radii") + 1] = radii
+    return small
+
+
 @pytest.mark.parametrize(
     ("args", "named"),
     [
@@ -48,9 +55,7 @@ def test_fig4_radius_no_site_can_hold_is_exit_2_and_no_output(
 ) -> None:
     """It ran, failed every trial of that radius and exited 0 with a warning."""
     out = tmp_path / "out"
-    small = list(SMALL)
-    small[small.index("--radii") + 1] = "1e9"
-    assert main(["fig4", "-o", str(out), *small, *FAST]) == 2
+    assert main(["fig4", "-o", str(out), *_radii("1e9"), *FAST]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("nfz-study: --radii: a zone of radius 1e+09")
     assert not out.exists()
@@ -62,9 +67,7 @@ def test_fig4_zones_that_cannot_lie_apart_are_exit_2_and_no_output(
     """Three 190 m zones never pack in the 400 m square: every trial of that point failed and
     the study exited 0 with a warning, the 10 m point's results looking like the whole."""
     out = tmp_path / "out"
-    small = list(SMALL)
-    small[small.index("--radii") + 1] = "10,190"
-    assert main(["fig4", "-o", str(out), *small, *FAST]) == 2
+    assert main(["fig4", "-o", str(out), *_radii("10,190"), *FAST]) == 2
     assert capsys.readouterr().err == ("nfz-study: --radii: 3 zones of radius 190 m cannot lie "
                                        "apart in the 400 m square of the sites (at most 1 fit)\n")
     assert not out.exists()
@@ -77,9 +80,7 @@ def test_a_sweep_point_whose_every_trial_failed_is_exit_1_and_the_others_are_wri
     # three zones of radius 110 m pass the packing bound, yet fit only up to 101.7 m: every
     # draw fails
     out = tmp_path / "out"
-    small = list(SMALL)
-    small[small.index("--radii") + 1] = "50,110"
-    assert main(["fig4", "-o", str(out), *small, *FAST]) == 1
+    assert main(["fig4", "-o", str(out), *_radii("50,110"), *FAST]) == 1
     warning, verdict = capsys.readouterr().err.splitlines()
     assert warning.startswith("warning: 2 trials failed")
     assert verdict.startswith("nfz-study: no result at 1 of 3 sweep points (every trial failed): "

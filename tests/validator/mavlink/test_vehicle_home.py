@@ -84,10 +84,16 @@ def on_leg_to_b(copter: Copter) -> bool:
     return copter.current_seq == 5 and copter.xy[0] > 20.0  # seq 5: B (item 4)
 
 
-def test_rtl_after_a_do_set_home_lands_at_the_new_home(site):
-    copter, _ = copter_for(set_home_plan(site))
+def past_set_home(site) -> tuple[Copter, Sent]:
+    """The copter flying the set-home plan, on its leg to B: the home moved to A."""
+    copter, sent = copter_for(set_home_plan(site))
     start_mission(copter)
     fly_until(copter, lambda: on_leg_to_b(copter))
+    return copter, sent
+
+
+def test_rtl_after_a_do_set_home_lands_at_the_new_home(site):
+    copter, _ = past_set_home(site)
     copter.set_mode(CopterMode.RTL)
     fly_until(copter, lambda: not copter.armed)
     np.testing.assert_allclose(copter.xy, A_XY, atol=0.1)
@@ -95,18 +101,14 @@ def test_rtl_after_a_do_set_home_lands_at_the_new_home(site):
 
 def test_rtl_climbs_rtl_alt_above_the_new_home(site):
     """The home set at A, 20 m up: RTL_ALT (15 m) above it is 35 m above the ground."""
-    copter, _ = copter_for(set_home_plan(site))
-    start_mission(copter)
-    fly_until(copter, lambda: on_leg_to_b(copter))
+    copter, _ = past_set_home(site)
     copter.set_mode(CopterMode.RTL)
     assert copter._target is not None
     assert copter._target[1] == pytest.approx(ALT_M + copter._param_si("RTL_ALT"))
 
 
 def test_the_vehicle_sends_its_new_home_unasked(site):
-    copter, sent = copter_for(set_home_plan(site))
-    start_mission(copter)
-    fly_until(copter, lambda: on_leg_to_b(copter))
+    copter, sent = past_set_home(site)
     lat, lon, alt = sent.calls["home_position_send"][-1][:3]
     xy = site.frame.to_local(from_int_e7(lat), from_int_e7(lon))
     np.testing.assert_allclose(xy, A_XY, atol=0.05)
@@ -114,9 +116,7 @@ def test_the_vehicle_sends_its_new_home_unasked(site):
 
 
 def test_relative_altitude_is_reported_above_the_new_home(site):
-    copter, sent = copter_for(set_home_plan(site))
-    start_mission(copter)
-    fly_until(copter, lambda: on_leg_to_b(copter))
+    copter, sent = past_set_home(site)
     before = len(sent.calls["global_position_int_send"])
     copter.step(copter.t_s + DT_S, DT_S)
     amsl_mm, rel_mm = sent.calls["global_position_int_send"][before][3:5]
@@ -125,9 +125,7 @@ def test_relative_altitude_is_reported_above_the_new_home(site):
 
 
 def test_arming_again_homes_where_the_vehicle_is(site):
-    copter, _ = copter_for(set_home_plan(site))
-    start_mission(copter)
-    fly_until(copter, lambda: on_leg_to_b(copter))
+    copter, _ = past_set_home(site)
     copter.set_mode(CopterMode.LAND)
     fly_until(copter, lambda: not copter.armed)
     landed_xy = copter.xy.copy()
