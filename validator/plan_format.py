@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Literal
 from validator.errors import InputError
 from validator.fileio import write_atomic
 from validator.input_files import parse_json, read_text
+from validator.item_numbers import item_number
 
 if TYPE_CHECKING:
     from validator.autopilot.fence import FenceRules
@@ -206,11 +207,11 @@ def _json_num(v: float) -> float | None:
 def plan_to_dict(plan: Plan) -> dict[str, object]:
     """The QGroundControl JSON structure of ``plan`` (full double precision)."""
     items = []
-    for i, it in enumerate(plan.items, start=1):
+    for i, it in enumerate(plan.items):
         entry: dict[str, object] = {
             "autoContinue": it.autocontinue,
             "command": int(it.command),
-            "doJumpId": i,
+            "doJumpId": item_number(i),
             "frame": int(it.frame),
             "params": [_json_num(float(p)) for p in it.params],
             "type": "SimpleItem",

@@ -14,7 +14,9 @@ row per position report (GLOBAL_POSITION_INT):
     ground velocity north, east, down (m/s);
 ``item``
     the current mission item as a 0-based ``.plan`` index (ArduPilot's wire sequence minus
-    one; PX4's as sent), -1 before the mission;
+    one; PX4's as sent), -1 before the mission. The column keeps the index so that files
+    already written read the same; what is shown to a person (the timeline, findings) is the
+    item's number, index + 1 (:mod:`validator.item_numbers`);
 ``armed``, ``fence_breach``
     0 or 1;
 ``left_mission``
