@@ -320,8 +320,8 @@ def test_a_do_set_home_draws_the_home_it_puts_in_force_and_the_returns_go_there(
 
 
 def test_the_closest_clear_return_is_drawn_to_the_home_in_force():
-    # home (0, 0); item 4 (index 3) moves it to (150, 100), so the returns from the leg after it, the
-    # closest to NFZ1 (100, 0), fly there: the green line ends at the moved home's marker
+    # home (0, 0); item 4 (index 3) moves it to (150, 100), so the returns from the leg after
+    # it, the closest to NFZ1 (100, 0), fly there: the green line ends at the moved home's marker
     site = make_site()
     plan = plan_of(site, [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), speed(5.0),
                           nav(site, Cmd.NAV_WAYPOINT, (0.0, 100.0)),

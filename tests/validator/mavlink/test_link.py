@@ -84,8 +84,8 @@ def test_nack_is_reported_by_its_result_name(plan):
 def test_vehicle_going_silent_half_way_is_a_failure_within_the_timeout(plan):
     with FakeVehicle(silent_after=3) as fake:
         with pytest.raises(LinkError, match="mission upload: vehicle stopped answering after "
-                                            r"mission item 2 \(3 of 7 sent\) \(no reply for 1.5 s\); upload "
-                                            "incomplete"):
+                                            r"mission item 2 \(3 of 7 sent\) \(no reply for "
+                                            r"1.5 s\); upload incomplete"):
             upload_plan(plan, fake.url, timeout_s=1.5)
         assert fake.lists[0] == []  # the vehicle never got a complete mission
 
