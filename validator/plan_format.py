@@ -403,13 +403,13 @@ def _number_jump_targets(items: list[MissionItem], ids: list[object], where: str
         p1 = it.params[0]
         named = int(p1) if math.isfinite(p1) and p1.is_integer() else None
         if named is None or named not in first:
-            raise InputError(f"{where}[{i}] (DO_JUMP): no item has doJumpId {p1:g}, the target "
-                             "its param1 names")
+            raise InputError(f"{where}[{i}] (item {item_number(i)}, DO_JUMP): no item has "
+                             f"doJumpId {p1:g}, the target its param1 names")
         if named in second:  # QGroundControl takes the first; another tool may not
-            raise InputError(f"{where}[{i}] (DO_JUMP): its target, doJumpId {named}, is "
-                             f"ambiguous: items[{first[named]}] and items[{second[named]}] "
-                             "both have it")
-        it.params[0] = float(first[named] + 1)
+            raise InputError(f"{where}[{i}] (item {item_number(i)}, DO_JUMP): its target, "
+                             f"doJumpId {named}, is ambiguous: items[{first[named]}] and "
+                             f"items[{second[named]}] both have it")
+        it.params[0] = float(item_number(first[named]))
 
 
 def plan_from_dict(raw: object, source: str = "plan") -> Plan:

@@ -169,7 +169,8 @@ def read_track(path: str | Path) -> RecordedTrack:
                              f"±{bound:g}")
     odd = np.flatnonzero(a[:, 7] != np.round(a[:, 7]))
     if odd.size:
-        raise InputError(f"{p}: line {line_of[odd[0]]}: item {a[odd[0], 7]:g} is no item number")
+        raise InputError(f"{p}: line {line_of[odd[0]]}: item {a[odd[0], 7]:g} is no item index "
+                         "(the column holds 0-based indices)")
     if np.any(np.diff(a[:, 0]) < 0):
         raise InputError(f"{p}: t_s must not decrease")
     if len(header) > 10 and np.any(np.diff(a[:, 10]) < 0):
