@@ -3,7 +3,8 @@
 Features, each with a ``kind`` property: ``flown_path`` (LineString through every positional
 mission item, home to home), ``service_trajectory`` (the planner's closed cycle from the
 plan's ``nfzMission`` data, when present), ``waypoint`` (Point per positional item, with its
-item index, command and hold), ``ground_node``, ``home``, ``nfz`` (the published zone),
+item number as QGroundControl shows it, index + 1 (:mod:`validator.item_numbers`), command and
+hold), ``ground_node``, ``home``, ``nfz`` (the published zone),
 ``nfz_buffered`` (zone plus safety buffer; circles, then polygon zones), ``fence_exclusion`` /
 ``fence_inclusion`` (circles and polygons of the geofence; an exclusion polygon holding polygon
 zones names them in ``zones``) and ``rally``. GeoJSON has no circles, so a circle is a Polygon
@@ -22,6 +23,7 @@ from shapely.geometry.polygon import orient
 from validator.fence_geometry import local_fence
 from validator.fileio import write_atomic
 from validator.geodesy import LocalFrame
+from validator.item_numbers import item_number
 from validator.plan_format import EXTRA_KEY, Cmd, Plan
 from validator.site import Site
 
@@ -73,7 +75,7 @@ def plan_geojson(plan: Plan, site: Site) -> dict[str, object]:
                               schedule=extra.get("schedule"), delta_s=extra.get("delta_s")))
     for i, it in nav:
         feats.append(_feature({"type": "Point", "coordinates": [it.lon_deg, it.lat_deg]},
-                              kind="waypoint", item=i, command=int(it.command),
+                              kind="waypoint", item=item_number(i), command=int(it.command),
                               altitude_m=it.alt_m,
                               hold_s=it.params[0] if it.command == Cmd.NAV_WAYPOINT else None))
     for name, xy in zip(site.gn_names, site.gn_xy_m, strict=True):

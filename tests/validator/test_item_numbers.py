@@ -15,6 +15,7 @@ from tests.view_figure import layer
 from validator.audit import audit
 from validator.errors import InputError
 from validator.flight import resolve_flight
+from validator.geojson_format import plan_geojson
 from validator.item_numbers import item_label, item_number, list_item_label, wire_item_number
 from validator.mavlink.connection import VehicleInfo
 from validator.mavlink.mission_protocol import _name
@@ -135,3 +136,10 @@ def test_a_scored_track_reports_numbers(crossing, site):
 
 def _ideal(site):
     return make_profile("ideal", site_limits(site))
+
+
+def test_the_geojson_waypoints_carry_the_number(crossing, site):
+    feats = plan_geojson(crossing, site)["features"]
+    numbers = [f["properties"]["item"] for f in feats if f["properties"]["kind"] == "waypoint"]
+    positioned = [i for i, it in enumerate(crossing.items) if it.command != Cmd.DO_CHANGE_SPEED]
+    assert numbers == [_qgc_number(crossing, i) for i in positioned] == [1, 3, 4, 5, 6]
