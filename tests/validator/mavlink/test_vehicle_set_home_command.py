@@ -1,7 +1,7 @@
 """The built-in vehicle's answer to a ground station's MAV_CMD_DO_SET_HOME (COMMAND_LONG and
 COMMAND_INT), as ArduCopter 4.5's ``GCS_MAVLINK::handle_command_do_set_home`` gives it: the ACK,
 the home RTL then flies to, and the home that arming no longer moves (the copter stepped by
-hand, no socket)."""
+hand, no socket; the last test goes over MAVLink)."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from tests.validator.builders import make_site
+from tests.validator.mavlink.conftest import url_of
 from tests.validator.mavlink.test_vehicle_home import (
     A_XY,
     ALT_M,
@@ -20,6 +21,7 @@ from tests.validator.mavlink.test_vehicle_home import (
     set_home_plan,
 )
 from validator.geodesy import from_int_e7, to_int_e7
+from validator.mavlink.link import Link, upload_to
 from validator.mavlink.sim import CopterMode
 from validator.mavlink.sim.commands import Commands
 from validator.mavlink.wire import mavlink
@@ -150,3 +152,24 @@ def test_a_ground_stations_home_is_locked_arming_does_not_move_it(site):
     copter.set_mode(CopterMode.GUIDED)
     assert copter.arm(True, False) == m.MAV_RESULT_ACCEPTED
     np.testing.assert_allclose(copter.home.xy_m, NEW_HOME_XY, atol=0.02)
+
+
+def test_over_mavlink_the_downloaded_missions_item_0_is_the_commanded_home(site, start_vehicle):
+    """ArduPilot's mission item 0 is home as it is now (``AP_Mission::read_cmd_from_storage``
+    reads it from AP_AHRS), not the home uploaded as item 0."""
+    plan = set_home_plan(site)
+    vehicle = start_vehicle(plan, speedup=50.0)
+    lat, lon = lat_lon(site, NEW_HOME_XY)
+    with Link(url_of(vehicle), timeout_s=3) as link:
+        upload_to(link, plan, require_fence=False)
+        result = link.command(m.MAV_CMD_DO_SET_HOME, 0.0, 0, 0, 0, lat, lon,
+                              site.frame.alt0_m + 3.0)
+        lists = link.download()
+    assert result == m.MAV_RESULT_ACCEPTED
+    home = lists.mission[0]
+    assert (home.command, home.frame) == (16, m.MAV_FRAME_GLOBAL)
+    # COMMAND_LONG carries degrees as float32 (about 0.2 m here): the home is what it carried
+    sent_xy = site.frame.to_local(float(np.float32(lat)), float(np.float32(lon)))
+    np.testing.assert_allclose(site.frame.to_local(from_int_e7(home.x), from_int_e7(home.y)),
+                               sent_xy, atol=0.02)
+    assert home.z == pytest.approx(site.frame.alt0_m + 3.0, abs=1e-3)
