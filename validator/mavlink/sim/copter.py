@@ -251,7 +251,8 @@ class Copter:
         xy, alt, vel = auto.state_at(tau)
         self.xy, self.alt_m, self.vel = xy, alt, vel
         while self._auto_homes < len(auto.homes) and auto.homes[self._auto_homes][0] <= tau:
-            self._set_home(auto.homes[self._auto_homes][1])  # where, as ModeAuto::do_set_home
+            # the resolved flight's home; param1 1: where the flown track is (AutoTrack.homes)
+            self._set_home(auto.homes[self._auto_homes][1])
             self._auto_homes += 1
         while self._auto_reached < len(auto.reached) and auto.reached[self._auto_reached][0] <= tau:
             index = auto.reached[self._auto_reached][1]
