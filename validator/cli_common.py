@@ -38,9 +38,9 @@ EXIT_STATUS = """\
 exit status (the same for every nfz-mission command):
   0    done: the mission is clear, written, uploaded as sent
   1    a verdict against the mission: a violation, a refused or unsafe plan,
-       a read-back that differs from what was sent, a study with a sweep
-       point whose every trial failed (named on stderr; the table keeps
-       each trial's error and the other points' results)
+       a read-back that differs from what was sent, a study with a failed
+       trial (each sweep point that lost trials named on stderr; the table
+       keeps each trial's error and every point's result)
   2    the user's input or environment: a bad file, flag or value, a failed
        link, a missing tool (one line on stderr, no output file)
   130  interrupted (Ctrl-C): nothing half-written, a vehicle started here

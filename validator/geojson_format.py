@@ -4,7 +4,9 @@ Features, each with a ``kind`` property: ``flown_path`` (LineString through ever
 mission item, home to home), ``service_trajectory`` (the planner's closed cycle from the
 plan's ``nfzMission`` data, when present), ``waypoint`` (Point per positional item, with its
 item number as QGroundControl shows it, index + 1 (:mod:`validator.item_numbers`), command and
-hold), ``ground_node``, ``home``, ``nfz`` (the published zone),
+hold), ``ground_node``, ``home`` (the plan's), ``home_set`` (Point per home a DO_SET_HOME puts
+in force, where returns after that ``item`` (its number) fly: :meth:`Flight.homes_set`, with
+its altitude above sea level and above the plan's home), ``nfz`` (the published zone),
 ``nfz_buffered`` (zone plus safety buffer; circles, then polygon zones), ``fence_exclusion`` /
 ``fence_inclusion`` (circles and polygons of the geofence; an exclusion polygon holding polygon
 zones names them in ``zones``) and ``rally``. GeoJSON has no circles, so a circle is a Polygon
@@ -13,6 +15,7 @@ of ``CIRCLE_VERTICES`` points on it, with ``center`` and ``radius_m`` in its pro
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -22,6 +25,7 @@ from shapely.geometry.polygon import orient
 
 from validator.fence_geometry import local_fence
 from validator.fileio import write_atomic
+from validator.flight import Flight, resolve_flight
 from validator.geodesy import LocalFrame
 from validator.item_numbers import item_number
 from validator.plan_format import EXTRA_KEY, Cmd, Plan
@@ -58,9 +62,12 @@ def _polygon(frame: LocalFrame, vertices_m: ArrayLike, **props: object) -> dict[
     return _feature({"type": "Polygon", "coordinates": [ring]}, **props)
 
 
-def plan_geojson(plan: Plan, site: Site) -> dict[str, object]:
-    """The FeatureCollection of ``plan`` flown at ``site`` (see the module doc)."""
+def plan_geojson(plan: Plan, site: Site, flight: Flight | None = None) -> dict[str, object]:
+    """The FeatureCollection of ``plan`` flown at ``site`` (see the module doc); ``flight`` is
+    ``plan`` resolved, resolved here if not given (without the planner's metadata, which the
+    homes do not depend on: a trajectory alone is drawn, not checked)."""
     frame = site.frame
+    flight = flight or resolve_flight(dataclasses.replace(plan, extra=None), site)
     feats: list[dict[str, object]] = []
     nav = [(i, it) for i, it in enumerate(plan.items) if it.command in _POSITION_COMMANDS]
     path = [[it.lon_deg, it.lat_deg] for _, it in nav]
@@ -83,6 +90,11 @@ def plan_geojson(plan: Plan, site: Site) -> dict[str, object]:
                               kind="ground_node", name=name))
     feats.append(_feature({"type": "Point", "coordinates": _lonlat(frame, site.home_xy_m)[0]},
                           kind="home"))
+    for item, home, _ in flight.homes_set():
+        feats.append(_feature({"type": "Point", "coordinates": _lonlat(frame, home.xy_m)[0]},
+                              kind="home_set", item=item_number(item), name=home.label,
+                              altitude_amsl_m=plan.home_alt_m + home.alt_m,
+                              altitude_above_plan_home_m=home.alt_m))
     for name, xy, r in zip(site.nfz_names, site.nfz_xy_m, site.nfz_radius_m, strict=True):
         feats.append(_circle(frame, xy, float(r), kind="nfz", name=name))
         if site.buffer_m > 0:

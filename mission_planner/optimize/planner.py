@@ -55,13 +55,12 @@ def plan(
                          f"give at least {site.num_gns}")
     wind = site.flight_wind
     if wind is not None:  # a wind the vehicle cannot fly against has no plan
-        from validator.motion.speed_model import commanded_top_speed_mps, cruise_speed_mps
+        from validator.motion.speed_model import check_wind_flyable
 
         if opt.dynamics == "none":
             check_flyable(site.max_speed_mps, wind, "wind")
         else:
-            air = commanded_top_speed_mps(site, opt.autopilot)
-            check_flyable(air, wind, "wind", gusts=air < cruise_speed_mps(site, opt.autopilot))
+            check_wind_flyable(site, opt.autopilot)
     if opt.dynamics != "none" and site.period_s < MIN_HOLD_S:
         # Even a cycle that never leaves its first waypoint holds there this long, so no
         # speed fits and the search would have no overrun to slow down by.

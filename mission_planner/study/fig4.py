@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -24,7 +24,7 @@ from mission_planner.study.config import Fig4Config
 from mission_planner.study.executors import StudyRun, check_scheduler, run_trials
 from mission_planner.study.stats import mean_interval, proportion_interval
 from mission_planner.study.store import check_table_format, write_table
-from mission_planner.study.trials import Cell, Row, cell_float, is_failed
+from mission_planner.study.trials import Cell, PartialPoint, Row, cell_float, is_failed
 from validator.errors import InputError
 from validator.fileio import write_atomic
 
@@ -33,7 +33,7 @@ if TYPE_CHECKING:
 
 SWEEPS = ("radius", "count")
 SUMMARY_COLUMNS = (
-    "sweep", "radius_m", "num_nfzs", "scheme", "trials", "failed", "outages",
+    "sweep", "radius_m", "num_nfzs", "scheme", "trials", "failed", "first_error", "outages",
     "outage_probability", "outage_ci_low", "outage_ci_high",
     "spectral_efficiency_bps_hz", "spectral_efficiency_ci_low", "spectral_efficiency_ci_high",
     "min_rate_bps_hz", "solve_seconds_mean",
@@ -43,7 +43,9 @@ SUMMARY_COLUMNS = (
 def summarize(rows: Sequence[Row], config: Fig4Config) -> list[Row]:
     """One summary row per (sweep point, scheme) from the trial rows.
 
-    Failed trials are counted in ``failed`` and left out of the estimates. Spectral efficiency
+    ``trials`` counts the point's trials run under the scheme, ``failed`` those that failed
+    (``first_error``: the first one's error, in trial order, so the same on any executor); the
+    failed are left out of the estimates. Spectral efficiency
     (bps/Hz) is the mean over trials of the min rate, zero on outage; ``min_rate_bps_hz`` is
     the plain mean of the min rate (what the scheme achieves ignoring its violations).
     """
@@ -60,7 +62,9 @@ def summarize(rows: Sequence[Row], config: Fig4Config) -> list[Row]:
             se_low, se_high = mean_interval(se)
             out.append({
                 "sweep": sweep, "radius_m": radius, "num_nfzs": count, "scheme": scheme,
-                "trials": len(group), "failed": len(group) - len(ok), "outages": outages,
+                "trials": len(group), "failed": len(group) - len(ok),
+                "first_error": next((str(r["error"]) for r in group if is_failed(r)), ""),
+                "outages": outages,
                 "outage_probability": outages / len(ok) if ok else math.nan,
                 "outage_ci_low": p_low, "outage_ci_high": p_high,
                 "spectral_efficiency_bps_hz": float(np.mean(se)) if se else math.nan,
@@ -94,23 +98,50 @@ def missing_points(rows: Sequence[Row], config: Fig4Config) -> list[tuple[str, s
                 empty.append(scheme)
                 why = why or (str(group[0]["error"]) if group else "not run")
         if empty:
-            point = f"{sweep} sweep " + (f"R={radius:g} m" if sweep == "radius" else f"M={count}")
-            if len(empty) < len(config.schemes):
-                point += f" ({', '.join(empty)})"
-            out.append((point, why))
+            out.append((_point_name(sweep, radius, count, empty, config), why))
+    return out
+
+
+def _point_name(sweep: str, radius_m: float, count: int, schemes: Sequence[str],
+                config: Fig4Config) -> str:
+    """``radius sweep R=30 m``, naming ``schemes`` when they are not all of the study's."""
+    point = f"{sweep} sweep " + (f"R={radius_m:g} m" if sweep == "radius" else f"M={count}")
+    if len(schemes) < len(config.schemes):
+        point += f" ({', '.join(schemes)})"
+    return point
+
+
+def partial_points(summary: Sequence[Row], config: Fig4Config) -> list[PartialPoint]:
+    """Each sweep point that lost some of its trials under a scheme but not all: its estimate
+    averages the sites left, which may lean to the easier ones. Its trials are counted under
+    the schemes that lost some (a scheme that lost all is in :func:`missing_points`)."""
+    out: list[PartialPoint] = []
+    for sweep, radius, count in config.points():
+        rows = [r for r in summary if r["sweep"] == sweep and r["radius_m"] == radius
+                and r["num_nfzs"] == count]
+        lost = [r for r in rows if 0 < int(cell_float(r["failed"])) < int(cell_float(r["trials"]))]
+        if lost:
+            by_scheme = tuple((str(r["scheme"]), int(cell_float(r["failed"])),
+                               int(cell_float(r["trials"]))) for r in lost)
+            out.append(PartialPoint(
+                point=_point_name(sweep, radius, count, config.schemes, config),
+                trials=sum(n for _, _, n in by_scheme), failed=sum(f for _, f, _ in by_scheme),
+                error=str(lost[0]["first_error"]), by_scheme=by_scheme))
     return out
 
 
 @dataclass
 class Fig4Result:
-    """A finished Fig. 4 study: trial rows, summary rows, the files written, and the sweep
-    points (of ``points``) that have no result (:func:`missing_points`)."""
+    """A finished Fig. 4 study: trial rows, summary rows, the files written, the sweep points
+    (of ``points``) that have no result (:func:`missing_points`) and those that lost some of
+    their trials (:func:`partial_points`)."""
 
     run: StudyRun
     summary: list[Row]
     files: list[Path]
     missing: list[tuple[str, str]]
     points: int
+    partial: list[PartialPoint] = field(default_factory=list)
 
 
 def run_fig4(
@@ -155,7 +186,8 @@ def run_fig4(
     path_a = save_png(fig_a, out_dir / "fig4a_spectral_efficiency.png")
     path_b = save_png(fig_b, out_dir / "fig4b_outage.png")
     return Fig4Result(run=run, summary=summary, files=[table, summary_path, path_a, path_b],
-                      missing=missing_points(run.rows, config), points=len(config.points()))
+                      missing=missing_points(run.rows, config), points=len(config.points()),
+                      partial=partial_points(summary, config))
 
 
 def _options_record(options: PlannerOptions) -> dict[str, object] | str:

@@ -213,15 +213,39 @@ def plot_fig3_slots(solutions: Sequence[Solution]) -> Figure:
     return fig
 
 
+def _mark_failures(ax: Axes, pts: Sequence[Row], x: NDArray[np.float64],
+                   y: NDArray[np.float64], scheme: str, row: int) -> bool:
+    """Mark the points of ``scheme`` that lost trials: hollow, labelled with the trials kept
+    of those run (``98/100``) when some are left, ``scheme: no result`` at the foot of the axes
+    when none is (``row`` of the schemes, so two do not overlap). True when any is hollow."""
+    style = SCHEME_STYLE.get(scheme, SCHEME_STYLE["proposed"])
+    trials = np.array([cell_float(r["trials"]) for r in pts])
+    failed = np.array([cell_float(r["failed"]) for r in pts])
+    lost = (failed > 0) & (failed < trials)
+    if lost.any():
+        ax.plot(x[lost], y[lost], linestyle="none", marker=style["marker"], markersize=8,
+                markerfacecolor="white", markeredgecolor=style["color"], markeredgewidth=1.5,
+                zorder=4)
+    for xi, yi, n, f in zip(x[lost], y[lost], trials[lost], failed[lost], strict=True):
+        ax.annotate(f"{n - f:g}/{n:g}", (xi, yi), textcoords="offset points", xytext=(5, 5),
+                    fontsize=7, color=style["color"])
+    for xi in x[(trials > 0) & (failed >= trials)]:
+        ax.annotate(f"{scheme}: no result", (xi, 0.02 + 0.06 * row),
+                    xycoords=("data", "axes fraction"),
+                    ha="center", fontsize=7, color=style["color"])
+    return bool(lost.any())
+
+
 def _plot_sweeps(summary: Sequence[Row], config: Fig4Config, column: str,
                  low: str, high: str, ylabel: str) -> Figure:
     fig = Figure(figsize=(9.0, 4.0))
     ax_r, ax_m = fig.subplots(1, 2, sharey=True)
+    hollow = False
     for ax, sweep, xcol, xlabel in (
         (ax_r, "radius", "radius_m", f"NFZ radius R (m), M = {config.num_nfzs}"),
         (ax_m, "count", "num_nfzs", f"number of NFZs M, R = {config.radius_m:g} m"),
     ):
-        for scheme in config.schemes:
+        for i, scheme in enumerate(config.schemes):
             pts = sorted((r for r in summary if r["sweep"] == sweep and r["scheme"] == scheme),
                          key=lambda r: cell_float(r[xcol]))
             x = np.array([cell_float(r[xcol]) for r in pts])
@@ -231,10 +255,17 @@ def _plot_sweeps(summary: Sequence[Row], config: Fig4Config, column: str,
             yerr = np.vstack([np.nan_to_num(y - lo), np.nan_to_num(hi - y)])
             style = SCHEME_STYLE.get(scheme, SCHEME_STYLE["proposed"])
             ax.errorbar(x, y, yerr=yerr, capsize=3, label=scheme, **style)
+            hollow = _mark_failures(ax, pts, x, y, scheme, i) or hollow
         ax.set_xlabel(xlabel)
         ax.grid(True, lw=0.3)
     ax_r.set_ylabel(ylabel)
-    ax_m.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0))  # off the data
+    handles, labels = ax_m.get_legend_handles_labels()
+    if hollow:
+        handles.append(Line2D([], [], linestyle="none", marker="o", markerfacecolor="white",
+                              markeredgecolor="0.3", markeredgewidth=1.5))
+        labels.append("some trials failed:\nsites kept / run")
+    ax_m.legend(handles, labels, fontsize=8, loc="upper left",
+                bbox_to_anchor=(1.02, 1.0))  # off the data
     trials = max((int(cell_float(r["trials"])) for r in summary), default=0)
     fig.suptitle(f"{trials} random sites per point, error bars: 95 % confidence", fontsize=9)
     return fig

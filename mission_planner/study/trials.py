@@ -127,6 +127,30 @@ def run_trial(spec: TrialSpec, options: PlannerOptions | None = None) -> Row:
     return row
 
 
+@dataclass(frozen=True)
+class PartialPoint:
+    """A sweep point that lost some of its trials, not all: it keeps a result, averaged over
+    the trials left, which may lean to the easier sites (those the planner did not fail on).
+    ``trials`` the point's trials run, ``failed`` those that failed, ``error`` the first
+    one's (in trial order); ``by_scheme``: (scheme, failed, trials) of each scheme that lost
+    some, when the point runs its sites under more than one (Fig. 4), the totals theirs."""
+
+    point: str
+    trials: int
+    failed: int
+    error: str
+    by_scheme: tuple[tuple[str, int, int], ...] = ()
+
+    def warning(self) -> str:
+        """One line for stderr: ``radius sweep R=90 m: 1 of 2 trials failed under proposed,
+        1 of 2 under conventional; ...``."""
+        lost = (", ".join(f"{f} of {n}" + (" trials failed" if i == 0 else "") + f" under {s}"
+                          for i, (s, f, n) in enumerate(self.by_scheme))
+                or f"{self.failed} of {self.trials} trials failed")
+        return (f"{self.point}: {lost}; its result averages the trials left "
+                f"(first: {self.error})")
+
+
 def is_failed(row: Row) -> bool:
     """True when the trial ended in an error (its result columns are empty)."""
     return bool(row.get("error"))

@@ -17,7 +17,7 @@ import hashlib
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -26,8 +26,9 @@ import yaml
 from mission_planner.study.executors import StudyRun, check_scheduler, run_trials
 from mission_planner.study.store import FILES as STORE_FILES
 from mission_planner.study.store import check_table_format, write_table
-from mission_planner.study.trials import Row, is_failed
+from mission_planner.study.trials import PartialPoint, Row, is_failed
 from validator.errors import InputError
+from validator.motion.speed_model import check_wind_flyable
 from validator.site import Site, loads_site, site_to_dict
 from validator.wind import MAX_WIND_MPS, Wind
 
@@ -84,6 +85,13 @@ def wind_specs(site: Site, speeds_mps: Sequence[float], directions_deg: Sequence
             calm = float(s) == 0.0
             out.append(WindTrialSpec(text, float(s), 0.0 if calm else float(d) % 360.0,
                                      0.0 if calm else float(turbulence_mps), autopilot))
+    for spec in out:
+        # A wind at or above the top airspeed (which the autopilot and its parameters set)
+        # has no plan: each of its trials failed late, one by one. The planner's own rule,
+        # asked once here, refuses it before any trial.
+        if spec.speed_mps > 0:
+            wind = Wind(spec.speed_mps, spec.from_deg, spec.turbulence_mps)
+            check_wind_flyable(site.with_limits(wind=wind), autopilot, "--speeds")
     return list(dict.fromkeys(out))
 
 
@@ -156,12 +164,15 @@ def missing_points(rows: Sequence[Row]) -> list[tuple[str, str]]:
 @dataclass
 class WindResult:
     """A finished wind study: its trial rows, the files written, and the winds (of ``points``)
-    that have no result (:func:`missing_points`)."""
+    that have no result (:func:`missing_points`). ``partial`` is always empty: a wind is one
+    trial, so it has a result or none (the field is
+    :class:`~mission_planner.study.fig4.Fig4Result`'s)."""
 
     run: StudyRun
     files: list[Path]
     missing: list[tuple[str, str]]
     points: int
+    partial: list[PartialPoint] = field(default_factory=list)
 
 
 def wind_files(table_format: str) -> tuple[str, ...]:

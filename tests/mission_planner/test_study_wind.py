@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import csv
+import json
+from dataclasses import replace
 
 import pytest
 
 from mission_planner.study.cli import main
-from mission_planner.study.wind import missing_points, run_wind_trial, wind_specs
+from mission_planner.study.store import LOG_NAME
+from mission_planner.study.wind import WIND_COLUMNS, missing_points, run_wind_trial, wind_specs
 from validator.errors import InputError
 from validator.site import load_site
 
@@ -30,9 +33,44 @@ def test_specs_refuse_bad_figures(args, msg) -> None:
 
 
 def test_a_wind_beyond_the_vehicle_is_a_failed_row_not_a_crash() -> None:
-    (spec,) = wind_specs(load_site(SAMPLE), (12.0,), (45.0,))
-    row = run_wind_trial(spec)
+    """The study refuses such a wind before any trial; a spec made by hand still gives a row."""
+    (calm,) = wind_specs(load_site(SAMPLE), (0.0,), (45.0,))
+    row = run_wind_trial(replace(calm, speed_mps=12.0, from_deg=45.0))
     assert "top airspeed" in row["error"] and row["flown_min_rate_bps_hz"] is None
+
+
+@pytest.mark.parametrize(("autopilot", "speed", "top"),
+                         [("ardupilot", "10", "10.00"), ("px4", "9.9", "9.81")])
+def test_specs_refuse_a_wind_at_the_top_airspeed_of_the_autopilot(autopilot, speed, top
+                                                                  ) -> None:
+    """It failed trial by trial, late; the planner's rule (the autopilot's top airspeed,
+    validator.motion.speed_model) now refuses it up front."""
+    with pytest.raises(InputError) as err:
+        wind_specs(load_site(SAMPLE), (0.0, 4.0, float(speed)), (45.0,), autopilot=autopilot)
+    assert str(err.value) == (f"--speeds: {speed} m/s from 45° is at or above the vehicle's "
+                              f"top airspeed {top} m/s; it can neither hold position nor fly "
+                              "upwind")
+
+
+def test_specs_accept_a_wind_just_below_the_top_airspeed() -> None:
+    assert len(wind_specs(load_site(SAMPLE), (9.9,), (45.0,), autopilot="ardupilot")) == 1
+
+
+def test_specs_refuse_a_wind_at_the_airspeed_held_through_its_gusts() -> None:
+    with pytest.raises(InputError, match=r"^--speeds: 9\.9 m/s from 45°, turbulence 2 m/s is at "
+                                         r"or above the airspeed the vehicle holds through its "
+                                         r"gusts, 9\.78 m/s"):
+        wind_specs(load_site(SAMPLE), (9.9,), (45.0,), turbulence_mps=2.0)
+
+
+def test_a_wind_at_the_top_airspeed_is_exit_2_before_any_trial(tmp_path, capsys) -> None:
+    out = tmp_path / "w"
+    assert main(["wind", SAMPLE, "-o", str(out), "--speeds", "0,12", "--directions", "45",
+                 "--workers", "1", "--quiet"]) == 2
+    assert capsys.readouterr().err == ("nfz-study: --speeds: 12 m/s from 45° is at or above "
+                                       "the vehicle's top airspeed 10.00 m/s; it can neither "
+                                       "hold position nor fly upwind\n")
+    assert not out.exists()
 
 
 def test_a_wind_whose_trial_failed_is_named_as_missing() -> None:
@@ -44,13 +82,20 @@ def test_a_wind_whose_trial_failed_is_named_as_missing() -> None:
 
 
 def test_a_wind_with_no_result_is_exit_1_and_its_table_is_written(tmp_path, capsys) -> None:
+    """A wind whose trial failed (here logged by an earlier run) is a hole in the figure."""
     out = tmp_path / "w"
-    assert main(["wind", SAMPLE, "-o", str(out), "--speeds", "12", "--directions", "45",
+    (spec,) = wind_specs(load_site(SAMPLE), (5.0,), (45.0,))
+    row = dict.fromkeys(WIND_COLUMNS) | {"key": spec.key, "speed_mps": 5.0, "from_deg": 45.0,
+                                         "error": "InputError: uav: no flyable cycle"}
+    out.mkdir()
+    (out / LOG_NAME).write_text(json.dumps(row) + "\n")
+    assert main(["wind", SAMPLE, "-o", str(out), "--speeds", "5", "--directions", "45",
                  "--workers", "1", "--quiet"]) == 1
-    verdict = capsys.readouterr().err.splitlines()[-1]
-    assert verdict.startswith("nfz-study: no result at 1 of 1 sweep points (every trial "
-                              "failed): wind 12 m/s from 45° (InputError: wind: ")
-    assert "top airspeed" in (out / "wind_trials.csv").read_text()
+    assert capsys.readouterr().err == (
+        "nfz-study: no result at 1 of 1 sweep points (every trial failed): wind 5 m/s from 45° "
+        "(InputError: uav: no flyable cycle)\n")
+    assert "no flyable cycle" in (out / "wind_trials.csv").read_text()
+    assert (out / "wind.png").exists()
 
 
 def test_wind_study_writes_its_table_and_figure(tmp_path, capsys) -> None:

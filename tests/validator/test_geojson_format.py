@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 from tests.validator.builders import make_site, nav, plan_of, speed
+from validator.flight import DO_SET_HOME
 from validator.geojson_format import CIRCLE_VERTICES, dumps_geojson, plan_geojson
-from validator.plan_format import Cmd
+from validator.plan_format import Cmd, Frame, MissionItem
 
 
 @pytest.fixture(scope="module")
@@ -64,3 +65,43 @@ def test_text_is_valid_json_feature_collection(site, plan):
     data = json.loads(dumps_geojson(plan_geojson(plan, site)))
     assert data["type"] == "FeatureCollection"
     assert all(f["type"] == "Feature" for f in data["features"])
+
+
+def _set_home_plan(site, set_home):
+    """Takeoff, a waypoint at (50, 60) 20 m up, ``set_home`` (index 3: item 4), a waypoint, RTL."""
+    items = [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), speed(5.0),
+             nav(site, Cmd.NAV_WAYPOINT, (50.0, 60.0), 20.0), set_home,
+             nav(site, Cmd.NAV_WAYPOINT, (60.0, 80.0), 20.0),
+             MissionItem(int(Cmd.NAV_RETURN_TO_LAUNCH), [0.0] * 7, int(Frame.MISSION))]
+    return plan_of(site, items, fence=False)
+
+
+def test_a_plan_without_do_set_home_has_only_its_own_home(site, plan):
+    assert "home_set" not in _kinds(plan_geojson(plan, site))
+
+
+def test_a_home_set_where_the_vehicle_is_is_a_point_there_named_by_its_item(site):
+    here = MissionItem(DO_SET_HOME, [1.0, 0, 0, 0, 0, 0, 0], int(Frame.GLOBAL_RELATIVE_ALT))
+    plan = _set_home_plan(site, here)
+    (home,) = _kinds(plan_geojson(plan, site))["home_set"]
+    lon, lat = home["geometry"]["coordinates"]
+    np.testing.assert_allclose(site.frame.to_local(lat, lon), (50.0, 60.0), atol=1e-6)
+    assert home["properties"]["item"] == 4  # QGroundControl's number, as in its name
+    assert home["properties"]["name"] == "home set by item 4"
+
+
+def test_a_home_set_moved_up_gives_its_altitude_above_sea_level_and_above_the_plans_home(site):
+    here = MissionItem(DO_SET_HOME, [1.0, 0, 0, 0, 0, 0, 0], int(Frame.GLOBAL_RELATIVE_ALT))
+    plan = _set_home_plan(site, here)
+    props = _kinds(plan_geojson(plan, site))["home_set"][0]["properties"]
+    assert props["altitude_above_plan_home_m"] == pytest.approx(20.0)
+    assert props["altitude_amsl_m"] == pytest.approx(plan.home_alt_m + 20.0)
+
+
+def test_a_home_set_at_coordinates_is_a_point_at_them(site):
+    lat, lon = site.frame.to_geodetic(np.array([-20.0, 30.0]))
+    there = MissionItem(DO_SET_HOME, [0.0, 0, 0, 0, float(lat), float(lon), 0.0],
+                        int(Frame.GLOBAL_RELATIVE_ALT))
+    (home,) = _kinds(plan_geojson(_set_home_plan(site, there), site))["home_set"]
+    assert home["geometry"]["coordinates"] == pytest.approx([float(lon), float(lat)])
+    assert home["properties"]["altitude_above_plan_home_m"] == pytest.approx(0.0)

@@ -119,12 +119,13 @@ def moved_home(it: MissionItem, item: int, px4: bool, *, here_xy_m: ArrayLike,
         return None, unknown
     if at_current:
         return Home(np.array(here_xy_m, dtype=float), item, float(here_alt_m)), ""
-    return Home(item_xy_m(), item, _location_alt_m(it, home, plan_home_amsl_m)), ""
+    return Home(item_xy_m(), item, location_alt_m(it, home, plan_home_amsl_m)), ""
 
 
-def _location_alt_m(it: MissionItem, home: Home, plan_home_amsl_m: float) -> float:
+def location_alt_m(it: MissionItem, home: Home, plan_home_amsl_m: float) -> float:
     """The altitude (m above the plan's home) ArduCopter gives a home set at ``it``'s location,
-    made absolute against ``home``, the home in force."""
+    made absolute against ``home``, the home in force: a mission item's, or a ground station's
+    DO_SET_HOME command read as one (``Location::change_alt_frame`` serves both)."""
     alt = it.params[6]
     if not math.isfinite(alt):
         return home.alt_m

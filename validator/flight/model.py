@@ -22,6 +22,7 @@ from validator.plan_format import Autopilot
 
 LegKind = Literal["takeoff", "waypoint", "loiter", "rtl", "land"]
 Severity = Literal["violation", "warning", "note"]
+SAME_HOME_M = 0.5  # a DO_JUMP loop passing one DO_SET_HOME again sets one home unless it moved
 
 
 @dataclass(frozen=True)
@@ -162,6 +163,25 @@ class Flight:
         """The home in force on leg ``leg``: a return from it lands there (or at a rally point
         chosen against it); the plan's home until a DO_SET_HOME moves it."""
         return self.legs[leg].home or Home(self.home_xy_m)
+
+    def homes_set(self) -> tuple[tuple[int, Home, tuple[int, ...]], ...]:
+        """Each home a mission's DO_SET_HOME puts in force, in flight order: (the DO_SET_HOME's
+        item, the home, the legs it is in force on, indices into :attr:`legs`): where returns
+        from those legs fly (:meth:`home_of`). A DO_SET_HOME the autopilot would not take puts
+        none in force, nor does one with no leg after it; one a DO_JUMP loop passes again is
+        one home unless it moved :data:`SAME_HOME_M` or more."""
+        out: list[tuple[int, Home, list[int]]] = []
+        for k, leg in enumerate(self.legs):
+            home = leg.home
+            if home is None or home.set_by_item is None:
+                continue
+            at = next((i for i, (by, h, _) in enumerate(out) if by == home.set_by_item
+                       and np.hypot(*(h.xy_m - home.xy_m)) < SAME_HOME_M), None)
+            if at is None:
+                out.append((home.set_by_item, home, []))
+                at = len(out) - 1
+            out[at][2].append(k)
+        return tuple((by, home, tuple(legs)) for by, home, legs in out)
 
     @property
     def is_ardupilot(self) -> bool:

@@ -10,7 +10,8 @@ validator's replay of it agree, up to the vehicle's sampling.
 Positions are metres east/north of the vehicle's first home, altitudes metres above it; item
 indices are 0-based plan indices (ArduPilot's mission seq is one more). A DO_SET_HOME moves the
 home the vehicle holds where the resolved flight says (:mod:`validator.flight.home`), as the
-leg after it becomes current (:attr:`AutoTrack.homes`).
+leg after it becomes current (:attr:`AutoTrack.homes`); one at the current position takes where
+the flown track is then (on the corner it cut), not the waypoint the resolved flight stands in.
 """
 
 from __future__ import annotations
@@ -24,10 +25,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from validator.flight import Flight, Home, resolve_flight
+from validator.flight.home import set_home_source
 from validator.geodesy import LocalFrame
 from validator.motion.limits import VehicleLimits
 from validator.motion.profile import Profile, flown_params, make_profile
-from validator.plan_format import Cmd, Plan
+from validator.plan_format import Autopilot, Cmd, Plan
 from validator.replay import replay
 from validator.site import DEFAULT_MAX_ACCEL_MPS2, DEFAULT_MAX_JERK_MPS3, Site
 
@@ -148,6 +150,21 @@ def _homes_set(flight: Flight, first: int, start_index: int,
     return tuple(out)
 
 
+def _homes_where_flown(auto: AutoTrack, plan: Plan) -> tuple[tuple[float, Home], ...]:
+    """``auto``'s homes with each set at the current position moved to where its track is
+    then: ArduCopter takes its own location as it runs the item (``ahrs.get_location``), after
+    cutting the corner, where the resolved flight has the waypoint."""
+    px4 = plan.firmware_type == Autopilot.PX4
+    out = []
+    for t_s, home in auto.homes:
+        item = home.set_by_item
+        if item is not None and set_home_source(plan.items[item], px4)[0]:
+            xy, alt, _ = auto.state_at(t_s)
+            home = Home(xy, item, alt)
+        out.append((t_s, home))
+    return tuple(out)
+
+
 def build_auto_track(
     plan: Plan,
     frame: LocalFrame,
@@ -191,7 +208,7 @@ def build_auto_track(
     unlimited = plan.items[last.item].command == Cmd.NAV_LOITER_UNLIM
     # a leg is current from the end of the one before (the mission's first: from the start)
     current_s = [0.0] * (len(done_at_start) + 1) + [float(t) for t in track.leg_done_s[:-1]]
-    return AutoTrack(
+    auto = AutoTrack(
         t_s=track.t_s,
         xy_m=track.xy_m,
         alt_m=track.alt_m,
@@ -201,6 +218,7 @@ def build_auto_track(
         completes=not unlimited,
         homes=_homes_set(flight, first_leg, start_index, current_s),
     )
+    return dataclasses.replace(auto, homes=_homes_where_flown(auto, plan))
 
 
 def profile_speed(profile: Profile) -> float:

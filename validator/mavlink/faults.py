@@ -24,12 +24,15 @@ gps-loss   SIM_GPS_DISABLE 1 (EKF failsafe,         SIM_GPS_USED 0: the simulate
 The :class:`FaultInjector` watches every telemetry sample; after the injection it ends the
 recording once the vehicle has landed and disarmed, or has held still (under
 :data:`STILL_MPS`) outside the mission mode for :data:`HOLD_END_S` vehicle seconds (Brake,
-Loiter, PX4's Hold: a safe hold, waiting for a pilot). :func:`score_fault` measures the flight
-after the injection: its least clearance from every zone (exact between samples), where it
-ended and how far from home, and what the autopilot said and did. "Home" is the one the
-vehicle last reported (HOME_POSITION, which it sends as a mission's DO_SET_HOME moves it): what
-its return flew to, wherever the vehicle really was when it took it; without a report, the
-home in force on the leg it was flying when the fault came (:meth:`Flight.home_of`).
+Loiter, PX4's Hold: a safe hold, waiting for a pilot), both judged by the height above the
+home it took off from (:meth:`FaultInjector.height_m`), not the relative altitude, which a
+DO_SET_HOME moving home up to the vehicle turns to 0 in the air. :func:`score_fault`
+measures the flight after the injection: its least clearance from every zone (exact between
+samples), where it ended and how far from home, and what the autopilot said and did. "Home"
+is the one the vehicle last reported (HOME_POSITION, which it sends as a mission's
+DO_SET_HOME moves it): what its return flew to, wherever the vehicle really was when it took
+it; without a report, the home in force on the leg it was flying when the fault came
+(:meth:`Flight.home_of`).
 """
 
 from __future__ import annotations
@@ -64,7 +67,7 @@ if TYPE_CHECKING:
 TRIGGER_RADIUS_M = 10.0  # the fault fires at the closest sample to the point within this
 HOLD_END_S = 30.0  # vehicle seconds held still outside the mission: a safe hold
 STILL_MPS = 0.3
-LANDED_ALT_M = 1.0
+LANDED_ALT_M = 1.0  # above the takeoff's home: lower is on the ground, or landing
 SET_MESSAGE_INTERVAL = mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
 SIMSTATE_ID = mavlink.MAVLINK_MSG_ID_SIMSTATE
 HOME_POSITION_ID = mavlink.MAVLINK_MSG_ID_HOME_POSITION
@@ -120,6 +123,9 @@ class FaultInjector:
     _best: float = math.inf
     _still_since: float = math.nan
     _seen: int = 0
+    # the home (m above sea level) in force when the vehicle was first seen armed: the ground
+    # it took off from, which a later DO_SET_HOME does not move
+    _takeoff_home_amsl_m: float = math.nan
     truth: list[tuple[float, float, float]] = field(default_factory=list)  # t_s, lat, lon
     homes: list[tuple[float, float, float]] = field(default_factory=list)  # HOME_POSITION's
     _t_s: float = math.nan
@@ -159,7 +165,10 @@ class FaultInjector:
         if not rec.rows or len(rec.rows) == self._seen:
             return None
         self._seen = len(rec.rows)
-        t, lat, lon, alt, vn, ve, vd = rec.rows[-1][:7]
+        t, lat, lon, _, vn, ve, vd = rec.rows[-1][:7]
+        if rec.armed and math.isnan(self._takeoff_home_amsl_m):
+            self._takeoff_home_amsl_m = rec.home_amsl_m
+        height_m = self.height_m(rec)
         if math.isnan(self.injected_s):
             if rec.mission_mode is None or not rec.armed:
                 return None
@@ -170,12 +179,12 @@ class FaultInjector:
             elif self._best < TRIGGER_RADIUS_M:
                 self._inject(rec, float(t), (float(xy[0]), float(xy[1])))
             return None
-        if not rec.armed and alt < LANDED_ALT_M:
+        if not rec.armed and height_m < LANDED_ALT_M:
             return "landed and disarmed after the fault"
         if rec.custom_mode == rec.mission_mode:
             self._still_since = math.nan
             return None
-        if math.hypot(vn, ve, vd) < STILL_MPS and alt >= LANDED_ALT_M:  # not a descent
+        if math.hypot(vn, ve, vd) < STILL_MPS and height_m >= LANDED_ALT_M:  # not a descent
             if math.isnan(self._still_since):
                 self._still_since = float(t)
             elif t - self._still_since >= HOLD_END_S:
@@ -183,6 +192,14 @@ class FaultInjector:
         else:
             self._still_since = math.nan
         return None
+
+    def height_m(self, rec: Recorder) -> float:
+        """The last sample's height (m) above the home the vehicle took off from: its relative
+        altitude, moved by as much as a DO_SET_HOME has moved its home since (the relative
+        altitude alone when either home is not known)."""
+        rel_alt_m = float(rec.rows[-1][3])
+        moved_m = rec.home_amsl_m - self._takeoff_home_amsl_m
+        return rel_alt_m + moved_m if math.isfinite(moved_m) else rel_alt_m
 
     def _inject(self, rec: Recorder, t_s: float, xy: tuple[float, float]) -> None:
         from validator.mavlink.param_protocol import set_params

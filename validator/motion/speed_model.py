@@ -28,6 +28,7 @@ from validator.motion.profile import Profile, flown_params, make_profile
 from validator.motion.px4_mission import px4_rest_to_rest, px4_top_speed_mps
 from validator.motion.scurve import scurve_rest_to_rest
 from validator.site import Site
+from validator.wind import check_flyable
 
 
 class LegMotion(Protocol):
@@ -83,6 +84,18 @@ def commanded_top_speed_mps(site: Site, autopilot: str = "ardupilot") -> float:
     if profile.name == "px4":
         return cruise
     return min(cruise, held_top_speed_mps(profile))
+
+
+def check_wind_flyable(site: Site, autopilot: str = "ardupilot", where: str = "wind") -> None:
+    """Refuse (:class:`InputError`, one line naming ``where``) the site's wind at the flight
+    altitude when it is at or above the top airspeed plans command
+    (:func:`commanded_top_speed_mps`; in gusts the airspeed held through them): the vehicle
+    planner's rule, which the wind study asks before it runs a trial."""
+    wind = site.flight_wind
+    if wind is None:
+        return
+    air = commanded_top_speed_mps(site, autopilot)
+    check_flyable(air, wind, where, gusts=air < cruise_speed_mps(site, autopilot))
 
 
 def leg_profiles(site: Site, lengths_m: ArrayLike, speed_mps: float | None = None,

@@ -36,8 +36,9 @@ class FakeLink:
         return 0
 
 
-def _recorder(rows):
-    return SimpleNamespace(rows=rows, mission_mode=3, custom_mode=3, armed=True)
+def _recorder(rows, home_amsl_m=100.0):
+    return SimpleNamespace(rows=rows, mission_mode=3, custom_mode=3, armed=True,
+                           home_amsl_m=home_amsl_m)
 
 
 def _row(t, x, y, alt=30.0, v=(0.0, 0.0, 0.0)):
@@ -91,6 +92,23 @@ def test_holding_still_outside_the_mission_is_a_safe_hold():
         rows.append(_row(float(t), 103.0, 0.0))
         ends.append(inj(rec))
     assert ends[-1] == "holding still for 30 s after the fault" and ends[-10] is None
+
+
+def test_holding_still_at_a_home_moved_up_to_it_is_a_safe_hold():
+    """A DO_SET_HOME where the vehicle was, 30 m up, moves home there: a Brake at that height
+    reads 0 m relative altitude, yet is 30 m above the ground it took off from."""
+    inj, _ = _injector()
+    rows = [_row(0.0, 99.0, 0.0), _row(1.0, 103.0, 0.0)]
+    rec = _recorder(rows)
+    inj(_recorder(rows[:1]))
+    inj(rec)
+    rec.home_amsl_m = 130.0  # the home moved up to the vehicle: relative altitude 0 from here
+    rec.custom_mode = 17  # Brake
+    ends = []
+    for t in range(2, 40):
+        rows.append(_row(float(t), 103.0, 0.0, alt=0.0))
+        ends.append(inj(rec))
+    assert ends[-1] == "holding still for 30 s after the fault"
 
 
 def test_faults_the_simulator_cannot_make_are_refused():

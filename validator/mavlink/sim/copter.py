@@ -1,8 +1,10 @@
 """The simulated copter's flight: its state, the mode changes, arming and takeoff ArduCopter
 allows, and how it moves in simulated time (AUTO along the replay of its mission, other modes
 by the point follower), with the reports each change sends. Its home is where it armed until
-a mission's DO_SET_HOME moves it (:mod:`validator.flight.home`): RTL flies there, and
-HOME_POSITION and the relative altitude report it, as ArduCopter's do."""
+a mission's DO_SET_HOME (:mod:`validator.flight.home`) or a ground station's
+(:meth:`Copter.set_home_here`, :meth:`Copter.set_home_at`) moves it: RTL flies there, and
+HOME_POSITION, the relative altitude and the downloaded mission's item 0 report it, as
+ArduCopter's do."""
 
 from __future__ import annotations
 
@@ -30,6 +32,9 @@ from validator.plan_format import Plan
 HOLDING_MODES = frozenset({CopterMode.GUIDED, CopterMode.LOITER, CopterMode.POSHOLD,
                            CopterMode.BRAKE, CopterMode.ALT_HOLD, CopterMode.STABILIZE})
 LAND_SPEED_BELOW_M = 10.0  # descending to the ground, LAND_SPEED applies below this height
+# Copter::far_from_EKF_origin (EKF_ORIGIN_MAX_ALT_KM 50): a home further above or below the EKF
+# origin (here the first home) is refused
+EKF_ORIGIN_MAX_ALT_M = 50_000.0
 
 
 class Copter:
@@ -63,6 +68,7 @@ class Copter:
         self._auto_reached = 0  # events of self._auto already sent
         self._auto_homes = 0  # its homes already set
         self.home = Home(np.zeros(2))  # the home in force: RTL's destination
+        self._home_locked = False  # set by a ground station's DO_SET_HOME (ahrs.lock_home)
         self._fence: LocalFence = NO_FENCE
         self.breach = False
         self.breach_count = 0
@@ -106,7 +112,8 @@ class Copter:
             if self.mode not in ARMABLE_MODES:
                 self.say(f"Arm: Mode not armable ({self.mode.name})")
                 return m.MAV_RESULT_FAILED
-            self._set_home(Home(self.xy.copy(), None, self.alt_m))  # as ArduCopter arming does
+            if not self._home_locked:  # AP_Arming_Copter::arm: a ground station's home stays
+                self._set_home(Home(self.xy.copy(), None, self.alt_m))
             self.armed = True
             self.say("Arming motors")
             return m.MAV_RESULT_ACCEPTED
@@ -244,6 +251,7 @@ class Copter:
         xy, alt, vel = auto.state_at(tau)
         self.xy, self.alt_m, self.vel = xy, alt, vel
         while self._auto_homes < len(auto.homes) and auto.homes[self._auto_homes][0] <= tau:
+            # the resolved flight's home; param1 1: where the flown track is (AutoTrack.homes)
             self._set_home(auto.homes[self._auto_homes][1])
             self._auto_homes += 1
         while self._auto_reached < len(auto.reached) and auto.reached[self._auto_reached][0] <= tau:
@@ -309,7 +317,31 @@ class Copter:
             self.breach = now_breached
             self.send_fence_status()
 
+    def set_home_here(self) -> None:
+        """A ground station's home where the vehicle is, altitude included
+        (``set_home_to_current_location(true)``), locked: arming no longer moves it."""
+        self._set_home(Home(self.xy.copy(), None, self.alt_m))
+        self._home_locked = True
+
+    def set_home_at(self, lat_deg: float, lon_deg: float, amsl_m: float) -> bool:
+        """A ground station's home at a location (``Copter::set_home(loc, true)``,
+        ``AP_AHRS::set_home``), locked as :meth:`set_home_here`'s: False (home unchanged) at
+        0°, 0°, 0 m, beyond ±90° / ±180°, or more than :data:`EKF_ORIGIN_MAX_ALT_M` above or
+        below the first home (``amsl_m`` above sea level)."""
+        if lat_deg == 0 and lon_deg == 0 and amsl_m == 0:
+            return False
+        if not (abs(lat_deg) <= 90.0 and abs(lon_deg) <= 180.0):
+            return False
+        alt_m = amsl_m - self.config.home[2]
+        if not abs(alt_m) <= EKF_ORIGIN_MAX_ALT_M:
+            return False
+        xy = np.asarray(self.frame.to_local(lat_deg, lon_deg), dtype=float).reshape(2)
+        self._set_home(Home(xy, None, alt_m))
+        self._home_locked = True
+        return True
+
     def _set_home(self, home: Home) -> None:
+        """The one way home changes (arming, the mission's DO_SET_HOME, a command's)."""
         self.home = home
         self.send_home_position()  # AP_AHRS::set_home sends it unasked
 

@@ -4,6 +4,11 @@ fence and rally lists the vehicle holds.
 MAVSDK runs on a ``raw://`` connection: the vehicle owns the socket and hands MAVSDK the
 mission-protocol packets only, and passes on only MAVSDK's mission-protocol answers, so
 MAVSDK's generic heartbeat and our ArduCopter telemetry do not fight over one port.
+
+A mission download's item 0 is the vehicle's home as it is now, as ArduPilot's is
+(``AP_Mission::read_cmd_from_storage`` reads index 0 from ``AP::ahrs().get_home()``; sent as
+NAV_WAYPOINT in MAV_FRAME_GLOBAL, altitude above sea level, params 0), not the item 0 uploaded:
+MAVSDK's answer is rewritten on its way out (:meth:`MissionServer._as_home`).
 """
 
 from __future__ import annotations
@@ -14,6 +19,7 @@ import threading
 from collections.abc import Callable, Iterator
 from typing import Any
 
+from validator.geodesy import to_int_e7
 from validator.mavlink.wire import WireItem, WireLists, mavlink
 
 log = logging.getLogger(__name__)
@@ -31,12 +37,15 @@ MAVSDK_PACKET_TYPES_TO_GCS = frozenset({
 class MissionServer:
     """The lists the vehicle holds, kept by MAVSDK's MissionRawServer once :meth:`start`
     has run. ``mav`` sends our own answers; ``forward`` sends the packets MAVSDK answers with
-    (called from MAVSDK's thread)."""
+    (called from MAVSDK's thread); ``home()`` is the vehicle's home now (latitude, longitude
+    in degrees, altitude in m above sea level), which a download reports as item 0."""
 
-    def __init__(self, system_id: int, mav: Any, forward: Callable[[Any], None]) -> None:
+    def __init__(self, system_id: int, mav: Any, forward: Callable[[Any], None],
+                 home: Callable[[], tuple[float, float, float]]) -> None:
         self.system_id = system_id
         self.mav = mav
         self.forward = forward
+        self.home = home
         self._lists_lock = threading.Lock()
         self._lists: dict[int, tuple[WireItem, ...]] = {0: (), 1: (), 2: ()}
         self._completed: dict[int, int] = {}  # mission_type -> items of its finished upload
@@ -129,7 +138,23 @@ class MissionServer:
             return
         for msg in msgs:
             if msg.get_type() in MAVSDK_PACKET_TYPES_TO_GCS:
-                self.forward(msg)
+                self.forward(self._as_home(msg))
+
+    def _as_home(self, msg: Any) -> Any:
+        """``msg``, or, when it is the mission's item 0 (MISSION_ITEM_INT, what MAVSDK sends),
+        that item holding the home now, packed again as MAVSDK sent it (same sender and
+        sequence number)."""
+        if (msg.get_type() != "MISSION_ITEM_INT" or msg.seq != 0
+                or int(getattr(msg, "mission_type", 0)) != mavlink.MAV_MISSION_TYPE_MISSION):
+            return msg
+        lat, lon, amsl_m = self.home()
+        msg.frame, msg.command = mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_CMD_NAV_WAYPOINT
+        msg.param1 = msg.param2 = msg.param3 = msg.param4 = 0.0
+        msg.x, msg.y, msg.z = int(to_int_e7(lat)), int(to_int_e7(lon)), float(amsl_m)
+        packer = mavlink.MAVLink(None, msg.get_srcSystem(), msg.get_srcComponent())
+        packer.seq = msg.get_seq()
+        msg.pack(packer)
+        return msg
 
 
 _mavsdk_log_quiet = False

@@ -37,7 +37,8 @@ class SitlVehicle(Copter):
         self.radio = Radio(listen_url, config)
         self.conn = self.radio.conn
         self.writer = self.radio.writer
-        self.mission_server = MissionServer(config.system_id, self.radio.mav, self.radio.forward)
+        self.mission_server = MissionServer(config.system_id, self.radio.mav, self.radio.forward,
+                                            lambda: self.home_lla)
         super().__init__(config, frame, param_table, self.radio.mav, self.mission_server.lists)
         self.commands = Commands(self)
         self._stop = threading.Event()
