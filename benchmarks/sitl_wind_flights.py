@@ -111,6 +111,8 @@ def _by_gn(rep: dict[str, Any] | None) -> dict[str, float]:
 
 
 def _lags(rep: dict[str, Any] | None) -> dict[str, float]:
+    # keyed by item number (validator.item_numbers, QGroundControl's); the flights-*.json
+    # recorded before December 2026 key them by the 0-based index, one less
     lags = (rep or {}).get("waypoint_lag", [])
     return {str(w["item"]): round(float(w["lag_s"]), 2) for w in lags}
 

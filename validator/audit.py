@@ -32,6 +32,7 @@ from validator.fence_geometry import local_fence
 from validator.flight import Finding, Flight, resolve_flight
 from validator.geodesy import E7_ROUNDING_MARGIN_M
 from validator.geometry import leg_clearances, segment_point_closest_fraction
+from validator.item_numbers import item_label, item_number
 from validator.motion.ideal import ideal_leg_times
 from validator.motion.limits import site_limits
 from validator.motion.profile import make_profile
@@ -51,14 +52,15 @@ class NfzClosest:
     name: str
     clearance_m: float  # from the published radius; negative = inside
     leg: int  # index into Flight.legs
-    from_item: int  # -1: from home
-    item: int
+    from_item: int  # 0-based index; -1: from home (the report gives item numbers)
+    item: int  # 0-based index of the leg's destination
     t_s: float  # mission time at the commanded speeds (ideal timing)
     xy_m: tuple[float, float]
 
     def as_dict(self) -> dict[str, object]:
         return {"nfz": self.name, "clearance_m": self.clearance_m, "leg": self.leg,
-                "from_item": self.from_item, "item": self.item, "t_s": self.t_s,
+                "from_item": item_number(self.from_item), "item": item_number(self.item),
+                "t_s": self.t_s,
                 "xy_m": list(self.xy_m)}
 
 
@@ -83,7 +85,8 @@ class AuditReport:
         return not self.violations
 
     def unique_legs(self) -> list[dict[str, object]]:
-        """Legs by (from item, to item), repeated legs (DO_JUMP) counted once."""
+        """Legs by (from item, to item), repeated legs (DO_JUMP) counted once; ``from_item`` and
+        ``item`` are item numbers (:mod:`validator.item_numbers`, home 0)."""
         seen: dict[tuple[int, int, str], dict[str, object]] = {}
         counts: dict[tuple[int, int, str], int] = {}
         for k, leg in enumerate(self.flight.legs):
@@ -93,7 +96,8 @@ class AuditReport:
                 seen[key]["count"] = counts[key]
                 continue
             seen[key] = {
-                "leg": k, "from_item": key[0], "item": leg.item, "kind": leg.kind,
+                "leg": k, "from_item": item_number(key[0]), "item": item_number(leg.item),
+                "kind": leg.kind,
                 "length_m": leg.length_m, "speed_mps": leg.speed_mps, "hold_s": leg.hold_s,
                 "clearance_m": {n: float(c) for n, c in zip(self.nfz_names,
                                                             self.leg_clearance_m[k], strict=True)},
@@ -121,8 +125,7 @@ def _from_item(flight: Flight, k: int) -> int:
 def _leg_name(flight: Flight, k: int) -> str:
     leg = flight.legs[k]
     src = _from_item(flight, k)
-    origin = "home" if src < 0 else f"item {src}"
-    return f"leg {origin} -> item {leg.item} ({leg.kind})"
+    return f"leg {item_label(src)} -> {item_label(leg.item)} ({leg.kind})"
 
 
 def _check_legs(

@@ -48,6 +48,7 @@ from validator.cli_common import (
 from validator.errors import InputError
 from validator.fileio import write_all_atomic
 from validator.flight import Finding
+from validator.item_numbers import item_label, item_number
 from validator.mavlink.sitl_check import (
     add_sitl_arguments,
     fly_validation,
@@ -95,7 +96,8 @@ def _track_lines(title: str, rep: TrackReport) -> list[str]:
     if rep.nfz:
         lines.append(f"  {'NFZ':<10} {'flown clearance (m)':>20} {'t (s)':>9} {'item':>6}")
         for p in rep.nfz:
-            lines.append(f"  {p.name:<10} {p.clearance_m:>20.2f} {p.t_s:>9.1f} {p.item:>6}")
+            lines.append(f"  {p.name:<10} {p.clearance_m:>20.2f} {p.t_s:>9.1f} "
+                         f"{item_number(p.item):>6}")
     c = rep.cycle
     if c is not None:
         per = ""
@@ -153,9 +155,8 @@ def format_report(v: Validation) -> str:
     if rep.nfz:
         lines.append(f"  {'NFZ':<10} {'clearance (m)':>14} {'t (s)':>9}  leg")
         for z in rep.nfz:
-            src = "home" if z.from_item < 0 else f"item {z.from_item}"
             lines.append(f"  {z.name:<10} {z.clearance_m:>14.2f} {z.t_s:>9.1f}  "
-                         f"{src} -> item {z.item}")
+                         f"{item_label(z.from_item)} -> {item_label(z.item)}")
     else:
         lines.append("  (the site has no NFZ)")
     lines.append(f"  fence: {len(v.plan.circles)} circle(s), {len(v.plan.polygons)} polygon(s), "
@@ -203,7 +204,7 @@ def format_report(v: Validation) -> str:
     if findings:
         lines += ["", "Findings:"]
         for f in findings:
-            where = f"item {f.item}: " if f.item is not None else ""
+            where = f"{item_label(f.item)}: " if f.item is not None else ""
             lines.append(f"  {f.severity.upper() if f.severity == 'violation' else f.severity:<9} "
                          f"{where}{f.message}")
     n = len(v.violations)
@@ -230,7 +231,7 @@ def _failsafe_lines(v: Validation) -> list[str]:
                      f"{'+'.join(c.paths):<18} {verdict}")
     w = fs.worst_return
     if w is not None:
-        lines.append(f"  a straight return comes closest to a zone from item {w.item} "
+        lines.append(f"  a straight return comes closest to a zone from {item_label(w.item)} "
                      f"(x {w.xy_m[0]:.1f}, y {w.xy_m[1]:.1f} m): {w.clearance_m:.2f} m from "
                      f"{w.zone}, to {w.destination}")
     return lines

@@ -47,6 +47,7 @@ from validator.autopilot.tables import param_table
 from validator.flight import Flight, Home, Leg
 from validator.geodesy import E7_ROUNDING_MARGIN_M
 from validator.geometry import segment_point_distance
+from validator.item_numbers import item_label, item_number
 from validator.plan_format import Autopilot, Plan
 from validator.position_loss import (
     PositionLossFinding,
@@ -76,7 +77,7 @@ class PathFinding:
     path: str
     zone: str
     leg: int
-    from_item: int  # -1: from home
+    from_item: int  # 0-based index, -1: from home (text and report give item numbers)
     item: int
     clearance_m: float
     buffer_m: float
@@ -86,19 +87,18 @@ class PathFinding:
 
     @property
     def message(self) -> str:
-        where = "home" if self.from_item < 0 else f"item {self.from_item}"
         depth = (f"enters {self.zone} {-self.clearance_m:.2f} m deep" if self.clearance_m < 0
                  else f"passes {self.clearance_m:.2f} m from {self.zone}, inside its "
                       f"{self.buffer_m:g} m buffer")
         return (f"failsafe {self.trigger}: {self.param} {self.value:g} ({self.action}) flies "
                 f"{self.path.upper()} straight to {self.destination} and {depth}, from the leg "
-                f"{where} -> item {self.item} (first at x {self.start_xy_m[0]:.1f}, "
-                f"y {self.start_xy_m[1]:.1f} m)")
+                f"{item_label(self.from_item)} -> {item_label(self.item)} (first at "
+                f"x {self.start_xy_m[0]:.1f}, y {self.start_xy_m[1]:.1f} m)")
 
     def as_dict(self) -> dict[str, Any]:
         return {"trigger": self.trigger, "param": self.param, "value": self.value,
                 "action": self.action, "path": self.path, "zone": self.zone, "leg": self.leg,
-                "from_item": self.from_item, "item": self.item,
+                "from_item": item_number(self.from_item), "item": item_number(self.item),
                 "clearance_m": self.clearance_m, "depth_m": max(0.0, -self.clearance_m),
                 "buffer_m": self.buffer_m, "start_xy_m": list(self.start_xy_m),
                 "destination": self.destination,
@@ -135,7 +135,7 @@ class ReturnPoint:
     destination_xy_m: tuple[float, float]
 
     def as_dict(self) -> dict[str, Any]:
-        return {"leg": self.leg, "item": self.item, "xy_m": list(self.xy_m),
+        return {"leg": self.leg, "item": item_number(self.item), "xy_m": list(self.xy_m),
                 "clearance_m": self.clearance_m, "zone": self.zone,
                 "destination": self.destination,
                 "destination_xy_m": list(self.destination_xy_m)}

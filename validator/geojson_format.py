@@ -3,9 +3,10 @@
 Features, each with a ``kind`` property: ``flown_path`` (LineString through every positional
 mission item, home to home), ``service_trajectory`` (the planner's closed cycle from the
 plan's ``nfzMission`` data, when present), ``waypoint`` (Point per positional item, with its
-item index, command and hold), ``ground_node``, ``home`` (the plan's), ``home_set`` (Point per
-home a DO_SET_HOME puts in force, where returns after that ``item`` fly: :meth:`Flight.homes_set`,
-with its altitude above sea level and above the plan's home), ``nfz`` (the published zone),
+item number as QGroundControl shows it, index + 1 (:mod:`validator.item_numbers`), command and
+hold), ``ground_node``, ``home`` (the plan's), ``home_set`` (Point per home a DO_SET_HOME puts
+in force, where returns after that ``item`` (its number) fly: :meth:`Flight.homes_set`, with
+its altitude above sea level and above the plan's home), ``nfz`` (the published zone),
 ``nfz_buffered`` (zone plus safety buffer; circles, then polygon zones), ``fence_exclusion`` /
 ``fence_inclusion`` (circles and polygons of the geofence; an exclusion polygon holding polygon
 zones names them in ``zones``) and ``rally``. GeoJSON has no circles, so a circle is a Polygon
@@ -26,6 +27,7 @@ from validator.fence_geometry import local_fence
 from validator.fileio import write_atomic
 from validator.flight import Flight, resolve_flight
 from validator.geodesy import LocalFrame
+from validator.item_numbers import item_number
 from validator.plan_format import EXTRA_KEY, Cmd, Plan
 from validator.site import Site
 
@@ -80,7 +82,7 @@ def plan_geojson(plan: Plan, site: Site, flight: Flight | None = None) -> dict[s
                               schedule=extra.get("schedule"), delta_s=extra.get("delta_s")))
     for i, it in nav:
         feats.append(_feature({"type": "Point", "coordinates": [it.lon_deg, it.lat_deg]},
-                              kind="waypoint", item=i, command=int(it.command),
+                              kind="waypoint", item=item_number(i), command=int(it.command),
                               altitude_m=it.alt_m,
                               hold_s=it.params[0] if it.command == Cmd.NAV_WAYPOINT else None))
     for name, xy in zip(site.gn_names, site.gn_xy_m, strict=True):
@@ -90,7 +92,7 @@ def plan_geojson(plan: Plan, site: Site, flight: Flight | None = None) -> dict[s
                           kind="home"))
     for item, home, _ in flight.homes_set():
         feats.append(_feature({"type": "Point", "coordinates": _lonlat(frame, home.xy_m)[0]},
-                              kind="home_set", item=item, name=home.label,
+                              kind="home_set", item=item_number(item), name=home.label,
                               altitude_amsl_m=plan.home_alt_m + home.alt_m,
                               altitude_above_plan_home_m=home.alt_m))
     for name, xy, r in zip(site.nfz_names, site.nfz_xy_m, site.nfz_radius_m, strict=True):

@@ -182,7 +182,7 @@ def fence_from_items(items: Sequence[ListItem], home_alt_m: float, source: str
     while i < len(items):
         it = items[i]
         p = it.params
-        where = f"{source}: item {i}"
+        where = f"{source}: fence item {i}"  # its seq (validator.item_numbers)
         if it.command in FENCE_CIRCLES:
             if not p[0] > 0:
                 raise InputError(f"{where}: circle radius must be > 0")
@@ -209,6 +209,7 @@ def rally_from_items(items: Sequence[ListItem], home_alt_m: float, source: str) 
     out = []
     for i, it in enumerate(items):
         if it.command != Cmd.NAV_RALLY_POINT:
-            raise InputError(f"{source}: item {i}: command {it.command} is not a rally point")
+            raise InputError(f"{source}: rally item {i}: command {it.command} is not a rally "
+                             "point")
         out.append((it.params[4], it.params[5], _above_home(it, home_alt_m)))
     return out

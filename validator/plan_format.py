@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Literal
 from validator.errors import InputError
 from validator.fileio import write_atomic
 from validator.input_files import parse_json, read_text
+from validator.item_numbers import item_number
 
 if TYPE_CHECKING:
     from validator.autopilot.fence import FenceRules
@@ -206,11 +207,11 @@ def _json_num(v: float) -> float | None:
 def plan_to_dict(plan: Plan) -> dict[str, object]:
     """The QGroundControl JSON structure of ``plan`` (full double precision)."""
     items = []
-    for i, it in enumerate(plan.items, start=1):
+    for i, it in enumerate(plan.items):
         entry: dict[str, object] = {
             "autoContinue": it.autocontinue,
             "command": int(it.command),
-            "doJumpId": i,
+            "doJumpId": item_number(i),
             "frame": int(it.frame),
             "params": [_json_num(float(p)) for p in it.params],
             "type": "SimpleItem",
@@ -402,13 +403,13 @@ def _number_jump_targets(items: list[MissionItem], ids: list[object], where: str
         p1 = it.params[0]
         named = int(p1) if math.isfinite(p1) and p1.is_integer() else None
         if named is None or named not in first:
-            raise InputError(f"{where}[{i}] (DO_JUMP): no item has doJumpId {p1:g}, the target "
-                             "its param1 names")
+            raise InputError(f"{where}[{i}] (item {item_number(i)}, DO_JUMP): no item has "
+                             f"doJumpId {p1:g}, the target its param1 names")
         if named in second:  # QGroundControl takes the first; another tool may not
-            raise InputError(f"{where}[{i}] (DO_JUMP): its target, doJumpId {named}, is "
-                             f"ambiguous: items[{first[named]}] and items[{second[named]}] "
-                             "both have it")
-        it.params[0] = float(first[named] + 1)
+            raise InputError(f"{where}[{i}] (item {item_number(i)}, DO_JUMP): its target, "
+                             f"doJumpId {named}, is ambiguous: items[{first[named]}] and "
+                             f"items[{second[named]}] both have it")
+        it.params[0] = float(item_number(first[named]))
 
 
 def plan_from_dict(raw: object, source: str = "plan") -> Plan:

@@ -82,6 +82,7 @@ from validator.coast_rules import (
 )
 from validator.flight import Flight, Leg
 from validator.geometry import segment_point_distance
+from validator.item_numbers import item_label, item_number
 from validator.site import Site
 from validator.zones import point_clearance_m, polyline_clearance_m
 
@@ -134,11 +135,11 @@ class PositionLossFinding:
         else:
             after = rule.action.replace("ArduCopter's ", "the ")
             drift = f", drifting {self.drift_m:.0f} m as it lands," if self.drift_m > 0 else ""
-        return (f"GPS loss: from the leg to item {self.item} at {self.speed_mps:.1f} m/s the "
-                f"coast after {after}{drift} {where}; {fix}")
+        return (f"GPS loss: from the leg to {item_label(self.item)} at {self.speed_mps:.1f} m/s "
+                f"the coast after {after}{drift} {where}; {fix}")
 
     def as_dict(self) -> dict[str, Any]:
-        return {"zone": self.zone, "leg": self.leg, "item": self.item,
+        return {"zone": self.zone, "leg": self.leg, "item": item_number(self.item),
                 "speed_mps": self.speed_mps, "clearance_m": self.clearance_m,
                 "buffer_m": self.buffer_m, "speed_cap_mps": self.speed_cap_mps,
                 "drift_m": self.drift_m, "dead_reckoning": self.dead_reckoning,
@@ -426,7 +427,7 @@ def berth_buffer_m(buffer_m: float, findings: list[PositionLossFinding] |
     return deep if buffer_m >= wander else min(deep, wander)
 
 
-Slowed = tuple[int, float, float]  # a leg slowed for its coast: its item, from and to m/s
+Slowed = tuple[int, float, float]  # a leg slowed for its coast: its item index, from, to m/s
 
 
 @dataclass(frozen=True)
@@ -452,7 +453,7 @@ class Berth:
         failsafe = coast_rule(self.autopilot).failsafe_name
         coast = (f"a GPS loss at {self.site_buffer_m:g} m could coast {self.deepest_m:.2f} m into "
                  f"a zone after {failsafe}")
-        slowed = "".join(f", the leg to item {item} slowed from {was:.1f} to {now:.1f} m/s"
+        slowed = "".join(f", the leg to {item_label(item)} slowed from {was:.1f} to {now:.1f} m/s"
                          for item, was, now in self.slowed)
         clear = ("every coast now stays clear, but for the wind's drift while it lands"
                  if self.windy else "every coast now stays clear")
@@ -469,6 +470,6 @@ class Berth:
     def as_dict(self) -> dict[str, object]:
         return {"site_buffer_m": self.site_buffer_m, "buffer_m": self.buffer_m,
                 "deepest_m": self.deepest_m, "findings_left": self.left,
-                "slowed_legs": [{"item": item, "from_mps": was, "to_mps": now}
+                "slowed_legs": [{"item": item_number(item), "from_mps": was, "to_mps": now}
                                 for item, was, now in self.slowed],
                 "message": self.message}

@@ -14,7 +14,9 @@ row per position report (GLOBAL_POSITION_INT):
     ground velocity north, east, down (m/s);
 ``item``
     the current mission item as a 0-based ``.plan`` index (ArduPilot's wire sequence minus
-    one; PX4's as sent), -1 before the mission;
+    one; PX4's as sent), -1 before the mission. The column keeps the index so that files
+    already written read the same; what is shown to a person (the timeline, findings) is the
+    item's number, index + 1 (:mod:`validator.item_numbers`);
 ``armed``, ``fence_breach``
     0 or 1;
 ``left_mission``
@@ -167,7 +169,8 @@ def read_track(path: str | Path) -> RecordedTrack:
                              f"±{bound:g}")
     odd = np.flatnonzero(a[:, 7] != np.round(a[:, 7]))
     if odd.size:
-        raise InputError(f"{p}: line {line_of[odd[0]]}: item {a[odd[0], 7]:g} is no item number")
+        raise InputError(f"{p}: line {line_of[odd[0]]}: item {a[odd[0], 7]:g} is no item index "
+                         "(the column holds 0-based indices)")
     if np.any(np.diff(a[:, 0]) < 0):
         raise InputError(f"{p}: t_s must not decrease")
     if len(header) > 10 and np.any(np.diff(a[:, 10]) < 0):

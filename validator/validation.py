@@ -18,6 +18,7 @@ from typing import Any
 from validator.audit import AuditReport, audit
 from validator.failsafe import FailsafeReport, audit_failsafes
 from validator.flight import Finding, Flight, Severity, resolve_flight
+from validator.item_numbers import item_label
 from validator.motion.fly import REPLAY_STEP_S, check_step
 from validator.motion.limits import site_limits
 from validator.motion.profile import Profile, make_profile
@@ -248,6 +249,6 @@ def audit_refusal(plan_path: str, site_path: str,
     if not problems:
         return None
     first = problems[0]
-    where = f"item {first.item}: " if first.item is not None else ""
+    where = f"{item_label(first.item)}: " if first.item is not None else ""
     return (f"{plan_path} fails the audit against {site_path} ({len(problems)} "
             f"violation(s), first: {where}{first.message})")

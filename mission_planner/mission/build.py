@@ -38,6 +38,7 @@ from mission_planner.optimize.solution import Solution
 from validator.autopilot.rules import programmed_holds_s
 from validator.autopilot.waypoint_radius import radius_params
 from validator.errors import InputError
+from validator.item_numbers import item_number
 from validator.motion.px4_swing import swing_keeps_buffer
 from validator.motion.speed_model import cruise_speed_mps
 from validator.plan_format import Cmd, Frame, MissionItem, Plan
@@ -117,9 +118,10 @@ def _speed(speed_mps: float) -> MissionItem:
 
 
 def _jump(target_item: int, repeats: int) -> MissionItem:
-    # param1 is the target's 1-based item number (ArduPilot's seq, home being 0); the .plan
-    # writes each item's number as its doJumpId, so QGroundControl reads the same target.
-    return MissionItem(int(Cmd.DO_JUMP), [float(target_item + 1), float(repeats), 0, 0, 0, 0, 0],
+    # param1 is the target's item number (ArduPilot's seq, home being 0); the .plan writes
+    # each item's number as its doJumpId, so QGroundControl reads the same target.
+    return MissionItem(int(Cmd.DO_JUMP),
+                       [float(item_number(target_item)), float(repeats), 0, 0, 0, 0, 0],
                        int(Frame.MISSION))
 
 

@@ -94,7 +94,7 @@ def test_a_coast_the_widest_berth_leaves_in_reach_is_kept_out_by_a_slower_leg(ai
     assert now < was
     speeds = [it for it in airfield.plan.items[:item] if it.command == 178]  # DO_CHANGE_SPEED
     assert speeds[-1].params[1] == pytest.approx(now)
-    assert f"the leg to item {item} slowed from {was:.1f} to {now:.1f} m/s" in berth.message
+    assert f"the leg to item {item + 1} slowed from {was:.1f} to {now:.1f} m/s" in berth.message
 
 
 def test_without_the_cap_the_same_layout_coasts_into_a_zone(airfield):

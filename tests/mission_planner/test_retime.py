@@ -19,6 +19,7 @@ from mission_planner.optimize.retime import (
 )
 from mission_planner.study.sites import random_site
 from validator.geometry import min_leg_clearance
+from validator.item_numbers import item_number
 from validator.motion.arducopter import STOP_LAG_S
 from validator.motion.speed_model import cruise_speed_mps, leg_profiles, top_speed_mps
 from validator.site import Site
@@ -272,7 +273,7 @@ def test_flyable_plan_is_flown_on_time_by_the_arducopter_replay(flyable: Solutio
     in_cycle = [
         w["lag_s"]
         for w in report.waypoint_lag
-        if w["lag_s"] is not None and first <= w["item"] <= last
+        if w["lag_s"] is not None and item_number(first) <= w["item"] <= item_number(last)
     ]
     assert len(in_cycle) >= 2
     assert max(abs(x) for x in in_cycle) < 1.5

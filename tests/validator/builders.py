@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from validator.item_numbers import item_number
 from validator.plan_format import Cmd, FenceCircle, Frame, MissionItem, Plan
 from validator.site import Site, parse_site
 
@@ -48,7 +49,8 @@ def speed(v: float) -> MissionItem:
 
 
 def jump(target_item: int, repeats: int) -> MissionItem:
-    return MissionItem(int(Cmd.DO_JUMP), [float(target_item + 1), float(repeats), 0, 0, 0, 0, 0],
+    return MissionItem(int(Cmd.DO_JUMP),
+                       [float(item_number(target_item)), float(repeats), 0, 0, 0, 0, 0],
                        int(Frame.MISSION))
 
 

@@ -30,7 +30,8 @@ def test_leg_between_clear_waypoints_that_crosses_an_nfz_is_rejected_by_name(sit
     report = audit(plan, site)
     assert not report.ok
     msgs = violations(report)
-    assert any("leg item 3 -> item 4 (waypoint) enters NFZ1 by 5.00 m" in m for m in msgs)
+    # plan indices 3 -> 4; a person reads QGroundControl's numbers, index + 1
+    assert any("leg item 4 -> item 5 (waypoint) enters NFZ1 by 5.00 m" in m for m in msgs)
     nfz = report.nfz[0]
     assert nfz.clearance_m == pytest.approx(-5.0, abs=1e-3)
     assert (nfz.from_item, nfz.item) == (3, 4)

@@ -36,7 +36,7 @@ def test_clear_plan_exits_0_and_prints_the_table(files, capsys):
 def test_violating_plan_exits_1_naming_the_leg(files, capsys):
     _, site, _, bad = files
     assert validate_mission_main([str(bad), "--site", str(site)]) == 1
-    assert "leg item 3 -> item 4 (waypoint) enters NFZ1 by 5.00 m" in capsys.readouterr().out
+    assert "leg item 4 -> item 5 (waypoint) enters NFZ1 by 5.00 m" in capsys.readouterr().out
 
 
 def test_json_report_is_written(files):

@@ -176,11 +176,12 @@ def test_validate_mission_shows_the_note_and_writes_it_to_its_report(tmp_path, c
         "--params", str(tmp_path / "m.param"), "--wind", "4@270,1", "--replay",
         "--report", str(out), "--quiet"])
     assert status == 0
-    assert (f"note      item {item}: the leg after the corner is flown leaning"
+    # the index is 15; the table and the report give its number, 16
+    assert (f"note      item {item + 1}: the leg after the corner is flown leaning"
             in capsys.readouterr().out)
     notes = [f for f in json.loads(out.read_text())["replay"]["findings"]
              if "leaning at the lean limit" in f["message"]]
-    assert [(f["severity"], f["item"]) for f in notes] == [("note", item)]
+    assert [(f["severity"], f["item"]) for f in notes] == [("note", item + 1)]
 
 
 def test_a_slower_leg_first_reaches_what_its_jerk_phases_gain():

@@ -165,7 +165,7 @@ RTL_ITEM = MissionItem(int(Cmd.NAV_RETURN_TO_LAUNCH), [0.0] * 7, int(Frame.MISSI
 
 def _moved_home_beyond_the_zone(site: Site) -> Plan:
     # the mission stays west of home, so returns to home at (0, 0) keep off NFZ1 (100, 0);
-    # item 2 moves home to (200, 0), east of NFZ1, before the leg to item 3
+    # index 2 (item 3) moves home to (200, 0), east of NFZ1, before the leg to index 3
     return plan_of(site, [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), speed(5.0),
                           nav(site, DO_SET_HOME, (200.0, 0.0)),
                           nav(site, Cmd.NAV_WAYPOINT, (-50.0, 50.0)),
@@ -177,14 +177,14 @@ def test_a_return_after_a_do_set_home_flies_to_the_new_home_across_a_zone():
     site = make_site()
     plan = _moved_home_beyond_the_zone(site)
     report = audit_failsafes(plan, site, resolve_flight(plan, site), {"FS_THR_ENABLE": 1})
-    found = {(f.zone, f.item, f.destination) for f in report.findings}
-    assert found == {("NFZ1", 3, "home set by item 2"), ("NFZ1", 4, "home set by item 2"),
-                     ("NFZ1", 5, "home set by item 2")}
+    found = {(f.zone, f.item, f.destination) for f in report.findings}  # f.item: the index
+    assert found == {("NFZ1", 3, "home set by item 3"), ("NFZ1", 4, "home set by item 3"),
+                     ("NFZ1", 5, "home set by item 3")}
     assert all(f.destination_xy_m == pytest.approx((200.0, 0.0), abs=1e-6)
                for f in report.findings)
     rc = next(f for f in report.findings if f.param == "FS_THR_ENABLE" and f.item == 4)
-    assert "RTL straight to home set by item 2 and enters NFZ1 20.00 m deep, from the leg " \
-           "item 3 -> item 4" in rc.message
+    assert "RTL straight to home set by item 3 and enters NFZ1 20.00 m deep, from the leg " \
+           "item 4 -> item 5" in rc.message  # indices 3 -> 4
 
 
 def test_returns_before_a_do_set_home_still_fly_to_the_plans_home():
@@ -239,7 +239,7 @@ def test_validate_mission_fails_a_file_whose_failsafe_crosses_a_zone_unless_forc
     assert validate_mission_main([str(plan), "--site", str(site), "--params", str(bad),
                                   "--force"]) == 0
     forced = capsys.readouterr().out
-    assert "warning   item 6: failsafe RC loss" in forced and "Result: CLEAR" in forced
+    assert "warning   item 7: failsafe RC loss" in forced and "Result: CLEAR" in forced
     assert validate_mission_main([str(plan), "--site", str(site), "--params", str(good)]) == 0
 
 
@@ -258,9 +258,10 @@ def test_validate_mission_fails_a_return_to_a_home_moved_behind_a_zone(tmp_path,
     assert validate_mission_main([str(path), "--site", str(site_file), "--params",
                                   str(DATA / "params/thr-rtl.param")]) == 1
     text = capsys.readouterr().out
-    assert "VIOLATION item 11: failsafe RC loss: FS_THR_ENABLE 1 (Enabled always RTL) flies " \
-           "RTL straight to home set by item 9 and enters NFZ1 35.00 m deep, from the leg " \
-           "item 8 -> item 11" in text
+    # the DO_SET_HOME at index 9 is QGroundControl's item 10
+    assert "VIOLATION item 12: failsafe RC loss: FS_THR_ENABLE 1 (Enabled always RTL) flies " \
+           "RTL straight to home set by item 10 and enters NFZ1 35.00 m deep, from the leg " \
+           "item 9 -> item 12" in text
 
 
 def test_without_a_parameter_file_there_is_no_failsafe_audit():

@@ -53,7 +53,7 @@ def test_do_jump_repeats_the_block(site):
 
 def test_do_jump_to_a_missing_item_is_bad_input(site):
     items = [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), jump(40, 1)]
-    with pytest.raises(InputError, match=r"item 1 \(DO_JUMP\): target 41"):
+    with pytest.raises(InputError, match=r"item 2 \(DO_JUMP\): target 41 "):
         resolve_flight(plan_of(site, items), site)
 
 
@@ -73,7 +73,7 @@ def test_a_home_of_0_0_is_bad_input_not_a_leg_across_the_globe(site):
 def test_a_plan_for_another_site_is_bad_input_naming_the_item(site):
     plan = waypoint_plan(site, [(50, -40), (150_000, 0)])
     far = next(i for i, it in enumerate(plan.items) if it.params[5] > site.frame.lon0_deg + 1)
-    with pytest.raises(InputError, match=rf"^plan: item {far} at \(.*\), 150 km from the "
+    with pytest.raises(InputError, match=rf"^plan: item {far + 1} at \(.*\), 150 km from the "
                                          r"origin of site .* \(beyond 100 km\)"):
         resolve_flight(plan, site)
     rally = waypoint_plan(site, [(50, -40)], rally=[(0, 120_000)])
@@ -174,7 +174,8 @@ def test_cycle_items_beyond_the_mission_are_bad_input(site):
     q = [(0, 60), (40, 60), (0, 60)]
     plan = service_plan(site, q, [4, 4], [0.1] * 2, ["GN1", "GN2"])
     plan.extra["cycle_items"] = [3, 99]
-    with pytest.raises(InputError, match=r"nfzMission\.cycle_items: item 99 does not exist"):
+    with pytest.raises(InputError, match=r"nfzMission\.cycle_items: index 99 \(item 100\) "
+                                         "does not exist"):
         resolve_flight(plan, site)
 
 
@@ -184,7 +185,7 @@ def test_a_position_in_a_frame_the_autopilot_refuses_is_refused(site, frame):
     metres above home, with a warning, and the plan judged CLEAR."""
     plan = waypoint_plan(site, [(50, -40), (150, -40)])
     plan.items[3] = dataclasses.replace(plan.items[3], frame=frame)
-    with pytest.raises(InputError, match=rf"^p\.plan: item 3: frame {frame} is no frame for a "
+    with pytest.raises(InputError, match=rf"^p\.plan: item 4: frame {frame} is no frame for a "
                                          "position"):
         resolve_flight(plan, site, "p.plan")
 
@@ -219,7 +220,7 @@ def test_px4_refuses_a_loiter_turns(site):
     """PX4 v1.15's mission parser has no LOITER_TURNS in any frame: the upload fails, where
     it had been resolved as a hover at the centre."""
     plan = dataclasses.replace(_loiter_turns_plan(site), firmware_type=int(Autopilot.PX4))
-    with pytest.raises(InputError, match=r"^plan: item 2: PX4 takes NAV_LOITER_TURNS in no "
+    with pytest.raises(InputError, match=r"^plan: item 3: PX4 takes NAV_LOITER_TURNS in no "
                                          r"frame: it refuses the item "
                                          r"\(MAV_MISSION_UNSUPPORTED\)$"):
         resolve_flight(plan, site)
@@ -356,7 +357,7 @@ def test_an_arducopter_do_set_home_with_coordinates_in_the_mission_frame_is_refu
 
 def test_px4_refuses_a_do_set_home_in_a_global_frame(site):
     # as PX4 refuses the upload (frames.py's rule), not a violation of a plan it would fly
-    with pytest.raises(InputError, match=r"^p\.plan: item 2: PX4 takes DO_SET_HOME only in "
+    with pytest.raises(InputError, match=r"^p\.plan: item 3: PX4 takes DO_SET_HOME only in "
                                          r"frame 2 .*\(MAV_MISSION_UNSUPPORTED\)"):
         resolve_flight(_around(site, _set_home(1.0, 0.0, 0.0, 0.0), px4=True), site, "p.plan")
 
@@ -384,5 +385,5 @@ def test_a_do_set_home_behind_a_condition_is_a_warning(site):
     items = [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), nav(site, Cmd.NAV_WAYPOINT, (40, -40)),
              delay, _set_home(1.0, 0.0, 0.0, 0.0), nav(site, Cmd.NAV_WAYPOINT, (0, -40))]
     found = [(f.severity, f.item) for f in resolve_flight(plan_of(site, items), site).findings
-             if "waits for CONDITION_DELAY (item 2)" in f.message]
+             if "waits for CONDITION_DELAY (item 3)" in f.message]
     assert found == [("warning", 3)]

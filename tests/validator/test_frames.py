@@ -39,7 +39,7 @@ def test_an_arducopter_item_with_coordinates_in_the_mission_frame_is_refused(sit
     AP_Mission reads x and y as degrees x 1e7 in any frame: such a waypoint had been judged
     CLEAR at its latitude and longitude while the vehicle flew toward 0°N 0°E."""
     lat, lon = site.frame.to_geodetic(np.array([150.0, -40.0]))
-    with pytest.raises(InputError, match=r"^p\.plan: item 3: frame 2 \(MISSION\) carries "
+    with pytest.raises(InputError, match=r"^p\.plan: item 4: frame 2 \(MISSION\) carries "
                                          r"latitude and longitude unscaled.*0°N 0°E"):
         resolve_flight(_with_item_3(site, int(command), float(lat), float(lon)), site, "p.plan")
 
@@ -48,7 +48,7 @@ def test_an_arducopter_item_with_coordinates_in_the_mission_frame_is_refused(sit
 def test_px4_refuses_a_navigation_item_in_the_mission_frame(site, command):
     # without coordinates too: PX4 takes no navigation command in frame 2 at all
     plan = _with_item_3(site, int(command), NAN, NAN, px4=True)
-    with pytest.raises(InputError, match=rf"^p\.plan: item 3: .*PX4 refuses {command.name} "
+    with pytest.raises(InputError, match=rf"^p\.plan: item 4: .*PX4 refuses {command.name} "
                                          r"in it \(MAV_MISSION_UNSUPPORTED\)"):
         resolve_flight(plan, site, "p.plan")
 
@@ -80,7 +80,7 @@ def test_px4_refuses_a_position_above_terrain(site, frame):
     plan = dataclasses.replace(waypoint_plan(site, [(50, -40), (150, -40)]),
                                firmware_type=int(Autopilot.PX4))
     plan.items[3] = dataclasses.replace(plan.items[3], frame=frame)
-    with pytest.raises(InputError, match=rf"^p\.plan: item 3: frame {frame} \(above terrain\): "
+    with pytest.raises(InputError, match=rf"^p\.plan: item 4: frame {frame} \(above terrain\): "
                                          r"PX4 refuses the item \(MAV_MISSION_UNSUPPORTED_FRAME\)"):
         resolve_flight(plan, site, "p.plan")
 
@@ -101,7 +101,7 @@ def test_px4_refuses_a_command_without_a_position_in_a_global_frame(site, index,
     plan = _px4(plan)
     plan.items[index] = dataclasses.replace(plan.items[index],
                                             frame=int(Frame.GLOBAL_RELATIVE_ALT))
-    with pytest.raises(InputError, match=rf"^p\.plan: item {index}: PX4 takes {command.name} "
+    with pytest.raises(InputError, match=rf"^p\.plan: item {index + 1}: PX4 takes {command.name} "
                                          r"only in frame 2 \(MISSION\).* in frame 3 "
                                          r"\(MAV_MISSION_UNSUPPORTED\); use 2 \(MISSION\)$"):
         resolve_flight(plan, site, "p.plan")
@@ -125,7 +125,7 @@ def test_px4_refuses_an_item_the_mission_never_reaches(site):
     plan = _px4(waypoint_plan(site, [(50, -40)]))
     plan.items.append(MissionItem(int(Cmd.NAV_RETURN_TO_LAUNCH), [0.0] * 7,
                                   int(Frame.GLOBAL_RELATIVE_ALT)))
-    with pytest.raises(InputError, match=r"^p\.plan: item 4: PX4 takes NAV_RETURN_TO_LAUNCH"):
+    with pytest.raises(InputError, match=r"^p\.plan: item 5: PX4 takes NAV_RETURN_TO_LAUNCH"):
         resolve_flight(plan, site, "p.plan")
 
 
@@ -141,7 +141,7 @@ def test_px4_takes_each_roi_mode_only_in_its_frame(site, frame, mode, refused):
     if not refused:
         resolve_flight(plan, site)
         return
-    with pytest.raises(InputError, match=r"^plan: item 2: PX4 takes DO_SET_ROI in frame "
+    with pytest.raises(InputError, match=r"^plan: item 3: PX4 takes DO_SET_ROI in frame "
                                          rf"{frame} only with param1 .*not {mode:g} "
                                          r"\(MAV_MISSION_INVALID_PARAM1\)"):
         resolve_flight(plan, site)
@@ -151,7 +151,7 @@ def test_arducopter_refuses_a_do_item_location_in_a_frame_without_positions(site
     # DO_SET_ROI is stored with a location, whose frame AP_Mission checks as a waypoint's
     plan = waypoint_plan(site, [(50, -40)])
     plan.items.insert(2, MissionItem(201, [3.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1))
-    with pytest.raises(InputError, match=r"^plan: item 2: frame 1 is no frame for a position: "
+    with pytest.raises(InputError, match=r"^plan: item 3: frame 1 is no frame for a position: "
                                          r"ArduPilot refuses the item"):
         resolve_flight(plan, site)
 
@@ -182,7 +182,7 @@ def test_a_waypoint_with_one_coordinate_left_out_is_refused(site, px4, left_out,
     or the prime meridian: the resolver had taken a NaN in either for "where the vehicle is"."""
     plan = waypoint_plan(site, [(50, -40), (150, -40)])
     plan.items[3].params[left_out] = NAN
-    with pytest.raises(InputError, match=rf"^p\.plan: item 3: \w+ left out \(null\) but "
+    with pytest.raises(InputError, match=rf"^p\.plan: item 4: \w+ left out \(null\) but "
                                          rf"{given} -?[\d.]+ given: .*give both or neither$"):
         resolve_flight(_px4(plan) if px4 else plan, site, "p.plan")
 

@@ -68,7 +68,7 @@ def test_text_is_valid_json_feature_collection(site, plan):
 
 
 def _set_home_plan(site, set_home):
-    """Takeoff, a waypoint at (50, 60) 20 m up, ``set_home`` (item 3), a waypoint, RTL."""
+    """Takeoff, a waypoint at (50, 60) 20 m up, ``set_home`` (index 3: item 4), a waypoint, RTL."""
     items = [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), speed(5.0),
              nav(site, Cmd.NAV_WAYPOINT, (50.0, 60.0), 20.0), set_home,
              nav(site, Cmd.NAV_WAYPOINT, (60.0, 80.0), 20.0),
@@ -86,8 +86,8 @@ def test_a_home_set_where_the_vehicle_is_is_a_point_there_named_by_its_item(site
     (home,) = _kinds(plan_geojson(plan, site))["home_set"]
     lon, lat = home["geometry"]["coordinates"]
     np.testing.assert_allclose(site.frame.to_local(lat, lon), (50.0, 60.0), atol=1e-6)
-    assert home["properties"]["item"] == 3
-    assert home["properties"]["name"] == "home set by item 3"
+    assert home["properties"]["item"] == 4  # QGroundControl's number, as in its name
+    assert home["properties"]["name"] == "home set by item 4"
 
 
 def test_a_home_set_moved_up_gives_its_altitude_above_sea_level_and_above_the_plans_home(site):

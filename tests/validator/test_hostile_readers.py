@@ -198,7 +198,7 @@ def test_an_altitude_beyond_a_missions_reach_is_refused(alt_m: float) -> None:
     k = next(i for i, it in enumerate(data["mission"]["items"]) if it["command"] == 16)
     data["mission"]["items"][k]["params"][6] = alt_m
     plan = loads_plan(json.dumps(data), "p.plan")
-    with pytest.raises(InputError, match=rf"^p\.plan: item {k}: altitude .* beyond the 100 km"):
+    with pytest.raises(InputError, match=rf"^p\.plan: item {k + 1}: altitude .* beyond the 100 km"):
         resolve_flight(plan, SITE, "p.plan")
 
 

@@ -80,15 +80,16 @@ def test_a_plan_the_planner_wrote_reads_and_writes_back_bit_for_bit(path: Path):
 def test_a_doJumpId_no_item_has_is_refused_naming_the_item(site):
     # 3 is a position in the plan but no item's id: read as a position it would fly to B
     data = _plan_dict(site, [10, 20, 30, 40, 50, 60], target_id=3)
-    with pytest.raises(InputError, match=r"^m\.plan\.mission\.items\[4\] \(DO_JUMP\): no item "
-                                         r"has doJumpId 3"):
+    with pytest.raises(InputError, match=r"^m\.plan\.mission\.items\[4\] \(item 5, DO_JUMP\): "
+                                         r"no item has doJumpId 3"):
         loads_plan(json.dumps(data), "m.plan")
 
 
 def test_a_doJumpId_two_items_carry_is_refused_where_a_jump_names_it(site):
     data = _plan_dict(site, [1, 2, 2, 4, 5, 6], target_id=2)
-    with pytest.raises(InputError, match=r"items\[4\] \(DO_JUMP\): its target, doJumpId 2, is "
-                                         r"ambiguous: items\[1\] and items\[2\] both have it"):
+    with pytest.raises(InputError, match=r"items\[4\] \(item 5, DO_JUMP\): its target, "
+                                         r"doJumpId 2, is ambiguous: items\[1\] and items\[2\] "
+                                         "both have it"):
         loads_plan(json.dumps(data), "m.plan")
 
 
@@ -108,4 +109,5 @@ def test_validate_mission_refuses_a_jump_to_no_doJumpId_in_one_line(site, tmp_pa
     assert validate_mission_main([str(plan_path), "--site", str(site_path)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "Traceback" not in err
-    assert f"{plan_path}.mission.items[4] (DO_JUMP): no item has doJumpId 3" in err
+    # the JSON path counts from 0 as JSON does; the item's number is QGroundControl's
+    assert f"{plan_path}.mission.items[4] (item 5, DO_JUMP): no item has doJumpId 3" in err

@@ -65,7 +65,7 @@ def test_a_leg_cutting_a_polygon_corner_is_a_violation_by_name(site):
     plan = with_polygon_fence(site, waypoint_plan(site, corner_pass(-math.sqrt(2.0)), end="none"))
     report = audit(plan, site)
     msgs = [f.message for f in report.violations]
-    assert any(m.startswith("leg item 2 -> item 3 (waypoint) enters SQ by ") for m in msgs), msgs
+    assert any(m.startswith("leg item 3 -> item 4 (waypoint) enters SQ by ") for m in msgs), msgs
     row = {z.name: z for z in report.nfz}["SQ"]
     # the deepest point of the cut, (139, 19), lies 1 m inside both edges
     assert row.clearance_m == pytest.approx(-1.0, abs=0.03)

@@ -74,7 +74,7 @@ def test_gz_is_compressed(tmp_path):
     (",".join(COLUMNS) + "\n0,1,-181,3,4,5,6,7,1,0,0\n", "line 2: lon_deg -181 beyond ±180"),
     (",".join(COLUMNS) + "\n0,1,2,1e12,4,5,6,7,1,0,0\n", "line 2: alt_m 1e\\+12 beyond"),
     (",".join(COLUMNS) + "\n0,1,2,3,4,5,6,1e20,1,0,0\n", "line 2: item 1e\\+20 beyond"),
-    (",".join(COLUMNS) + "\n0,1,2,3,4,5,6,7.5,1,0,0\n", "line 2: item 7.5 is no item number"),
+    (",".join(COLUMNS) + "\n0,1,2,3,4,5,6,7.5,1,0,0\n", "line 2: item 7.5 is no item index"),
 ])
 def test_a_bad_track_file_is_one_input_error_naming_it(tmp_path, text, message):
     path = tmp_path / "bad.csv"

@@ -302,15 +302,16 @@ def test_a_do_set_home_draws_the_home_it_puts_in_force_and_the_returns_go_there(
     fig = view_figure(validation_inputs(v))
     (moved,) = layer(fig, "set-home")
     assert (moved["x"], moved["y"]) == ([150.0], [250.0])
-    assert moved["text"] == ["home set by item 9"] and moved["meta"]["items"] == [9]
+    # the DO_SET_HOME is at index 9: QGroundControl's item 10, in the text and the meta alike
+    assert moved["text"] == ["home set by item 10"] and moved["meta"]["items"] == [10]
     assert moved["name"] == "home set by DO_SET_HOME" and moved["marker"]["symbol"] == \
         "square-open"
-    # the legs after it, to the landing: the item 10 waypoint ... the LAND, item 15
-    assert "in force on the legs to items 10 ... 15" in moved["customdata"][0]
+    # the legs after it, to the landing: the item 11 waypoint ... the LAND, item 16
+    assert "in force on the legs to items 11 ... 16" in moved["customdata"][0]
     (home,) = layer(fig, "home")
     assert home["marker"]["symbol"] == "square" and home["text"] == ["home (the plan's)"]
-    assert "until the DO_SET_HOME of item 9" in home["hovertemplate"]
-    # the deepest RTL into NFZ1 starts after item 9: it is drawn to the moved home; those
+    assert "until the DO_SET_HOME of item 10" in home["hovertemplate"]
+    # the deepest RTL into NFZ1 starts after item 10: it is drawn to the moved home; those
     # into NFZ2 and NFZ3 start before it and go to the plan's
     ends = {(t["hovertext"].split("<br>")[-1].split(" ")[-1], t["x"][-1], t["y"][-1])
             for t in _failsafe(fig) if t["meta"]["kind"] == "line"}
@@ -319,8 +320,8 @@ def test_a_do_set_home_draws_the_home_it_puts_in_force_and_the_returns_go_there(
 
 
 def test_the_closest_clear_return_is_drawn_to_the_home_in_force():
-    # home (0, 0); item 3 moves it to (150, 100), so the returns from the leg after it, the
-    # closest to NFZ1 (100, 0), fly there: the green line ends at the moved home's marker
+    # home (0, 0); item 4 (index 3) moves it to (150, 100), so the returns from the leg after
+    # it, the closest to NFZ1 (100, 0), fly there: the green line ends at the moved home's marker
     site = make_site()
     plan = plan_of(site, [nav(site, Cmd.NAV_TAKEOFF, site.home_xy_m), speed(5.0),
                           nav(site, Cmd.NAV_WAYPOINT, (0.0, 100.0)),
@@ -330,14 +331,14 @@ def test_the_closest_clear_return_is_drawn_to_the_home_in_force():
     flight = resolve_flight(plan, site)
     report = audit_failsafes(plan, site, flight, {"FS_THR_ENABLE": 1})
     assert report.ok and report.worst_return is not None
-    assert report.worst_return.destination == "home set by item 3"
+    assert report.worst_return.destination == "home set by item 4"
     fig = view_figure(ViewInputs(plan, site, flight,
                                  failsafe_paths=failsafe_paths(report, flight)))
     (line,) = [t for t in _failsafe(fig) if t["meta"]["kind"] == "line"]
     (moved,) = layer(fig, "set-home")
     assert line["meta"]["ok"] and (line["x"][-1], line["y"][-1]) == (150.0, 100.0)
     assert (moved["x"], moved["y"]) == ([150.0], [100.0])
-    assert "in force on the legs to items 4 ... 5" in moved["customdata"][0]
+    assert "in force on the legs to items 5 ... 6" in moved["customdata"][0]
 
 
 def test_a_home_set_where_the_vehicle_is_is_drawn_at_the_waypoint_before_it():
@@ -350,9 +351,9 @@ def test_a_home_set_where_the_vehicle_is_is_drawn_at_the_waypoint_before_it():
     (moved,) = layer(view_figure(ViewInputs(plan, site, resolve_flight(plan, site))),
                      "set-home")
     assert (moved["x"], moved["y"]) == ([0.0], [100.0])
-    assert "home set by item 3</b> (DO_SET_HOME, where the vehicle is)" in \
+    assert "home set by item 4</b> (DO_SET_HOME, where the vehicle is)" in \
         moved["customdata"][0]
-    assert "in force on the legs to items 4 ... 5" in moved["customdata"][0]
+    assert "in force on the legs to items 5 ... 6" in moved["customdata"][0]
 
 
 def test_no_do_set_home_or_one_the_autopilot_refuses_draws_no_moved_home(validation, tmp_path):

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from tests.browser import WAIT_FOR_PLOT, chromium, find_browser
+from validator.item_numbers import item_number
 from validator.validation import validate_mission
 from validator.view import validation_inputs, write_view
 
@@ -115,7 +116,7 @@ def test_layers_match_the_plan(browser, sample):
     assert counts["fence"] == len(v.plan.circles) + len(v.plan.polygons)
     assert counts["track"] == 1 and counts["vehicle"] == 1
     assert counts["rally"] == 1 and counts["home"] == 1
-    items = sorted({leg.item for leg in v.flight.legs})
+    items = sorted({item_number(leg.item) for leg in v.flight.legs})  # as QGroundControl's
     waypoints = _trace(browser, "waypoint")
     assert sorted(i for at in waypoints["meta"]["items"] for i in at) == items
     places = {tuple(np.round(leg.end_xy_m, 1)) for leg in v.flight.legs}
@@ -136,9 +137,9 @@ def test_hovering_a_waypoint_shows_its_details(browser, sample):
              if "slots" in text and len(waypoints["meta"]["items"][i]) == 1)
     ActionChains(browser).move_to_element(drawn[k]).perform()
     shown = _until(browser, HOVER_TEXT)
-    item = waypoints["meta"]["items"][k][0]
+    item = waypoints["meta"]["items"][k][0]  # its number, index + 1
     assert f"item {item}: NAV_WAYPOINT" in shown
-    leg = next(leg for leg in v.flight.legs if leg.item == item)
+    leg = next(leg for leg in v.flight.legs if item_number(leg.item) == item)
     assert f"speed {leg.speed_mps:.2f} m/s" in shown and "hold" in shown
     assert "slot" in shown and "of T" in shown and "clearance" in shown
 
@@ -335,10 +336,10 @@ def test_a_home_moved_by_do_set_home_is_drawn_apart_and_tells_where_it_is_in_for
     (point,) = browser.find_elements("css selector", ".scatterlayer .traceset-home path.point")
     labels = [t.text for t in browser.find_elements(
         "css selector", ".scatterlayer .traceset-home .textpoint")]
-    assert labels == ["home set by item 9"]
+    assert labels == ["home set by item 10"]  # the DO_SET_HOME at index 9
     legend = [t.text for t in browser.find_elements("css selector", ".legend .legendtext")]
     assert "home" in legend and "home set by DO_SET_HOME" in legend
     ActionChains(browser).move_to_element(point).perform()
     shown = _until(browser, HOVER_TEXT)
-    assert "home set by item 9 (DO_SET_HOME, at its coordinates)" in shown
-    assert "in force on the legs to items 10 ... 15" in shown and "150 m E, 250 m N" in shown
+    assert "home set by item 10 (DO_SET_HOME, at its coordinates)" in shown
+    assert "in force on the legs to items 11 ... 16" in shown and "150 m E, 250 m N" in shown

@@ -177,7 +177,7 @@ def test_arducopter_caps_each_leg_at_its_ground_speed() -> None:
 def test_arducopter_refuses_a_wind_beyond_its_top_speed() -> None:
     site = load_site(SAMPLE)
     prof = make_profile("arducopter", site_limits(site), {"WIND_SPEED": 12.0, "WIND_FROM": 90.0})
-    with pytest.raises(InputError, match=r"mission item 1 \(course 90°\) cannot be flown"):
+    with pytest.raises(InputError, match=r"mission item 2 \(course 90°\) cannot be flown"):
         replay(_legs(90.0), prof)
 
 

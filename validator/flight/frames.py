@@ -41,6 +41,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+from validator.item_numbers import item_label
 from validator.plan_format import Cmd, Frame, MissionItem
 
 AMSL_FRAMES = frozenset({Frame.GLOBAL, Frame.MISSION, 5})  # 5: GLOBAL_INT
@@ -180,11 +181,12 @@ def item_refusal(it: MissionItem, px4: bool) -> str | None:
 
 
 def plan_refusal(items: Sequence[MissionItem], px4: bool) -> str | None:
-    """``item N: why`` for the first of a mission's ``items`` (numbered from 0, as in the
-    ``.plan``) the autopilot would refuse or misplace by :func:`item_refusal`, or None. All
-    of them, reached or not: the autopilot refuses the upload for any one refused."""
+    """``item N: why`` for the first of a mission's ``items`` (N its number,
+    :func:`~validator.item_numbers.item_number`) the autopilot would refuse or misplace by
+    :func:`item_refusal`, or None. All of them, reached or not: the autopilot refuses the
+    upload for any one refused."""
     for i, it in enumerate(items):
         why = item_refusal(it, px4)
         if why is not None:
-            return f"item {i}: {why}"
+            return f"{item_label(i)}: {why}"
     return None

@@ -3,7 +3,8 @@ force on each, the service cycle among them (:class:`CycleSpan`), what could not
 (:class:`Finding`), all in one :class:`Flight`.
 
 Positions are metres east/north of the site origin, altitudes metres above home; items are
-numbered from 0 as in the ``.plan`` file.
+0-based indices of the ``.plan``'s ``mission.items``; text names them by number
+(:mod:`validator.item_numbers`).
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from validator.flight.service import ServicePlan
+from validator.item_numbers import item_label, item_number
 from validator.plan_format import Autopilot
 
 LegKind = Literal["takeoff", "waypoint", "loiter", "rtl", "land"]
@@ -25,14 +27,17 @@ SAME_HOME_M = 0.5  # a DO_JUMP loop passing one DO_SET_HOME again sets one home 
 
 @dataclass(frozen=True)
 class Finding:
-    """Something the validator reports about a plan. ``item`` is a 0-based item index or None."""
+    """Something the validator reports about a plan. ``item`` is a 0-based item index or None;
+    :meth:`as_dict` gives its number (:func:`validator.item_numbers.item_number`)."""
 
     severity: Severity
     message: str
     item: int | None = None
 
     def as_dict(self) -> dict[str, object]:
-        return {"severity": self.severity, "item": self.item, "message": self.message}
+        return {"severity": self.severity,
+                "item": None if self.item is None else item_number(self.item),
+                "message": self.message}
 
 
 @dataclass(frozen=True)
@@ -47,7 +52,8 @@ class Home:
 
     @property
     def label(self) -> str:
-        return "home" if self.set_by_item is None else f"home set by item {self.set_by_item}"
+        return ("home" if self.set_by_item is None
+                else f"home set by item {item_number(self.set_by_item)}")
 
 
 @dataclass(frozen=True)
@@ -83,7 +89,7 @@ class Leg:
 
     @property
     def label(self) -> str:
-        return f"item {self.item} ({self.kind})"
+        return f"{item_label(self.item)} ({self.kind})"
 
 
 @dataclass(frozen=True)

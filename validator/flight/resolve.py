@@ -5,9 +5,10 @@ flies, in the site's local east/north frame (metres), altitudes in metres above 
 
 Conventions:
 
-- Items are numbered from 0 as in the ``.plan`` file. On the wire ArduPilot puts home at
-  mission sequence 0, so item ``i`` is ``seq = i + 1`` there; a DO_JUMP's param1 is that
-  number (a ``.plan`` names its target by doJumpId: read as this), so it targets ``param1 - 1``.
+- Items are 0-based indices of the ``.plan``'s ``mission.items``; messages name them by
+  number (:func:`~validator.item_numbers.item_number`: index + 1, QGroundControl's and
+  ArduPilot's seq, home being 0). A DO_JUMP's param1 is that number (a ``.plan`` names its
+  target by doJumpId: read as this), so it targets index ``param1 - 1``.
 - NAV_TAKEOFF climbs straight up where the vehicle is. NAV_WAYPOINT flies a straight leg and
   holds param1 seconds. DO_CHANGE_SPEED (param2 m/s, param1 0/1 = horizontal) applies at once
   and holds until changed. DO_JUMP repeats param2 times (-1: forever). RTL flies straight to
@@ -42,6 +43,7 @@ from validator.flight.frames import AMSL_FRAMES, TERRAIN_FRAMES, plan_refusal, u
 from validator.flight.home import CONDITIONS, home_finding, home_height_finding, moved_home
 from validator.flight.model import CycleSpan, Finding, Flight, Home, Leg, LegKind, Severity
 from validator.flight.service import ServicePlan, parse_service
+from validator.item_numbers import item_label
 from validator.plan_format import Autopilot, Cmd, MissionItem, Plan
 from validator.site import MAX_REACH_M, Site
 
@@ -158,9 +160,9 @@ class _Resolver:
             return self.state.xy.copy()
         if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
             raise InputError(
-                f"{self.source}: item {self._idx}: latitude/longitude ({lat}, {lon}) out of range"
-            )
-        return self.local(lat, lon, f"item {self._idx}")
+                f"{self.source}: {item_label(self._idx)}: latitude/longitude ({lat}, {lon}) "
+                "out of range")
+        return self.local(lat, lon, item_label(self._idx))
 
     def altitude(self, it: MissionItem, i: int, *, zero_is_current: bool) -> float:
         alt = it.params[6]
@@ -184,7 +186,7 @@ class _Resolver:
         if len(self.legs) >= MAX_LEGS:
             raise InputError(f"{self.source}: mission resolves to more than {MAX_LEGS} legs")
         if not abs(end_alt) <= MAX_REACH_M:  # its climb had a replay sample 155 TiB at 1e12 m
-            raise InputError(f"{self.source}: item {i}: altitude {end_alt:g} m from home, "
+            raise InputError(f"{self.source}: {item_label(i)}: altitude {end_alt:g} m from home, "
                              f"beyond the {MAX_REACH_M / 1000:g} km a mission reaches")
         first = self.pending_first if self.pending_first is not None else i
         self.legs.append(
@@ -296,7 +298,7 @@ class _Resolver:
         repeats = it.params[1]
         if math.isnan(target) or int(target) != target or not 1 <= target <= len(self.plan.items):
             raise InputError(
-                f"{self.source}: item {pc} (DO_JUMP): target {target} is not an item "
+                f"{self.source}: {item_label(pc)} (DO_JUMP): target {target:g} is not an item "
                 f"(1..{len(self.plan.items)})"
             )
         t = int(target) - 1
@@ -350,9 +352,9 @@ class _Resolver:
         self.state.home = home
         self.find(*home_finding(self.site, home.xy_m), pc)
         if self.gate is not None:
-            self.find("warning", f"DO_SET_HOME waits for {self.gate[1]} (item {self.gate[0]}): "
-                      "home moves once it is met, never if the next waypoint comes first; "
-                      "the audit moves it at the leg's start", pc)
+            self.find("warning", f"DO_SET_HOME waits for {self.gate[1]} "
+                      f"({item_label(self.gate[0])}): home moves once it is met, never if the "
+                      "next waypoint comes first; the audit moves it at the leg's start", pc)
 
     def loiter_turns(self, pc: int, it: MissionItem) -> None:
         turns = abs(it.params[0]) if not math.isnan(it.params[0]) else 1.0
@@ -445,8 +447,9 @@ def resolve_flight(plan: Plan, site: Site, source: str = "plan") -> Flight:
         raise InputError(f"{source}: {refused}")
     service = parse_service(plan.extra, site, source)
     if service is not None and service.cycle_items[1] >= len(plan.items):
-        raise InputError(f"{source}.nfzMission.cycle_items: item {service.cycle_items[1]} "
-                         f"does not exist ({len(plan.items)} items)")
+        last = service.cycle_items[1]  # a 0-based index, as the file holds it
+        raise InputError(f"{source}.nfzMission.cycle_items: index {last} "
+                         f"({item_label(last)}) does not exist ({len(plan.items)} items)")
     r = _Resolver(plan, site, source)
     r.run()
     if not r.legs:
@@ -490,5 +493,5 @@ def check_duration(flight: Flight) -> None:
     how = (f"a {leg.hold_s:g} s hold" if leg.hold_s >= each[k] / 2 else
            f"{leg.length_m:.0f} m at {leg.speed_mps:g} m/s")
     over = f"{total_s:,.0f}" if total_s < 1e9 else f"{total_s:.2e}"
-    raise InputError(f"{flight.source}: item {leg.item}: {how}: the mission would fly over "
+    raise InputError(f"{flight.source}: {item_label(leg.item)}: {how}: the mission would fly over "
                      f"{over} s, beyond a day ({MAX_MISSION_S:g} s)")

@@ -14,6 +14,7 @@ import re
 import time
 from typing import Any
 
+from validator.item_numbers import list_item_label
 from validator.mavlink.connection import Connection, LinkClosed, LinkError
 from validator.mavlink.wire import MissionType, WireItem, mavlink, mission_result_name
 
@@ -102,8 +103,8 @@ def upload_list(link: Connection, items: tuple[WireItem, ...],
         while True:
             now = time.monotonic()
             if now - last_progress > link.timeout_s:
-                where = (f"after item {highest} of {count}" if highest >= 0
-                         else "to MISSION_COUNT")
+                where = (f"after {_name(link, mission_type, highest)} ({highest + 1} of "
+                         f"{count} sent)" if highest >= 0 else "to MISSION_COUNT")
                 raise LinkError(f"{label} upload: vehicle stopped answering {where} "
                                 f"(no reply for {link.timeout_s:g} s); upload incomplete")
             patience = RESTART_AFTER_NACK_S if out_of_sequence else RESTART_AFTER_S
@@ -127,7 +128,8 @@ def upload_list(link: Connection, items: tuple[WireItem, ...],
                     lambda m: getattr(m, "mission_type", 0) == int(mission_type),
                 )
             except LinkClosed as err:
-                where = f"after item {highest} of {count}" if highest >= 0 else "at its start"
+                where = (f"after {_name(link, mission_type, highest)} ({highest + 1} of "
+                         f"{count} sent)" if highest >= 0 else "at its start")
                 raise LinkError(f"{label} upload: {err} {where}; upload incomplete, upload "
                                 "again once it is back") from None
             if msg is None:
@@ -138,7 +140,8 @@ def upload_list(link: Connection, items: tuple[WireItem, ...],
                         return True
                     continue  # a stale ACK from an earlier attempt
                 name = mission_result_name(msg.type)
-                at = f" at item {last_sent}" if last_sent is not None else ""
+                at = (f" at {_name(link, mission_type, last_sent)}" if last_sent is not None
+                      else "")
                 if msg.type == mavlink.MAV_MISSION_INVALID_SEQUENCE and last_sent is not None:
                     out_of_sequence = True  # an item it did not ask for: it asks again
                     continue
@@ -177,6 +180,13 @@ def upload_list(link: Connection, items: tuple[WireItem, ...],
         raise LinkError(refusal[1])  # refused every time: say so, as at the first
     raise LinkError(f"{label} upload: gave up after {TRANSFER_ATTEMPTS} attempts; "
                     "the link loses too many packets")
+
+
+def _name(link: Connection, mission_type: MissionType, seq: int) -> str:
+    """The item ``seq`` of a list as a person reads it: the same number from ArduPilot and PX4
+    (:mod:`validator.item_numbers`)."""
+    return list_item_label(seq, home_item=link.vehicle.is_ardupilot,
+                           mission_type=int(mission_type))
 
 
 def _is_answer(m: Any, mission_type: int, seq: int) -> bool:
@@ -250,7 +260,9 @@ def download_list(link: Connection, mission_type: MissionType) -> tuple[WireItem
         if count is not None and len(out) >= count:
             break
     else:
-        what = "MISSION_REQUEST_LIST" if count is None else f"item {len(out)} of {count}"
+        what = ("MISSION_REQUEST_LIST" if count is None else
+                f"the request for {_name(link, mission_type, len(out))} ({len(out) + 1} of "
+                f"{count})")
         raise LinkError(f"{label} download: no answer to {what} within {link.timeout_s:g} s"
                         + (f" (last answer: {nack})" if nack else ""))
     link.mav.mission_ack_send(ts, tc, mavlink.MAV_MISSION_ACCEPTED, mtype)

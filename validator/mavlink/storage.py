@@ -52,6 +52,7 @@ from collections.abc import Callable
 import numpy as np
 
 from validator.flight.frames import ARDUPILOT_LOCATED
+from validator.item_numbers import list_item_label
 from validator.mavlink.wire import GLOBAL_FRAMES, MissionType, WireItem, f32, first_difference
 from validator.plan_format import Autopilot, Cmd
 
@@ -240,7 +241,7 @@ def storage_losses(items: tuple[WireItem, ...], autopilot: int) -> list[str]:
     out: list[str] = []
     for it in items:
         kept = stored_form(it, autopilot)
-        label = f"{MissionType(it.mission_type).label} item {it.seq}"
+        label = list_item_label(it.seq, home_item=True, mission_type=it.mission_type)
         rule = _ARDUPILOT_MISSION.get(it.command) if it.mission_type == 0 else None
         for i in sorted(rule[1]) if rule else ():
             sent = (it.param1, it.param2, it.param3, it.param4)[i]
@@ -265,7 +266,7 @@ def first_stored_difference(
     the vehicle holds each item either verbatim or exactly as its autopilot's storage rules
     turn it (:func:`stored_form`): both mean the vehicle keeps what we sent."""
     if len(held) != len(sent):
-        return first_difference(sent, held, mission_type)
+        return first_difference(sent, held, mission_type, home_item=autopilot != PX4)
     expected = tuple(h if h.content() == s.content() else stored_form(s, autopilot)
                      for s, h in zip(sent, held, strict=True))
     if autopilot == PX4:
@@ -273,4 +274,5 @@ def first_stored_difference(
                          for e, h in zip(expected, held, strict=True))
     label = {ARDUPILOT: "expected (as ArduPilot stores what we sent)",
              PX4: "expected (as PX4 stores what we sent)"}.get(autopilot, "sent")
-    return first_difference(expected, held, mission_type, skip_seq0=skip_seq0, expected=label)
+    return first_difference(expected, held, mission_type, skip_seq0=skip_seq0, expected=label,
+                            home_item=autopilot != PX4)

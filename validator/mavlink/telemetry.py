@@ -266,6 +266,7 @@ def recorded_track(telemetry: Telemetry, *, ardupilot: bool) -> RecordedTrack:
     """The telemetry as a :class:`~validator.track_file.RecordedTrack`: times from the start
     of the takeoff, mission items as ``.plan`` indices (ArduPilot's home, 0, is -1), and
     ``left_mission`` from the first of ``mode_changes``."""
+    # ArduPilot's seq is the item number (home 0), PX4's the index: validator.item_numbers
     seq = telemetry.mission_seq - (1 if ardupilot else 0)
     left = min((s for s, _ in telemetry.mode_changes), default=math.inf)
     return RecordedTrack(telemetry.t_s - telemetry.flight_start_s, telemetry.lat_deg,

@@ -42,6 +42,7 @@ from validator.item_lists import (  # noqa: E402
     plan_items,
     rally_from_items,
 )
+from validator.item_numbers import list_item_label, wire_item_number  # noqa: E402
 from validator.plan_format import Autopilot, Plan  # noqa: E402
 
 mavlink: Any = mavutil.mavlink  # the MAVLink 2 dialect module (message classes and enums)
@@ -253,7 +254,8 @@ def wire_to_plan(
         if note is not None:
             why = ("its seq 0 at 0°, 0°" if first is not None else
                    "no mission, no HOME_POSITION" if home_item else "no HOME_POSITION")
-            stand_in = (f"the position of mission.items[{pos[0].seq - int(home_item)}], the "
+            number = wire_item_number(pos[0].seq, home_item=home_item)
+            stand_in = (f"the position of item {number}, the "
                         "first item with one, at altitude 0 m AMSL" if pos else
                         "0°, 0°: no item has a position")
             note(f"the vehicle reported no home ({why}); the plan's home is {stand_in}")
@@ -273,12 +275,14 @@ def wire_to_plan(
 
 def first_difference(
     sent: tuple[WireItem, ...], held: tuple[WireItem, ...], mission_type: MissionType,
-    *, skip_seq0: bool = False, expected: str = "sent",
+    *, skip_seq0: bool = False, expected: str = "sent", home_item: bool = True,
 ) -> str | None:
     """One line describing the first difference between two lists, or None if identical.
 
     ``skip_seq0``: ArduPilot replaces the mission's seq 0 with its own home, so it is not
-    compared. ``expected`` names the first list in the message.
+    compared. ``expected`` names the first list in the message. ``home_item``: the vehicle
+    keeps home at mission seq 0 (ArduPilot; False for PX4): the item is named by its number
+    (:func:`~validator.item_numbers.list_item_label`), the same for both.
     """
     label = mission_type.label
     if len(sent) != len(held):
@@ -292,7 +296,9 @@ def first_difference(
         for name, va, vb in zip(names, ca, cb, strict=True):
             if va != vb:
                 shown_a, shown_b = getattr(a, name), getattr(b, name)
-                return (f"{label} item {a.seq}: {name} {expected} {shown_a!r}, "
+                where = list_item_label(a.seq, home_item=home_item,
+                                        mission_type=int(mission_type))
+                return (f"{where}: {name} {expected} {shown_a!r}, "
                         f"vehicle holds {shown_b!r}")
     return None
 

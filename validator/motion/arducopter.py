@@ -41,6 +41,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from validator.autopilot.rules import stored_hold_s
 from validator.flight import Finding, Flight
+from validator.item_numbers import item_label
 from validator.motion.arducopter_speed import (
     arducopter_accel_mps2,
     arducopter_top_speed_mps,
@@ -148,7 +149,7 @@ def _leg_speeds(flight: Flight, profile: Profile, geom: LegGeometry) -> _LegSpee
     # what the vehicle flies at its lean limit, held through the gusts (the plan's commands
     # are within it); capped by what the plan allows (VEHICLE_SPEED_MAX)
     caps = lean_caps_mps(profile, unit, held_top_speed_mps(profile),
-                         [f"mission item {leg.item}" for leg in legs], held=True)
+                         [f"mission {item_label(leg.item)}" for leg in legs], held=True)
     speed = kinematic_limit(unit, np.minimum(cmd, caps),
                             profile.si("WPNAV_SPEED_UP"), profile.si("WPNAV_SPEED_DN"))
     a_z = profile.si("WPNAV_ACCEL_Z")

@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from validator.flight import Flight
+from validator.item_numbers import item_label
 from validator.motion import px4
 from validator.motion.limits import GRAVITY_MPS2
 from validator.motion.path import FlownPath, active_leg, leg_geometry, time_grid
@@ -140,7 +141,7 @@ def fly(flight: Flight, profile: Profile, dt_s: float) -> FlownPath:
     legs = flight.legs
     n = len(legs)
     geom = leg_geometry(legs)
-    px4_check_wind(profile, geom.unit[:, :2], [f"mission item {leg.item}" for leg in legs])
+    px4_check_wind(profile, geom.unit[:, :2], [f"mission {item_label(leg.item)}" for leg in legs])
     vcap = min(profile.si("MPC_XY_VEL_MAX"), profile.si("VEHICLE_SPEED_MAX"))
     cruise = np.minimum([leg.speed_mps or profile.si("MPC_XY_CRUISE") for leg in legs], vcap)
     jerk = profile.si("MPC_JERK_AUTO")

@@ -24,6 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from validator.flight import Finding, Flight
 from validator.geometry import leg_clearances
+from validator.item_numbers import item_label
 from validator.site import Site
 from validator.zones import PolygonZone, polyline_clearance_m
 
@@ -110,7 +111,7 @@ def swing_findings(flight: Flight, site: Site, acceptance_m: float,
         if m < 0 or clr[m] >= site.buffer_m - tolerance_m:
             continue
         name = site.zone_names[m]
-        where = (f"PX4 flies through item {leg.item} (no hold) and may swing "
+        where = (f"PX4 flies through {item_label(leg.item)} (no hold) and may swing "
                  f"{swing_width_m(acceptance_m):g} m off its legs (NAV_ACC_RAD "
                  f"{acceptance_m:g} m + {SWING_MARGIN_M:g})")
         if clr[m] < -tolerance_m:

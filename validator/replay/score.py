@@ -25,6 +25,7 @@ from validator.audit import CLEARANCE_TOLERANCE_M
 from validator.fence_geometry import local_fence
 from validator.flight import Finding, Flight
 from validator.geometry import segment_point_closest_fraction, segment_point_distance
+from validator.item_numbers import item_label, item_number
 from validator.motion.fly import model_findings
 from validator.motion.limits import site_limits
 from validator.motion.profile import Profile, make_profile
@@ -40,7 +41,8 @@ class WaypointLag(TypedDict):
     """When the track reached a waypoint against the plan (s from the cycle start), and what
     timed the plan there: the planner's own slot times (``"slots"``: the service cycle of a
     plan that carries them) or the commanded speeds with no acceleration (``"commanded"``:
-    every leg of a plan without them, and the transit and landing after the cycle)."""
+    every leg of a plan without them, and the transit and landing after the cycle). ``item``
+    is the waypoint's item number (:mod:`validator.item_numbers`), as the report gives it."""
 
     leg: int
     item: int
@@ -52,7 +54,8 @@ class WaypointLag(TypedDict):
 
 @dataclass(frozen=True)
 class NfzPass:
-    """Closest approach of a track to one NFZ: clearance (m, negative = inside), when, where."""
+    """Closest approach of a track to one NFZ: clearance (m, negative = inside), when, where;
+    ``item`` is the 0-based index of the item then flown (:meth:`as_dict` gives its number)."""
 
     name: str
     clearance_m: float
@@ -62,7 +65,7 @@ class NfzPass:
 
     def as_dict(self) -> dict[str, object]:
         return {"nfz": self.name, "clearance_m": self.clearance_m, "t_s": self.t_s,
-                "item": self.item, "xy_m": list(self.xy_m)}
+                "item": item_number(self.item), "xy_m": list(self.xy_m)}
 
 
 @dataclass(frozen=True)
@@ -279,7 +282,7 @@ def score_track(
             if clr[m] < -CLEARANCE_TOLERANCE_M:
                 findings.append(Finding(
                     "violation", f"flown track enters {name} by {-clr[m]:.2f} m at "
-                    f"t = {at_t:.1f} s (item {int(seq[k[m]])})", int(seq[k[m]])))
+                    f"t = {at_t:.1f} s ({item_label(int(seq[k[m]]))})", int(seq[k[m]])))
     fence: list[Finding] = []
     if plan is not None:
         local = local_fence(plan, site.frame)
@@ -329,7 +332,7 @@ def score_track(
         else:
             plan_t = reference.leg_reached_s[li] - r0
         lag = None if math.isnan(flown_t) or math.isnan(plan_t) else float(flown_t - plan_t)
-        lags.append({"leg": li, "item": leg.item, "planned_s": float(plan_t),
+        lags.append({"leg": li, "item": item_number(leg.item), "planned_s": float(plan_t),
                      "flown_s": None if math.isnan(flown_t) else float(flown_t), "lag_s": lag,
                      "timed_by": timed_by})
 

@@ -12,6 +12,7 @@ from validator.autopilot.rules import STATIONARY_M  # a shorter slot is a hover,
 from validator.channel import spectral_efficiency
 from validator.flight import Flight, ServicePlan
 from validator.geometry import segment_point_closest_fraction, segment_point_distance
+from validator.item_numbers import item_label
 from validator.replay.track import Track
 from validator.site import Site
 
@@ -94,7 +95,7 @@ def slot_map(flight: Flight, service: ServicePlan) -> SlotMap | str:
     first = c.start_leg
     if c.start_at_arrival:
         if np.hypot(*(legs[first].end_xy_m - q[0])) > SLOT_MATCH_M:
-            return f"item {legs[first].item} is not at the planned start point q[0]"
+            return f"{item_label(legs[first].item)} is not at the planned start point q[0]"
         take_holds(first)
         first += 1
     for k in range(first, c.end_leg + 1):
@@ -123,9 +124,9 @@ def slot_map(flight: Flight, service: ServicePlan) -> SlotMap | str:
                     reached = True
                     break
                 if segment_point_distance(leg.start_xy_m, leg.end_xy_m, b) > SLOT_MATCH_M:
-                    return f"slot {n} leaves the leg to item {leg.item}"
+                    return f"slot {n} leaves the leg to {item_label(leg.item)}"
             if not reached:
-                return f"the planned slots do not end at item {leg.item}"
+                return f"the planned slots do not end at {item_label(leg.item)}"
         take_holds(k)
     if n != nslots or cycle + 1 != service.cycles:
         return (f"the mission covers {cycle * nslots + n} slots, the plan "

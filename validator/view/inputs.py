@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 
 from validator.failsafe import FailsafeCheck, FailsafeReport, PathFinding
 from validator.flight import Flight
+from validator.item_numbers import item_label
 from validator.plan_format import Plan
 from validator.replay import Track
 from validator.site import Site
@@ -124,16 +125,17 @@ def failsafe_paths(report: FailsafeReport, flight: Flight) -> tuple[FailsafePath
             if f.zone not in deepest or f.clearance_m < deepest[f.zone].clearance_m:
                 deepest[f.zone] = f
         for f in deepest.values():
-            where = "home" if f.from_item < 0 else f"item {f.from_item}"
             depth = (f"{-f.clearance_m:.2f} m deep into {f.zone}" if f.clearance_m < 0 else
                      f"{f.clearance_m:.2f} m from {f.zone}, inside its {f.buffer_m:g} m buffer")
             out.append(FailsafePath(
-                f"RTL to {f.destination} from the leg {where} -> item {f.item}",
+                f"RTL to {f.destination} from the leg {item_label(f.from_item)} -> "
+                f"{item_label(f.item)}",
                 np.array([f.start_xy_m, f.destination_xy_m]), False, depth))
         w = report.worst_return
         if not bad and w is not None:
             out.append(FailsafePath(
-                f"the straight return closest to a zone: from item {w.item} to {w.destination}",
+                f"the straight return closest to a zone: from {item_label(w.item)} to "
+                f"{w.destination}",
                 np.array([w.xy_m, w.destination_xy_m]), True,
                 f"{w.clearance_m:.2f} m from {w.zone}"))
     retrace = flown.get("smartrtl", []) + flown.get("mission_path", [])

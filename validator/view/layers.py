@@ -22,6 +22,7 @@ from validator.audit import zone_leg_clearances
 from validator.fence_geometry import local_fence
 from validator.flight import Home
 from validator.flight.home import set_home_source
+from validator.item_numbers import item_label, item_number
 from validator.plan_format import Autopilot, Cmd
 from validator.replay import slot_map
 from validator.view.inputs import ViewInputs
@@ -153,7 +154,8 @@ def _legs_text(inputs: ViewInputs, legs: list[int]) -> str:
             runs[-1].append(k)
         else:
             runs.append([k])
-    items = [(inputs.flight.legs[r[0]].item, inputs.flight.legs[r[-1]].item) for r in runs]
+    items = [(item_number(inputs.flight.legs[r[0]].item),
+              item_number(inputs.flight.legs[r[-1]].item)) for r in runs]
     return "; ".join(f"the leg to item {a}" if len(r) == 1 else f"the legs to items {a} ... {b}"
                      for r, (a, b) in zip(runs, items, strict=True))
 
@@ -174,7 +176,7 @@ def _set_home_trace(inputs: ViewInputs, homes: list[tuple[int, Home, list[int]]]
             **_xy(np.asarray([h.xy_m for _, h, _ in homes], dtype=float)),
             "name": "home set by DO_SET_HOME", "text": [h.label for _, h, _ in homes],
             "textposition": "bottom center", "textfont": {"size": 11},
-            "meta": {"layer": "set-home", "items": [by for by, _, _ in homes]},
+            "meta": {"layer": "set-home", "items": [item_number(by) for by, _, _ in homes]},
             "uid": "set-home",
             "marker": {"symbol": "square-open", "size": 13, "color": "black",
                        "line": {"width": 2.5}},
@@ -188,7 +190,7 @@ def point_traces(inputs: ViewInputs) -> list[Trace]:
     site, plan = inputs.site, inputs.plan
     home = site.frame.to_local(plan.home_lat_deg, plan.home_lon_deg)
     moved = homes_set(inputs)
-    until = (f" (the plan's)<br>returns fly here until the DO_SET_HOME of item {moved[0][0]}"
+    until = (f" (the plan's)<br>returns fly here until the DO_SET_HOME of {item_label(moved[0][0])}"
              if moved else "")
     out: list[Trace] = [{
         "type": "scatter", "mode": "markers+text", **_xy(site.gn_xy_m), "name": "ground nodes",
@@ -301,7 +303,7 @@ def waypoint_trace(inputs: ViewInputs) -> Trace:
             command = Cmd(plan.items[item].command).name
         except (ValueError, IndexError):
             command = str(plan.items[item].command) if item < len(plan.items) else "?"
-        lines = [f"<b>item {item}</b>: {command}",
+        lines = [f"<b>{item_label(item)}</b>: {command}",
                  "speed " + ("autopilot default" if leg.speed_mps is None
                              else f"{leg.speed_mps:.2f} m/s") + f", hold {leg.hold_s:g} s"]
         if len(legs) > 1:
@@ -323,7 +325,7 @@ def waypoint_trace(inputs: ViewInputs) -> Trace:
             colours.append(leg.speed_mps if leg.speed_mps is not None else top)
             at = len(pts) - 1
         texts[at].append("<br>".join(lines))
-        items[at].append(item)
+        items[at].append(item_number(item))
     return {
         "type": "scatter", "mode": "markers", **_xy(np.asarray(pts).reshape(-1, 2)),
         "name": "waypoints", "meta": {"layer": "waypoint", "items": items},

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from validator.item_numbers import item_label
 from validator.replay import Track, planned_rates, served_samples
 from validator.view.inputs import ViewInputs
 from validator.view.layers import TRACK_COLOURS, node_colour
@@ -134,7 +135,8 @@ class Timeline:
                      if s is not None and gn >= 0 else "")
             out.append({"x": [x], "y": [y], "text": [label],
                         "hovertext": [f"{layer.name}, t = {track.t_s[j]:.1f} s, "
-                                      f"{track.speed_mps[j]:.1f} m/s, item {track.mission_seq[j]}"
+                                      f"{track.speed_mps[j]:.1f} m/s, "
+                                      f"{item_label(int(track.mission_seq[j]))}"
                                       + (f"<br>serving {label}" if label else "")]})
             if gn >= 0:
                 g = site.gn_xy_m[gn]

@@ -74,5 +74,5 @@ def test_ardupilots_fence_storage_holds_560_bytes_and_no_more(mission, sitl_url)
                                        link.vehicle.autopilot, skip_seq0=False) is None
         # forced past our own refusal, the vehicle refuses the 69-vertex fence (568 bytes)
         # itself, at its last item, when it writes the whole fence to storage
-        with pytest.raises(LinkError, match="rejected it with MAV_MISSION_ERROR at item 69"):
+        with pytest.raises(LinkError, match="rejected it with MAV_MISSION_ERROR at fence item 69"):
             link.upload_list(plan_to_wire(over, home_item=True).fence, MissionType.FENCE)

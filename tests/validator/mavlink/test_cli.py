@@ -104,7 +104,7 @@ def test_upload_mission_refuses_a_waypoint_arducopter_would_fly_toward_0_0(tmp_p
     path = _refused_upload(tmp_path, plan, 3, params=[*plan.items[3].params[:4], lat, lon, 30.0],
                            frame=2)
     err = capsys.readouterr().err
-    assert err.startswith(f"upload-mission: {path}: item 3: frame 2 (MISSION) carries latitude "
+    assert err.startswith(f"upload-mission: {path}: item 4: frame 2 (MISSION) carries latitude "
                           "and longitude unscaled"), err
     assert err.count("\n") == 1 and "0°N 0°E" in err
 
@@ -147,7 +147,7 @@ def test_download_mission_warns_when_the_first_waypoint_stands_in_for_home(tmp_p
         assert download_mission_main(["--connect", fake.url, "-o", str(out), "--quiet"]) == 0
     assert capsys.readouterr().err == (
         "download-mission: warning: the vehicle reported no home (its seq 0 at 0°, 0°); the "
-        "plan's home is the position of mission.items[0], the first item with one, at "
+        "plan's home is the position of item 1, the first item with one, at "
         "altitude 0 m AMSL\n")
 
 

@@ -205,7 +205,7 @@ def _set_home_flight(site):
 
 
 def _after_set_home(site, landed_xy=A_XY):
-    """ArduCopter telemetry: up to A, faulted halfway to B (item 4, seq 5), landed at
+    """ArduCopter telemetry: up to A, faulted halfway to B (item 5, ArduPilot's seq 5), landed at
     ``landed_xy``; and its injector (nothing heard from the vehicle about its home)."""
     xy = np.array([[0.0, 0.0], [0.0, 30.0], A_XY, [40.0, 60.0], [60.0, 60.0], landed_xy,
                    landed_xy])
@@ -227,7 +227,7 @@ def test_a_landing_is_measured_from_the_home_in_force_when_the_fault_came():
     inj, tel = _after_set_home(site)
     rep = score_fault(inj, tel, site, flight, "landed and disarmed after the fault")
     assert rep.end_from_home_m == pytest.approx(0.0, abs=0.01)
-    assert rep.home == "home set by item 3"
+    assert rep.home == "home set by item 4"  # the DO_SET_HOME, index 3
 
 
 def test_a_fault_before_the_do_set_home_is_measured_from_the_plans_home():
@@ -257,4 +257,4 @@ def test_the_fault_line_says_which_home_the_landing_is_measured_from():
     site = make_site(nfz=((300.0, 300.0, 10.0),))
     inj, tel = _after_set_home(site, landed_xy=(3.0, 64.0))
     rep = score_fault(inj, tel, site, _set_home_flight(site), "landed and disarmed")
-    assert "ended landed, 5.0 m from home set by item 3" in fault_lines(rep.as_dict())
+    assert "ended landed, 5.0 m from home set by item 4" in fault_lines(rep.as_dict())

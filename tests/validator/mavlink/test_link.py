@@ -84,8 +84,8 @@ def test_nack_is_reported_by_its_result_name(plan):
 def test_vehicle_going_silent_half_way_is_a_failure_within_the_timeout(plan):
     with FakeVehicle(silent_after=3) as fake:
         with pytest.raises(LinkError, match="mission upload: vehicle stopped answering after "
-                                            r"item 2 of 7 \(no reply for 1.5 s\); upload "
-                                            "incomplete"):
+                                            r"mission item 2 \(3 of 7 sent\) \(no reply for "
+                                            r"1.5 s\); upload incomplete"):
             upload_plan(plan, fake.url, timeout_s=1.5)
         assert fake.lists[0] == []  # the vehicle never got a complete mission
 
@@ -139,7 +139,7 @@ def test_an_item_a_px4_vehicle_refuses_for_its_frame_is_not_sent(plan):
         def upload(self, _sent: object) -> None:
             pytest.fail("the plan was sent")
 
-    with pytest.raises(InputError, match=r"^m\.plan: item 6: PX4 takes NAV_RETURN_TO_LAUNCH "
+    with pytest.raises(InputError, match=r"^m\.plan: item 7: PX4 takes NAV_RETURN_TO_LAUNCH "
                                          r"only in frame 2 \(MISSION\)"):
         upload_to(Px4Link(), dataclasses.replace(plan, items=[*plan.items, rtl]),
                   source="m.plan")
@@ -199,7 +199,8 @@ def test_download_restarts_when_the_vehicle_abandons_it(plan):
 
 def test_a_vehicle_that_never_sends_items_fails_within_the_timeout(plan):
     with FakeVehicle(mute_items=True) as fake:
-        with pytest.raises(LinkError, match="mission download: no answer to item 0 of 7 "
+        with pytest.raises(LinkError, match="mission download: no answer to the request for "
+                                            r"mission item 0 \(1 of 7\) "
                                             "within 4 s"):
             with Link(fake.url, timeout_s=4, retry_s=0.1) as link:
                 link.upload(plan_to_wire(plan, home_item=True))

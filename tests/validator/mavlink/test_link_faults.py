@@ -154,7 +154,8 @@ def test_a_final_ack_of_the_wrong_type_leaves_it_to_the_read_back(plan):
 
 
 @pytest.mark.parametrize("after, where", [
-    (0, ""), (1, " at item 0"), (4, " at item 3"), (7, " at item 6"),
+    # the fake vehicle is an ArduPilot: its seq is the item number (0: home)
+    (0, ""), (1, " at mission item 0"), (4, " at mission item 3"), (7, " at mission item 6"),
 ])
 @pytest.mark.parametrize("result", [mavlink.MAV_MISSION_ERROR, mavlink.MAV_MISSION_DENIED])
 def test_a_nack_at_each_step_fails_naming_it(plan, tmp_path, capsys, after, where, result):

@@ -84,7 +84,7 @@ CORNER_M = 3.0  # the corner at A is cut inside WPNAV_RADIUS (2 m), and sampled 
 
 
 def on_leg_to_b(copter: Copter) -> bool:
-    return copter.current_seq == 5 and copter.xy[0] > 20.0  # seq 5: B (item 4)
+    return copter.current_seq == 5 and copter.xy[0] > 20.0  # seq 5: B (index 4, item 5)
 
 
 def past_set_home(site) -> tuple[Copter, Sent]:

@@ -122,7 +122,7 @@ def test_the_first_waypoint_standing_in_for_a_missing_home_is_told(plan):
     notes: list[str] = []
     wire_to_plan(_without_home(plan), home_item=True, note=notes.append)
     assert notes == ["the vehicle reported no home (its seq 0 at 0°, 0°); the plan's home is "
-                     "the position of mission.items[0], the first item with one, at altitude "
+                     "the position of item 1, the first item with one, at altitude "
                      "0 m AMSL"]
 
 
@@ -137,7 +137,7 @@ def test_a_px4_mission_without_home_position_tells_whose_position_stands_in(plan
     wire_to_plan(plan_to_wire(plan, home_item=False), home_item=False, note=notes.append)
     assert len(notes) == 1 and notes[0].startswith("the vehicle reported no home (no "
                                                    "HOME_POSITION); the plan's home is the "
-                                                   "position of mission.items[0]")
+                                                   "position of item 1,")
 
 
 def test_latitude_out_of_range_names_the_item(plan):
@@ -226,5 +226,5 @@ def test_a_mission_frame_waypoint_the_wire_can_send_is_refused_by_the_resolver(s
     _in_mission_frame(plan, 37.0, 127.0)
     wp = plan_to_wire(plan, home_item=True).mission[3]
     assert (wp.x, wp.y) == (37, 127)
-    with pytest.raises(InputError, match=r"item 2: frame 2 \(MISSION\) carries latitude"):
+    with pytest.raises(InputError, match=r"item 3: frame 2 \(MISSION\) carries latitude"):
         resolve_flight(plan, site)
