@@ -13,6 +13,7 @@ traces.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -125,27 +126,7 @@ def fence_traces(inputs: ViewInputs) -> list[Trace]:
     return out
 
 
-def homes_set(inputs: ViewInputs) -> list[tuple[int, Home, list[int]]]:
-    """Each home a mission's DO_SET_HOME puts in force, in flight order, as (the DO_SET_HOME's
-    item, the home, the legs it is in force on, indices into ``Flight.legs``): the homes the
-    audit's returns fly to (``Flight.home_of``). A DO_SET_HOME the autopilot would not take (a
-    violation, home left where it was) puts none in force, nor does one with no leg after it."""
-    out: list[tuple[int, Home, list[int]]] = []
-    for k, leg in enumerate(inputs.flight.legs):
-        home = leg.home
-        if home is None or home.set_by_item is None:
-            continue
-        # a DO_JUMP loop passes the same DO_SET_HOME again: one marker, unless it moved
-        at = next((i for i, (by, h, _) in enumerate(out) if by == home.set_by_item
-                   and np.hypot(*(h.xy_m - home.xy_m)) < SAME_PLACE_M), None)
-        if at is None:
-            out.append((home.set_by_item, home, []))
-            at = len(out) - 1
-        out[at][2].append(k)
-    return out
-
-
-def _legs_text(inputs: ViewInputs, legs: list[int]) -> str:
+def _legs_text(inputs: ViewInputs, legs: Sequence[int]) -> str:
     """The legs a home is in force on, by their items, a run of consecutive legs at a time:
     "the leg to item 4", "the legs to items 10 ... 15" (a DO_JUMP loop may give several)."""
     runs: list[list[int]] = []
@@ -160,7 +141,8 @@ def _legs_text(inputs: ViewInputs, legs: list[int]) -> str:
                      for r, (a, b) in zip(runs, items, strict=True))
 
 
-def _set_home_trace(inputs: ViewInputs, homes: list[tuple[int, Home, list[int]]]) -> Trace:
+def _set_home_trace(inputs: ViewInputs, homes: Sequence[tuple[int, Home, Sequence[int]]]
+                    ) -> Trace:
     plan = inputs.plan
     px4 = plan.firmware_type == Autopilot.PX4
     rally = ", or to a rally point chosen against it" if plan.rally else ""
@@ -189,7 +171,7 @@ def point_traces(inputs: ViewInputs) -> list[Trace]:
     square, named by its item) and the rally points (diamonds)."""
     site, plan = inputs.site, inputs.plan
     home = site.frame.to_local(plan.home_lat_deg, plan.home_lon_deg)
-    moved = homes_set(inputs)
+    moved = inputs.flight.homes_set()
     until = (f" (the plan's)<br>returns fly here until the DO_SET_HOME of {item_label(moved[0][0])}"
              if moved else "")
     out: list[Trace] = [{

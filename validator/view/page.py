@@ -19,7 +19,7 @@ import numpy as np
 
 from validator.fileio import write_atomic
 from validator.view.inputs import ViewInputs
-from validator.view.layers import homes_set, map_traces
+from validator.view.layers import map_traces
 from validator.view.timeline import Timeline
 
 Trace = dict[str, Any]
@@ -70,7 +70,7 @@ def _map_view(inputs: ViewInputs) -> dict[str, Any]:
     """Centre and zoom of a map holding the site, every flight and every home returns fly to
     (a DO_SET_HOME may move it off the mission's path)."""
     pts = [inputs.site.gn_xy_m, inputs.flight.path_xy_m, inputs.site.home_xy_m.reshape(1, 2),
-           *(h.xy_m.reshape(1, 2) for _, h, _ in homes_set(inputs))]
+           *(h.xy_m.reshape(1, 2) for _, h, _ in inputs.flight.homes_set())]
     if inputs.site.num_nfzs:
         pts.append(inputs.site.nfz_xy_m)
     xy = np.vstack(pts)
