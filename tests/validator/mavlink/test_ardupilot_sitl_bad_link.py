@@ -125,7 +125,8 @@ def test_a_reboot_mid_upload_on_its_tcp_link_is_a_clear_error_and_the_next_uploa
     with Link(sitl_url, timeout_s=10) as link:
         reboot = RebootAt(link, 5)
         with pytest.raises(LinkError, match=r"^mission upload: the vehicle closed the "
-                                            r"connection \(it rebooted or stopped\) after item"):
+                                            r"connection \(it rebooted or stopped\) after "
+                                            r"mission item \d+ \(\d+ of \d+ sent\)"):
             upload_to(link, plan, params)
         assert reboot.sent
     back_once_rebooted(sitl_url)  # as an operator would: upload again once it is back
